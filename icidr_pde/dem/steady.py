@@ -1,0 +1,130 @@
+"""Steady-state sweep over phi0 (appendix C, figure 1): mu(I), Phi(I) and fits.
+
+Each (phi0, repeat) is an independent LAMMPS run, cached as one .npz; the
+runs at phi0 = 0.78 also carry the (5.7) transient used by figure 8.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from . import cache
+from .fit import fit_mu, fit_phi
+from .params import DEMParams, check_phi0
+from .runs import Protocol, SineIC, run_cell
+
+TRANSIENT_PHI0 = 0.78
+DEFAULT_PHI0 = (0.76, 0.77, 0.78, 0.79, 0.80)
+
+
+def _task(args):
+    phi0, seed, params, protocol, sine, cache_dir = args
+    key = cache.run_key(phi0, seed, params, protocol)
+    res = cache.load(cache_dir, key)
+    if res is not None and (sine is None or "tr_times" in res):
+        return key, res
+    res = run_cell(phi0, seed, params, protocol, sine)
+    cache.save(cache_dir, key, res)
+    return key, res
+
+
+def plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient=True):
+    """Task list ordered repeat-major, so an interrupted study has whole repeats."""
+    tasks = []
+    for r in range(repeats):
+        for phi0 in phi0s:
+            sine = SineIC() if (with_transient and abs(phi0 - TRANSIENT_PHI0) < 1e-9) else None
+            tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, sine, cache_dir))
+    return tasks
+
+
+def execute(tasks, jobs=2, progress=True):
+    """Run (or load from cache) all tasks over ``jobs`` processes; list of results."""
+    if not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"`jobs` must be an integer >= 1; got {jobs!r}")
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        def tqdm(it, **kw):
+            return it
+    results = {}
+    if jobs == 1:
+        it = map(_task, tasks)
+        for key, res in tqdm(it, total=len(tasks), disable=not progress, desc="DEM runs"):
+            results[key] = res
+    else:
+        with mp.get_context("spawn").Pool(processes=jobs) as pool:
+            it = pool.imap_unordered(_task, tasks)
+            for key, res in tqdm(it, total=len(tasks), disable=not progress, desc="DEM runs"):
+                results[key] = res
+    return [results[cache.run_key(t[0], t[1], t[2], t[3])] for t in tasks]
+
+
+def summarize(results, table1=None) -> dict:
+    """Points per phi0 (mean and std over repeats), fits of (2.10), (2.11)."""
+    by_phi = {}
+    for r in results:
+        by_phi.setdefault(round(float(r["phi0"]), 6), []).append(r)
+    points = []
+    for phi0 in sorted(by_phi):
+        rs = by_phi[phi0]
+        I = np.array([r["I"] for r in rs])
+        mu = np.array([r["mu"] for r in rs])
+        p = np.array([r["p"] for r in rs])
+        phi = np.array([r["phi_mean"] for r in rs])
+        ddof = 1 if len(rs) > 1 else 0
+        points.append({
+            "phi0": phi0, "I": float(I.mean()), "I_std": float(I.std(ddof=ddof)),
+            "mu": float(mu.mean()), "mu_std": float(mu.std(ddof=ddof)),
+            "phi": float(phi.mean()), "p": float(p.mean()), "p_std": float(p.std(ddof=ddof)),
+            "shear_rate": float(np.mean([r["shear_rate"] for r in rs])),
+            "repeats": len(rs),
+        })
+    n_rep = min(pt["repeats"] for pt in points)
+    I = np.array([pt["I"] for pt in points])
+    out = {"points": points, "repeats": n_rep}
+    if len(points) >= 3:
+        fm, sm = fit_mu(I, [pt["mu"] for pt in points], [pt["mu_std"] for pt in points], n_rep)
+        fp, sp = fit_phi(I, [pt["phi"] for pt in points], [pt["I_std"] for pt in points], n_rep)
+        out["fit"] = {**fm, **fp}
+        out["fit_std"] = {**sm, **sp}
+    if table1 is not None:
+        out["table1"] = table1
+    out["wall_per_run_s"] = float(np.mean([r["wall_total"] for r in results]))
+    out["dt"] = float(results[0]["dt"])
+    out["n_particles"] = int(results[0]["n_particles"])
+    return out
+
+
+def table1_dict():
+    try:
+        from icidr_pde.rheology import Material
+        return asdict(Material())
+    except ImportError:  # lead's module missing: Table 1 literal values
+        return {"mu_s": 0.248, "mu_d": 0.588, "I0": 0.145, "phi_c": 0.817, "a": 0.314}
+
+
+def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed=1,
+                     jobs=2, cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None,
+                     json_path=None, progress=True, with_transient=True) -> dict:
+    """The full figure-1 study; returns (and optionally writes) the JSON summary."""
+    phi0s = [check_phi0(p) for p in phi0s]
+    if len(phi0s) < 1:
+        raise ValueError("`phi0s` must hold at least one packing fraction")
+    if not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"`repeats` must be an integer >= 1; got {repeats!r}")
+    params = params or DEMParams(n_particles=n_particles)
+    protocol = protocol or Protocol()
+    tasks = plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient)
+    results = execute(tasks, jobs=jobs, progress=progress)
+    summary = summarize(results, table1_dict())
+    summary.update(params=asdict(params), protocol=asdict(protocol), base_seed=base_seed)
+    if json_path:
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(json.dumps(summary, indent=1))
+    return summary

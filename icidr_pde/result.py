@@ -1,0 +1,106 @@
+"""The outcome of a shear-cell run: fields, time series, failure and cost."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Result"]
+
+
+@dataclass
+class Result:
+    """Everything a run computed, up to the end or up to its failure.
+
+    Attributes:
+        blew_up: True if the run failed before `t_end`
+        t_star: last accepted time of a failed run (None otherwise)
+        reason: why the run stopped ('reached t_end' or the failure)
+        t_final: time of the last state (t_end, or t_star on failure)
+        z: positions of the unknowns
+        times, phi, u, w: snapshots at the requested times that were reached
+        final: (phi, u, w) at t_final
+        max_w_t, max_w: time series of max|w|
+        chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
+        mass_drift: relative change of the integral of phi between 0 and t_final
+    """
+
+    rheology: str
+    scene: str
+    discretization: str
+    N: int
+    t_end: float
+    rtol: float
+    atol: float
+    method: str
+    jacobian: str
+    blew_up: bool
+    t_star: float | None
+    reason: str
+    t_final: float
+    z: np.ndarray
+    times: np.ndarray
+    time_labels: list[str]
+    phi: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    final: tuple[np.ndarray, np.ndarray, np.ndarray]
+    max_w_t: np.ndarray
+    max_w: np.ndarray
+    mass_drift: float
+    wall_s: float
+    compile_s: float
+    n_steps: int
+    n_rhs: int
+    n_jac: int
+    requested_times: list[str] = field(default_factory=list)
+    chi_t: np.ndarray | None = None
+    chi_z: np.ndarray | None = None
+    chi: np.ndarray | None = None
+    scene_params: dict = field(default_factory=dict)
+    material: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+
+    def max_w_at_times(self) -> dict[str, float]:
+        """max|w| at each requested time reached (label as requested -> value)."""
+        return {label: float(np.max(np.abs(w))) for label, w in zip(self.time_labels, self.w)}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (the CLI's --json contract)."""
+        return {
+            "rheology": self.rheology,
+            "scene": self.scene,
+            "discretization": self.discretization,
+            "N": self.N,
+            "t_end": self.t_end,
+            "rtol": self.rtol,
+            "atol": self.atol,
+            "method": self.method,
+            "jacobian": self.jacobian,
+            "blew_up": self.blew_up,
+            "t_star": self.t_star,
+            "reason": self.reason,
+            "t_final": self.t_final,
+            "max_w": self.max_w_at_times(),
+            "mass_drift": self.mass_drift,
+            "wall_s": self.wall_s,
+            "compile_s": self.compile_s,
+            "n_steps": self.n_steps,
+            "n_rhs": self.n_rhs,
+            "n_jac": self.n_jac,
+            "scene_params": self.scene_params,
+            "material": self.material,
+            "settings": self.settings,
+        }
+
+    def save_json(self, path) -> None:
+        with open(path, "w") as fh:
+            json.dump(self.to_dict(), fh, indent=2)
+
+    def __repr__(self) -> str:
+        state = f"failed at t*={self.t_star:.6g} ({self.reason})" if self.blew_up else "reached t_end"
+        return (f"Result({self.rheology}, {self.scene}, {self.discretization} N={self.N}: {state}; "
+                f"{self.n_steps} steps, {self.wall_s:.2f} s)")

@@ -1,0 +1,99 @@
+"""Scenes: what geometry, initial condition and outputs a study of the shear cell needs.
+
+A scene is the 1-D cell 0 < z < H (3.9) with an initial condition; nothing else is
+modelled. The two scenes of the paper:
+
+* ``shear``: steady linear shear plus a small smooth w bump, (3.16):
+  phi = phi0, u = z/H, w = eps (z - H/2) exp(-(z - H/2)^2);
+* ``sine``: a large perturbation with u_z = 0 somewhere, (5.7):
+  phi = phi0, u = z/H + a sin(2 pi z/H), w = -b sin(2 pi z/H).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+__all__ = ["Scene", "ShearScene", "SineScene", "SCENES", "get_scene"]
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Base scene: cell height `H`, mean packing fraction `phi0`, requested outputs."""
+
+    name = ""
+    H: float = 30.0
+    phi0: float = 0.78
+    outputs: tuple = field(default=("max_w", "snapshots"), compare=False)
+    default_times: tuple = field(default=(0.0, 0.5, 1.0, 2.0, 5.0, 10.0), compare=False)
+
+    def __post_init__(self):
+        if not (np.isfinite(self.H) and self.H > 0):
+            raise ValueError(f"`H` must be > 0; got {self.H}")
+        if not (np.isfinite(self.phi0) and 0 < self.phi0 < 1):
+            raise ValueError(f"`phi0` must lie in (0, 1) (and below phi_c); got {self.phi0}")
+
+    def initial_condition(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def parameters(self) -> dict:
+        return {k: v for k, v in asdict(self).items() if k not in ("outputs", "default_times")}
+
+
+@dataclass(frozen=True)
+class ShearScene(Scene):
+    """Initial condition (3.16): steady shear with a Gaussian-derivative w bump of size `eps`."""
+
+    name = "shear"
+    eps: float = 0.05
+    outputs: tuple = field(default=("max_w", "snapshots", "chi"), compare=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not np.isfinite(self.eps):
+            raise ValueError(f"`eps` must be finite; got {self.eps}")
+
+    def initial_condition(self, z):
+        zc = z - self.H / 2
+        return (np.full_like(z, self.phi0), z / self.H, self.eps * zc * np.exp(-zc**2))
+
+
+@dataclass(frozen=True)
+class SineScene(Scene):
+    """Initial condition (5.7): sinusoidal u and w perturbations of amplitudes `a`, `b`."""
+
+    name = "sine"
+    a: float = 0.16
+    b: float = 0.1
+    outputs: tuple = field(default=("max_w", "snapshots", "chi"), compare=False)
+    default_times: tuple = field(default=(0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0), compare=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name in ("a", "b"):
+            if not np.isfinite(getattr(self, name)):
+                raise ValueError(f"`{name}` must be finite; got {getattr(self, name)}")
+
+    def initial_condition(self, z):
+        s = np.sin(2 * np.pi * z / self.H)
+        return (np.full_like(z, self.phi0), z / self.H + self.a * s, -self.b * s)
+
+
+SCENES = {cls.name: cls for cls in (ShearScene, SineScene)}
+
+
+def get_scene(name: str | Scene, **params) -> Scene:
+    """Scene `name` ('shear' or 'sine') with any parameter overridden by keyword."""
+    if isinstance(name, Scene):
+        return name
+    try:
+        cls = SCENES[name]
+    except KeyError:
+        raise ValueError(f"`scene` must be one of {sorted(SCENES)}; got {name!r}") from None
+    known = {f for f in cls.__dataclass_fields__ if f not in ("outputs", "default_times")}
+    unknown = set(params) - known
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {sorted(unknown)} for scene {name!r}; "
+                         f"valid: {sorted(known)}")
+    return cls(**params)
