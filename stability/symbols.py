@@ -1,0 +1,31 @@
+"""Shared sympy symbols of the stability toolkit (one definition for every module).
+
+Dimensional symbols d (grain diameter) and rho_* (grain density) are kept so that
+the factor conventions of the printed formulas (e.g. the d^2 of (A10)) are checked;
+numerical evaluation always uses d = rho_* = 1, the scalings (3.12).
+"""
+
+import sympy as sp
+
+phi = sp.Symbol("phi", positive=True)          # solids volume fraction
+uz, wz = sp.symbols("u_z w_z", real=True)       # base strain rates d_z u, d_z w
+d, rho = sp.symbols("d rho_star", positive=True)
+I = sp.Symbol("I", positive=True)               # inertial number (2.9)
+p = sp.Symbol("p", positive=True)               # pressure as an independent variable (CIDR)
+delta = sp.Symbol("delta", real=True)           # div u
+Sn = sp.Symbol("S_n", positive=True)            # ||S|| > 0 as an independent variable
+xi = sp.Symbol("xi", positive=True)             # wavenumber
+lam = sp.Symbol("lambda")                       # growth rate
+Lam = sp.Symbol("Lambda")                       # lambda / xi^2
+w0 = sp.Symbol("w0", real=True)                 # base vertical velocity (convection)
+
+# material parameters of (2.10)-(2.11)
+mu_s, mu_d, I0, phi_c, a = sp.symbols("mu_s mu_d I_0 phi_c a", positive=True)
+MATERIAL_SYMBOLS = {"mu_s": mu_s, "mu_d": mu_d, "I0": I0, "phi_c": phi_c, "a": a}
+
+# generic material functions M(phi) = mu(Psi(phi)) and Psi(phi): identities proved
+# with these hold for *any* positive M and Psi, not only for (2.10)-(2.13)
+Mf = sp.Function("M", positive=True)
+Psif = sp.Function("Psi", positive=True)
+# their values at one point (Gamma involves no phi-derivative)
+M, Psi = sp.symbols("M Psi", positive=True)
