@@ -1,0 +1,145 @@
+"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem}``."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+
+from .integrator import JACOBIAN_MODES, METHODS
+from .rheology import RHEOLOGIES
+
+# optional subcommands, each provided by its own module: (module, function)
+_PLUGINS = [
+    ("icidr_pde.tstar", "add_parser"),
+    ("stability.cli", "add_verify_parser"),
+    ("stability.cli", "add_stability_parser"),
+    ("icidr_pde.dem.cli", "add_parser"),
+]
+
+
+def _positive_int(text):
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
+def add_run_parser(subparsers):
+    p = subparsers.add_parser("run", help="run one scene with one rheology")
+    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="icidr")
+    p.add_argument("--scene", choices=["shear", "sine"], default="shear")
+    p.add_argument("--discretization", default="fd", help="fd (default) or cheb")
+    p.add_argument("--N", type=_positive_int, default=201, help="grid cells (fd) or collocation points (cheb)")
+    p.add_argument("--t-end", type=float, default=10.0)
+    p.add_argument("--times", nargs="+", default=None, help="snapshot times (labels of the JSON max_w)")
+    p.add_argument("--rtol", type=float, default=1e-6)
+    p.add_argument("--atol", type=float, default=1e-9)
+    p.add_argument("--method", choices=sorted(METHODS), default="BDF")
+    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default="analytic")
+    p.add_argument("--advection", choices=["upwind", "central"], default="upwind")
+    for name, help_text in [("phi0", "mean packing fraction"), ("eps", "amplitude of (3.16)"),
+                            ("a", "u amplitude of (5.7)"), ("b", "w amplitude of (5.7)"),
+                            ("H", "cell height")]:
+        p.add_argument(f"--{name}", type=float, default=None, help=f"scene parameter: {help_text}")
+    p.add_argument("--json", default=None, help="write the result summary here")
+    p.add_argument("--plot", default=None, help="write a PNG of profiles and max|w|(t)")
+    p.add_argument("--save", default=None, help="write the snapshots to this HDF5 file")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_run)
+
+
+def cmd_run(args) -> int:
+    from .api import run
+
+    scene_params = {k: getattr(args, k) for k in ("phi0", "eps", "a", "b", "H")
+                    if getattr(args, k) is not None}
+    result = run(
+        args.rheology, args.scene, args.N, args.t_end, args.times,
+        discretization=args.discretization, method=args.method, rtol=args.rtol,
+        atol=args.atol, jacobian=args.jacobian, advection=args.advection,
+        progress=not args.no_progress, save=args.save, **scene_params,
+    )
+    print(result)
+    print(json.dumps({k: v for k, v in result.to_dict().items()
+                      if k in ("blew_up", "t_star", "reason", "max_w", "mass_drift", "wall_s")}, indent=1))
+    if args.json:
+        result.save_json(args.json)
+    if args.plot:
+        from .plotting import plot_result
+
+        plot_result(result, args.plot)
+        print(f"plot written to {args.plot}")
+    return 0
+
+
+def add_demo_parser(subparsers):
+    p = subparsers.add_parser(
+        "demo", help="the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges")
+    p.add_argument("--plot", default="icidr_demo.png")
+    p.add_argument("--coarse", type=_positive_int, default=47)
+    p.add_argument("--fine", type=_positive_int, default=201)
+    p.set_defaults(func=cmd_demo)
+
+
+def cmd_demo(args) -> int:
+    from .api import run
+    from .plotting import demo_figure
+
+    start = time.perf_counter()
+    runs = {}
+    jobs = [
+        ("mui", args.coarse, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
+        ("mui", args.fine, 10.0, ["0", "0.002", "0.005", "0.01"]),
+        ("icidr", args.coarse, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
+        ("icidr", args.fine, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
+    ]
+    for rheology, n, t_end, times in jobs:
+        print(f"running {rheology:5s} N = {n:3d} (scene shear, IC (3.16)) ...", flush=True)
+        result = run(rheology, "shear", n, t_end, times)
+        runs[(rheology, n)] = result
+        print("   ", result)
+    demo_figure(runs[("mui", args.coarse)], runs[("mui", args.fine)],
+                runs[("icidr", args.coarse)], runs[("icidr", args.fine)], args.plot)
+    fine = runs[("mui", args.fine)]
+    print(f"\nmu(I),Phi(I): N = {args.coarse} "
+          f"{'fails' if runs[('mui', args.coarse)].blew_up else 'decays to steady shear'}; "
+          f"N = {args.fine} " + (f"fails at t* = {fine.t_star:.4g}" if fine.blew_up else "does not fail"))
+    a, b = runs[("icidr", args.coarse)], runs[("icidr", args.fine)]
+    print(f"iCIDR: max|w| at t = 1: N = {args.coarse}: {a.max_w_at_times()['1']:.3e}, "
+          f"N = {args.fine}: {b.max_w_at_times()['1']:.3e} (no failure: {not (a.blew_up or b.blew_up)})")
+    print(f"figure written to {args.plot} ({time.perf_counter() - start:.0f} s)")
+    return 0
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the 1-D shear cell (Schaeffer et al. 2019)")
+    subparsers = parser.add_subparsers(dest="command", required=True)
+    add_demo_parser(subparsers)
+    add_run_parser(subparsers)
+    for module_name, function in _PLUGINS:
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as err:
+            if err.name and module_name.startswith(err.name):
+                continue  # that part of the product is not installed (yet)
+            raise
+        getattr(module, function)(subparsers)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as err:
+        print(f"icidr-pde: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

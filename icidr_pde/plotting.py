@@ -1,0 +1,91 @@
+"""Figures in the style of the paper: w profiles (figs 3, 6a, 7) and max|w|(t) (figs 4a, 6b, 7e)."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg") if matplotlib.get_backend().lower() == "agg" else None
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .result import Result  # noqa: E402
+
+__all__ = ["plot_result", "plot_profiles", "plot_max_w", "demo_figure"]
+
+
+def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_prefix: str = ""):
+    """Snapshots of `field` against z, one line per requested time reached (and t* if failed)."""
+    data = getattr(result, field)
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(result.times), 1)))
+    marker = "o" if style == "o" else None
+    ls = "none" if style == "o" else style
+    for t, profile, c in zip(result.times, data, colors):
+        ax.plot(result.z, profile, ls=ls, marker=marker, mfc="none", ms=4, color=c,
+                label=f"{label_prefix}t = {t:g}")
+    if result.blew_up:
+        index = {"phi": 0, "u": 1, "w": 2}[field]
+        ax.plot(result.z, result.final[index], color="r", lw=0.8,
+                label=f"{label_prefix}t* = {result.t_star:.4g}")
+    ax.set_xlabel("z")
+    ax.set_ylabel(field)
+
+
+def plot_max_w(ax, result: Result, label: str | None = None, **kwargs):
+    """max|w|(t) on log-log axes; a failed run ends with an x at t*."""
+    t, v = result.max_w_t, result.max_w
+    keep = t > 0
+    label = label or f"{result.rheology} {result.discretization} N={result.N}"
+    (line,) = ax.loglog(t[keep], v[keep], label=label, **kwargs)
+    if result.blew_up:
+        ax.plot([result.t_star], [v[-1]], "x", color=line.get_color(), ms=9)
+    ax.set_xlabel("t")
+    ax.set_ylabel("max |w|")
+    return line
+
+
+def plot_result(result: Result, path=None):
+    """Four panels: w, u, phi snapshots and max|w|(t)."""
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    plot_profiles(axes[0, 0], result, "w")
+    plot_profiles(axes[0, 1], result, "u")
+    plot_profiles(axes[1, 0], result, "phi")
+    plot_max_w(axes[1, 1], result)
+    axes[0, 0].legend(fontsize=7)
+    status = f"failed at t* = {result.t_star:.5g}" if result.blew_up else "reached t_end"
+    fig.suptitle(f"{result.rheology}, scene {result.scene}, {result.discretization} N = {result.N}: {status}")
+    fig.tight_layout()
+    if path:
+        fig.savefig(path, dpi=120)
+    return fig
+
+
+def demo_figure(mui_coarse: Result, mui_fine: Result, icidr_coarse: Result, icidr_fine: Result, path=None):
+    """The paper's headline in one figure: figs 3/4(a) for mu(I), fig 6 for iCIDR."""
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    ax = axes[0, 0]
+    plot_profiles(ax, mui_fine, "w")
+    ax.set_title(f"(a) $\\mu(I),\\Phi(I)$, N = {mui_fine.N}: w blows up (cf. fig 3a)")
+    ax.legend(fontsize=7)
+    ax = axes[0, 1]
+    plot_max_w(ax, mui_coarse, label=f"N = {mui_coarse.N}", color="tab:blue", ls="--")
+    plot_max_w(ax, mui_fine, label=f"N = {mui_fine.N}", color="tab:red", ls="--")
+    if mui_fine.blew_up:
+        ax.axvline(mui_fine.t_star, color="gray", lw=0.5)
+        ax.text(mui_fine.t_star, ax.get_ylim()[0] * 1.5, f" t* = {mui_fine.t_star:.4g}", fontsize=8)
+    ax.set_title("(b) $\\mu(I),\\Phi(I)$ max|w|: refinement fails sooner (cf. fig 4a)")
+    ax.legend(fontsize=8)
+    ax = axes[1, 0]
+    plot_profiles(ax, icidr_fine, "w")
+    plot_profiles(ax, icidr_coarse, "w", style="o")
+    ax.set_title(f"(c) iCIDR w: N = {icidr_coarse.N} (o) and {icidr_fine.N} (lines) (cf. fig 6a)")
+    ax.legend(fontsize=6, ncol=2)
+    ax = axes[1, 1]
+    plot_max_w(ax, icidr_coarse, label=f"N = {icidr_coarse.N}", color="tab:blue", marker="o",
+               ls="none", mfc="none", markevery=8)
+    plot_max_w(ax, icidr_fine, label=f"N = {icidr_fine.N}", color="tab:red")
+    ax.set_title("(d) iCIDR max|w|: grid converged (cf. fig 6b)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    if path:
+        fig.savefig(path, dpi=120)
+    return fig
