@@ -27,19 +27,24 @@ def _below(h: np.ndarray, R: np.ndarray) -> np.ndarray:
     return hc * np.sqrt(np.maximum(R * R - hc * hc, 0.0)) + R * R * (np.arcsin(hc / R) + np.pi / 2)
 
 
-def slab_areas(z: np.ndarray, radius: np.ndarray, edges: np.ndarray, H: float) -> np.ndarray:
+IMAGE_SHIFTS = (-1, 0, 1)
+
+
+def slab_areas(z: np.ndarray, radius: np.ndarray, edges: np.ndarray, H: float,
+               per_image: bool = False) -> np.ndarray:
     """Area of each disk inside each slab [edges[b], edges[b+1]), periodic in z.
 
-    Returns an array of shape (n_particles, n_bins).
+    Returns shape (n_particles, n_bins), or with ``per_image`` shape
+    (3, n_particles, n_bins) split by the periodic image z - H, z, z + H.
     """
     z = np.asarray(z, float)
     R = np.asarray(radius, float)[:, None]
-    out = np.zeros((z.size, edges.size - 1))
-    for shift in (-H, 0.0, H):
-        zc = (np.mod(z, H) + shift)[:, None]
+    out = np.zeros((len(IMAGE_SHIFTS), z.size, edges.size - 1))
+    for k, shift in enumerate(IMAGE_SHIFTS):
+        zc = (np.mod(z, H) + shift * H)[:, None]
         cum = _below(edges[None, :] - zc, R)
-        out += np.diff(cum, axis=1)
-    return out
+        out[k] = np.diff(cum, axis=1)
+    return out if per_image else out.sum(axis=0)
 
 
 def bin_edges(H: float, bin_height: float) -> np.ndarray:
@@ -51,18 +56,26 @@ def bin_edges(H: float, bin_height: float) -> np.ndarray:
     return np.linspace(0.0, H, n + 1)
 
 
-def profiles(z, u, w, radius, mass, L, H, bin_height=2.0):
-    """phi, u, w per bin (appendix C).  Returns (centres, phi, u, w)."""
+def profiles(z, u, w, radius, mass, L, H, bin_height=2.0, V0=0.0):
+    """phi, u, w per bin (appendix C).  Returns (centres, phi, u, w).
+
+    ``V0`` is the Lees-Edwards velocity jump: the part of a disk that sticks out
+    through z = H (image z - H... z + H) moves with u + V0 (u - V0 through z = 0).
+    """
     if not L > 0:
         raise ValueError(f"`L` must be > 0; got {L}")
     edges = bin_edges(H, bin_height)
-    A = slab_areas(z, radius, edges, H)
+    A3 = slab_areas(z, radius, edges, H, per_image=True)
+    A = A3.sum(axis=0)
     phi = A.sum(axis=0) / (L * np.diff(edges))
-    wts = A * np.asarray(mass)[:, None]
-    den = wts.sum(axis=0)
+    m = np.asarray(mass, float)[:, None]
+    den = (A * m).sum(axis=0)
+    u = np.asarray(u, float)[:, None]
+    w = np.asarray(w, float)[:, None]
+    mom_u = sum((A3[k] * m * (u + shift * V0)).sum(axis=0) for k, shift in enumerate(IMAGE_SHIFTS))
     with np.errstate(invalid="ignore", divide="ignore"):
-        ub = (wts * np.asarray(u)[:, None]).sum(axis=0) / den
-        wb = (wts * np.asarray(w)[:, None]).sum(axis=0) / den
+        ub = mom_u / den
+        wb = (A * m * w).sum(axis=0) / den
     return 0.5 * (edges[1:] + edges[:-1]), phi, ub, wb
 
 

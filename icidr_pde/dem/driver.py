@@ -42,6 +42,18 @@ class Snapshot:
     virial: np.ndarray
     L: float
     H: float
+    ids: np.ndarray | None = None
+
+
+def pair_virial_from_stress_atom(s: np.ndarray) -> np.ndarray:
+    """Per-particle pair part of (C1) from LAMMPS ``compute stress/atom NULL pair``.
+
+    LAMMPS returns -1/2 sum_beta r_a f_b per atom (stress x volume, columns
+    xx, yy, zz, xy, xz, yz); we return the compression-positive
+    1/2 sum_beta r_a f_b in columns (xx, zz, xz) of the paper (LAMMPS y = z).
+    """
+    s = np.asarray(s, float)
+    return -s[:, [0, 1, 3]]
 
 
 class ShearCell:
@@ -160,12 +172,10 @@ class ShearCell:
             )[:n]
         else:
             s = np.full((n, 6), np.nan)
-        # stress/atom returns minus (pair virial per atom); we store compression-positive
-        # W = 1/2 sum r f in columns (xx, yy, xy) with LAMMPS y -> paper z
-        virial = -s[:, [0, 1, 3]]
+        ids = np.array(lmp.numpy.extract_atom("id", nelem=n), copy=True)
         return Snapshot(
             t=self.t, x=x[:, 0], z=x[:, 1], u=v[:, 0], w=v[:, 1], radius=r, mass=m,
-            virial=virial, L=self.L, H=self.params.H,
+            virial=pair_virial_from_stress_atom(s), L=self.L, H=self.params.H, ids=ids,
         )
 
     def set_velocities(self, vx: np.ndarray, vz: np.ndarray) -> None:
