@@ -54,7 +54,7 @@ def bin_average(z_fine, f_fine, edges, H):
     bins lie inside [0, H])."""
     out = np.empty(edges.size - 1)
     for b in range(edges.size - 1):
-        zs = np.linspace(edges[b], edges[b + 1], 41)
+        zs = np.linspace(edges[b], edges[b + 1], 201)
         out[b] = np.trapezoid(np.interp(zs, z_fine, f_fine), zs) / (edges[b + 1] - edges[b])
     return out
 

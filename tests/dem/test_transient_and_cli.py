@@ -1,0 +1,89 @@
+"""Ensemble statistics, error definition, bin averaging and CLI wiring (no LAMMPS)."""
+
+import argparse
+
+import numpy as np
+import pytest
+
+from icidr_pde.dem import transient
+from icidr_pde.dem.cli import add_parser
+
+
+def _fake_runs(R=4, T=3, B=15):
+    rng = np.random.default_rng(0)
+    runs = []
+    for _ in range(R):
+        runs.append({"tr_times": np.arange(T) * 0.1, "z": np.arange(B) * 2.0 + 1.0, "phi0": 0.78,
+                     "H": 30.0, "tr_a": 0.16, "tr_b": 0.1,
+                     "tr_phi": 0.78 + rng.normal(0, 0.01, (T, B)),
+                     "tr_u": rng.normal(0, 0.01, (T, B)), "tr_w": rng.normal(0, 0.01, (T, B))})
+    return runs
+
+
+def test_ensemble_mean_std():
+    runs = _fake_runs()
+    ens = transient.ensemble(runs)
+    stack = np.stack([r["tr_u"] for r in runs])
+    np.testing.assert_allclose(ens["u_mean"], stack.mean(0))
+    np.testing.assert_allclose(ens["u_std"], stack.std(0, ddof=1))
+    np.testing.assert_allclose(ens["max_w"], np.abs(stack_w := np.stack([r["tr_w"] for r in runs]).mean(0)).max(1))
+    assert ens["repeats"] == 4
+    with pytest.raises(ValueError, match="results"):
+        transient.ensemble([{"phi0": 0.78}])
+
+
+def test_error_definition_on_known_offsets():
+    ens = transient.ensemble(_fake_runs())
+    cont = {f: ens[f"{f}_mean"].copy() for f in ("phi", "u", "w")}
+    cont["u"] = cont["u"] + 0.03          # uniform offset of 3 % of V0
+    cont["phi"] = cont["phi"] + 0.0078    # 1 % of phi0
+    e = transient.errors(ens, cont)
+    np.testing.assert_allclose(e["u"], 0.03)
+    np.testing.assert_allclose(e["phi"], 0.01)
+    np.testing.assert_allclose(e["w"], 0.0, atol=1e-15)
+    np.testing.assert_allclose(e["total"], 0.03)
+
+
+def test_bin_average_of_linear_and_sine_profiles():
+    z = np.linspace(0, 30, 2001)
+    edges = np.linspace(0, 30, 16)
+    np.testing.assert_allclose(transient.bin_average(z, 2 * z + 1, edges, 30.0),
+                               2 * (edges[1:] + edges[:-1]) / 2 + 1, rtol=1e-10)
+    k = 2 * np.pi / 30
+    exact = (np.cos(k * edges[:-1]) - np.cos(k * edges[1:])) / (k * 2.0)
+    np.testing.assert_allclose(transient.bin_average(z, np.sin(k * z), edges, 30.0), exact, atol=2e-6)
+
+
+def test_cli_wiring_and_bad_input():
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    add_parser(sub)
+    a = parser.parse_args(["dem", "steady", "--phi0", "0.76", "0.8", "--repeats", "3", "--jobs", "1"])
+    assert a.phi0 == [0.76, 0.8] and a.repeats == 3 and callable(a.func)
+    b = parser.parse_args(["dem", "transient", "--repeats", "2"])
+    assert b.repeats == 2 and callable(b.func) and b.func is not a.func
+    with pytest.raises(SystemExit):
+        parser.parse_args(["dem", "steady", "--repeats", "0"])
+
+
+def test_steady_study_rejects_bad_phi0(tmp_path):
+    from icidr_pde.dem.steady import run_steady_study
+    with pytest.raises(ValueError, match="phi0"):
+        run_steady_study([0.95], repeats=1, cache_dir=tmp_path)
+    with pytest.raises(ValueError, match="repeats"):
+        run_steady_study([0.78], repeats=0, cache_dir=tmp_path)
+
+
+@pytest.mark.slow
+def test_continuum_initial_profiles_are_57_bin_averages():
+    """The lead's iCIDR run, bin-averaged as the DEM, starts from (5.7)."""
+    pytest.importorskip("pde")
+    edges = np.linspace(0, 30, 16)
+    c = transient.continuum(np.array([0.0, 0.1]), None, N=201, edges=edges)
+    k = 2 * np.pi / 30
+    sin_avg = (np.cos(k * edges[:-1]) - np.cos(k * edges[1:])) / (k * 2.0)
+    zc = (edges[1:] + edges[:-1]) / 2
+    # cell-centred finite volumes: bin averages of smooth fields to O(h^2), h = 30/201
+    np.testing.assert_allclose(c["w"][0], -0.1 * sin_avg, atol=2e-3)
+    np.testing.assert_allclose(c["u"][0], zc / 30 + 0.16 * sin_avg, atol=2e-3)
+    np.testing.assert_allclose(c["phi"][0], 0.78, atol=1e-12)
