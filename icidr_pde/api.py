@@ -130,9 +130,8 @@ def run(
     controller = Controller(solver, t_range=(0.0, t_end), tracker=trackers)
     start = _time.perf_counter()
     try:
-        controller.run(state)
+        final = controller.run(state).data.copy()  # run() works on a copy of `state`
         blew_up, t_star, reason, t_final = False, None, "reached t_end", t_end
-        final = state.data.copy()
     except SimulationFailed as failure:
         blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
         final = failure.state_data

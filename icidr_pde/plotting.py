@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import matplotlib
 
-matplotlib.use("Agg") if matplotlib.get_backend().lower() == "agg" else None
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -64,6 +63,7 @@ def demo_figure(mui_coarse: Result, mui_fine: Result, icidr_coarse: Result, icid
     fig, axes = plt.subplots(2, 2, figsize=(11, 8))
     ax = axes[0, 0]
     plot_profiles(ax, mui_fine, "w")
+    ax.set_yscale("symlog", linthresh=0.03)
     ax.set_title(f"(a) $\\mu(I),\\Phi(I)$, N = {mui_fine.N}: w blows up (cf. fig 3a)")
     ax.legend(fontsize=7)
     ax = axes[0, 1]
