@@ -1,0 +1,342 @@
+"""Chebyshev spectral collocation of the shear cell, behind the same interface as py-pde.
+
+The paper computes every case twice, with first-order differences and with a Chebyshev
+spectral scheme (Trefethen 2000, *Spectral Methods in MATLAB*, program ``cheb``).
+This module is that second discretization. It solves the same equations as
+:mod:`icidr_pde.pdes` with the same stress kernels of :mod:`icidr_pde.rheology`:
+
+.. math::
+    \\partial_t \\phi = -D(\\phi w), \\qquad
+    \\partial_t u = \\frac{1}{\\phi} D F_u - w D u, \\qquad
+    \\partial_t w = \\frac{1}{\\phi} D F_w - w D w,
+
+with F_u = tau_xz(phi, Du, Dw), F_w = tau_zz - p, collocated at the N
+Chebyshev-Gauss-Lobatto points z_j = H (1 - cos(pi j/(N - 1)))/2, j = 0..N-1, walls
+included; D is Trefethen's differentiation matrix mapped to [0, H].
+
+* u and w are Dirichlet (3.9): their wall values are part of the state, set by
+  :meth:`ChebyshevShearCellPDE.make_state`, and their wall rates are 0.
+* phi evolves at every node including the walls, in flux form -D(phi w). Since
+  Clenshaw-Curtis quadrature with N points is exact for the degree N-2 polynomial
+  D(phi w), the discrete mass sum_j c_j phi_j changes at the rate
+  -(phi w)(H) + (phi w)(0) = 0: mass is conserved to round-off.
+* the Jacobian of the right-hand side is dense; :meth:`make_jacobian` builds it
+  analytically by the chain rule, D diag(dF/d.) D, from ``Rheology.stress_jacobian``.
+
+py-pde grids are uniform, so the state lives on a *carrier* ``CartesianGrid([[0, H]], N)``
+of N cells, which is used for storage only; :meth:`nodes` gives the true positions.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from pde import CartesianGrid, FieldCollection, ScalarField
+from pde.backends import get_backend
+from pde.pdes.base import PDEBase
+
+from .rheology import Material, Rheology, get_rheology
+
+__all__ = ["ChebyshevShearCellPDE", "cheb", "clencurt", "cgl_nodes", "diff_matrix", "cc_weights",
+           "interpolate"]
+
+_RHS_CACHE: dict = {}
+_RATES_CACHE: dict = {}
+
+
+def cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Trefethen's ``cheb``: differentiation matrix D and points x_j = cos(pi j/n), j = 0..n.
+
+    D is exact for polynomials of degree <= n on the n + 1 points (x descending from 1 to -1);
+    the diagonal uses the negative-sum trick, so D annihilates constants to round-off.
+    """
+    if int(n) != n or n < 1:
+        raise ValueError(f"`n` must be a positive integer; got {n}")
+    n = int(n)
+    j = np.arange(n + 1)
+    x = np.cos(np.pi * j / n)
+    c = np.where((j == 0) | (j == n), 2.0, 1.0) * (-1.0) ** j
+    dX = x[:, None] - x[None, :]
+    D = np.outer(c, 1.0 / c) / (dX + np.eye(n + 1))
+    D -= np.diag(D.sum(axis=1))
+    return D, x
+
+
+def clencurt(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Trefethen's ``clencurt``: Clenshaw-Curtis points x_j = cos(pi j/n) and weights on [-1, 1]."""
+    if int(n) != n or n < 1:
+        raise ValueError(f"`n` must be a positive integer; got {n}")
+    n = int(n)
+    theta = np.pi * np.arange(n + 1) / n
+    x = np.cos(theta)
+    w = np.zeros(n + 1)
+    ii = np.arange(1, n)
+    v = np.ones(n - 1)
+    if n % 2 == 0:
+        w[0] = w[n] = 1.0 / (n**2 - 1)
+        for k in range(1, n // 2):
+            v -= 2.0 * np.cos(2 * k * theta[ii]) / (4 * k**2 - 1)
+        v -= np.cos(n * theta[ii]) / (n**2 - 1)
+    else:
+        w[0] = w[n] = 1.0 / n**2
+        for k in range(1, (n - 1) // 2 + 1):
+            v -= 2.0 * np.cos(2 * k * theta[ii]) / (4 * k**2 - 1)
+    w[ii] = 2.0 * v / n
+    return x, w
+
+
+def cgl_nodes(N: int, H: float) -> np.ndarray:
+    """The N Chebyshev-Gauss-Lobatto points z_j = H (1 - cos(pi j/(N-1)))/2 on [0, H], ascending."""
+    j = np.arange(N)
+    z = 0.5 * H * (1.0 - np.cos(np.pi * j / (N - 1)))
+    z[0], z[-1] = 0.0, float(H)  # exact walls
+    return z
+
+
+def diff_matrix(N: int, H: float) -> np.ndarray:
+    """d/dz on the N CGL points of [0, H]: z = H (1 - x)/2, so D_z = -(2/H) D_x."""
+    D, _ = cheb(N - 1)
+    return np.ascontiguousarray(-2.0 / H * D)
+
+
+def cc_weights(N: int, H: float) -> np.ndarray:
+    """Clenshaw-Curtis weights of the N CGL points of [0, H] (exact to degree N - 1)."""
+    _, w = clencurt(N - 1)
+    return 0.5 * H * w
+
+
+def interpolate(values: np.ndarray, z_eval, H: float) -> np.ndarray:
+    """Evaluate the polynomial interpolating `values` at the N CGL points of [0, H] at `z_eval`.
+
+    Barycentric formula with the CGL weights (-1)^j, halved at both ends (Trefethen,
+    *Approximation Theory and Approximation Practice*, thm 5.2); `values` may have
+    leading axes (..., N).
+    """
+    values = np.asarray(values, dtype=float)
+    N = values.shape[-1]
+    z = cgl_nodes(N, H)
+    lam = (-1.0) ** np.arange(N)
+    lam[[0, -1]] *= 0.5
+    z_eval = np.atleast_1d(np.asarray(z_eval, dtype=float))
+    diff = z_eval[:, None] - z[None, :]
+    exact = diff == 0
+    diff[exact] = 1.0
+    kernel = lam / diff
+    kernel[np.any(exact, axis=1)] = exact[np.any(exact, axis=1)].astype(float)
+    return (values @ kernel.T) / kernel.sum(axis=1)
+
+
+def make_cheb_rates(stress: Callable, compile_function: Callable | None) -> Callable:
+    """Build ``rates(phi, u, w, D, params) -> (3, N) array`` at the collocation points."""
+
+    def rates(phi, u, w, D, params):
+        uz = D @ u
+        wz = D @ w
+        p, txz, tzz = stress(phi, uz, wz, params)
+        fw = tzz - p
+        out = np.empty((3, phi.shape[0]))
+        out[0] = -(D @ (phi * w))
+        out[1] = (D @ txz) / phi - w * uz
+        out[2] = (D @ fw) / phi - w * wz
+        out[1, 0] = 0.0
+        out[1, -1] = 0.0
+        out[2, 0] = 0.0
+        out[2, -1] = 0.0
+        return out
+
+    if compile_function is None:
+        return rates
+    return compile_function(rates)
+
+
+class ChebyshevShearCellPDE(PDEBase):
+    """Gravity-free 1-D shear cell (3.1)-(3.3), Chebyshev collocation (Trefethen's ``cheb``).
+
+    Args:
+        rheology: 'mui' (mu(I),Phi(I), (3.6), (3.8)) or 'icidr' ((4.12), (4.14)), or a
+            :class:`~icidr_pde.rheology.Rheology` instance
+        material: parameters of (2.10)-(2.11) (default: Table 1)
+        V0: velocity of the top wall (1 in the scalings (3.12))
+
+    The state is stored on the carrier grid of :meth:`make_grid` (N cells used only as
+    storage); data[k, j] is field k at the collocation point :meth:`nodes` [j].
+    """
+
+    check_implementation = False  # the numba and numpy paths share one source
+
+    def __init__(
+        self,
+        rheology: str | Rheology = "icidr",
+        material: Material | None = None,
+        *,
+        V0: float = 1.0,
+    ):
+        super().__init__()
+        self.rheology = get_rheology(rheology, material)
+        if not np.isfinite(V0):
+            raise ValueError(f"`V0` must be finite; got {V0}")
+        self.V0 = float(V0)
+        self._ops: dict = {}
+
+    @property
+    def material(self) -> Material:
+        return self.rheology.material
+
+    @property
+    def expression(self) -> str:
+        return (f"shear cell ({self.rheology.name}, Chebyshev): d_t phi = -D(phi w); "
+                "d_t u = D tau_xz/phi - w D u; d_t w = D(tau_zz - p)/phi - w D w")
+
+    # --- grid and operators --------------------------------------------------------
+
+    @staticmethod
+    def make_grid(N: int, H: float = 30.0) -> CartesianGrid:
+        """Carrier grid CartesianGrid([[0, H]], N) holding the N collocation values."""
+        if int(N) != N or N < 4:
+            raise ValueError(f"`N` must be an integer >= 4; got {N}")
+        if not (np.isfinite(H) and H > 0):
+            raise ValueError(f"`H` must be > 0; got {H}")
+        return CartesianGrid([[0.0, float(H)]], int(N))
+
+    def check_grid(self, grid) -> None:
+        if not isinstance(grid, CartesianGrid) or grid.num_axes != 1 or grid.periodic[0]:
+            raise ValueError("`grid` must be a non-periodic 1-D CartesianGrid([[0, H]], N) "
+                             "(use ChebyshevShearCellPDE.make_grid)")
+        if grid.axes_bounds[0][0] != 0:
+            raise ValueError("the carrier grid must start at z = 0")
+
+    @staticmethod
+    def _size(grid) -> tuple[int, float]:
+        return int(grid.shape[0]), float(grid.axes_bounds[0][1])
+
+    def operators(self, grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z, D, c): CGL points, differentiation matrix and Clenshaw-Curtis weights."""
+        key = self._size(grid)
+        if key not in self._ops:
+            N, H = key
+            self._ops[key] = (cgl_nodes(N, H), diff_matrix(N, H), cc_weights(N, H))
+        return self._ops[key]
+
+    def nodes(self, grid) -> np.ndarray:
+        """The N Chebyshev-Gauss-Lobatto points z_j = H (1 - cos(pi j/(N-1)))/2."""
+        return self.operators(grid)[0].copy()
+
+    def integral(self, values: np.ndarray, grid) -> float:
+        """Clenshaw-Curtis integral over 0 < z < H of values at the collocation points."""
+        return float(np.dot(self.operators(grid)[2], values))
+
+    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
+        """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays.
+
+        The wall values of u and w are set to the Dirichlet data (3.9), u = 0, V0 and
+        w = 0 (the IC (3.16) meets them to within 1e-97).
+        """
+        self.check_grid(grid)
+        z = self.nodes(grid)
+        fields = []
+        for label, f in (("phi", phi), ("u", u), ("w", w)):
+            data = f(z) if callable(f) else np.broadcast_to(np.asarray(f, float), z.shape)
+            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+        fields[1].data[[0, -1]] = 0.0, self.V0
+        fields[2].data[[0, -1]] = 0.0
+        return FieldCollection(fields)
+
+    # --- right-hand side -------------------------------------------------------------
+
+    def make_evolution_rate(self, state: FieldCollection, backend="numpy") -> Callable:
+        """Return rhs(state_data, t) for the `numpy` or `numba` backend."""
+        self.check_grid(state.grid)
+        backend = get_backend(backend)
+        key = (type(self.rheology), self.material.params, backend.name,
+               self._size(state.grid))
+        if key in _RHS_CACHE:
+            return _RHS_CACHE[key]
+        _, D, _ = self.operators(state.grid)
+        params = self.material.params
+        compile_function = None if backend.name == "numpy" else backend.compile_function
+        rates_key = (type(self.rheology), backend.name)
+        if rates_key not in _RATES_CACHE:  # compiled once per rheology, for every N
+            stress = type(self.rheology).stress_kernel
+            if compile_function is not None:
+                stress = compile_function(stress)
+            _RATES_CACHE[rates_key] = make_cheb_rates(stress, compile_function)
+        rates = _RATES_CACHE[rates_key]
+        D = D.copy()
+
+        def pde_rhs(state_data, t=0.0):
+            return rates(state_data[0], state_data[1], state_data[2], D, params)
+
+        if compile_function is not None:
+            # only this thin wrapper is compiled per N (numba freezes D into it as a constant)
+            pde_rhs = compile_function(pde_rhs)
+        _RHS_CACHE[key] = pde_rhs
+        return pde_rhs
+
+    def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
+        """Numpy evaluation of the right-hand side (same source as the numba one)."""
+        rhs = self.make_evolution_rate(state, "numpy")
+        result = state.copy(label="evolution rate")
+        result.data[:] = rhs(state.data, t)
+        return result
+
+    # --- what the stiff integrator asks of a discretization ---------------------------
+
+    def check_state(self, data: np.ndarray) -> str | None:
+        """Reason why `data` is outside the inertial regime, or None if it is valid."""
+        phi = data[0]
+        if np.all(phi > 0) and np.all(phi < self.material.phi_c):
+            return None
+        return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
+                f"min {phi.min():.6g}, max {phi.max():.6g}")
+
+    def jacobian_sparsity(self, state) -> None:
+        """None: the Jacobian of a collocation scheme is dense."""
+        return None
+
+    def make_jacobian(self, state) -> Callable:
+        """Analytic dense Jacobian jac(t, y) (3N x 3N) of the flattened right-hand side."""
+        self.check_grid(state.grid)
+        _, D, _ = self.operators(state.grid)
+        return _cheb_jacobian(self.rheology, D)
+
+    def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
+        """(z, phi, u_z, w_z) at the collocation points, where the stresses live."""
+        z, D, _ = self.operators(grid)
+        return z.copy(), np.array(data[0]), D @ data[1], D @ data[2]
+
+
+def _cheb_jacobian(rheology: Rheology, D: np.ndarray) -> Callable:
+    """Analytic Jacobian of the collocation right-hand side (chain rule through D)."""
+    n = D.shape[0]
+    interior = np.ones(n)
+    interior[[0, -1]] = 0.0
+
+    def jacobian(t, y):
+        phi, u, w = y.reshape(3, n)
+        uz, wz = D @ u, D @ w
+        p, txz, tzz = rheology.stress(phi, uz, wz)
+        d = rheology.stress_jacobian(phi, uz, wz)
+        dfu = d[3:6]
+        dfw = [d[6 + k] - d[k] for k in range(3)]
+        J = np.zeros((3 * n, 3 * n))
+        # mass: -D(phi w)
+        J[:n, :n] = -D * w[None, :]
+        J[:n, 2 * n:] = -D * phi[None, :]
+        inv_phi = (interior / phi)[:, None]
+        for row, flux, dflux in ((1, txz, dfu), (2, tzz - p, dfw)):
+            block = slice(row * n, (row + 1) * n)
+            divf = D @ flux
+            J[block, :n] = inv_phi * D * dflux[0][None, :]
+            J[block, :n][np.diag_indices(n)] -= interior * divf / phi**2
+            J[block, n:2 * n] = inv_phi * ((D * dflux[1][None, :]) @ D)
+            J[block, 2 * n:] = inv_phi * ((D * dflux[2][None, :]) @ D)
+        # advection: -w D u in the u rows, -w D w in the w rows
+        adv = (interior * w)[:, None] * D
+        J[n:2 * n, n:2 * n] -= adv
+        J[n:2 * n, 2 * n:][np.diag_indices(n)] -= interior * uz
+        J[2 * n:, 2 * n:] -= adv
+        J[2 * n:, 2 * n:][np.diag_indices(n)] -= interior * wz
+        return J
+
+    return jacobian
