@@ -1,0 +1,110 @@
+"""Numerical evaluation of the symbols: coefficients (A2), A(xi), Gamma, Lambda, -C/B.
+
+Everything is compiled once (``sympy.lambdify``) from the symbolic derivation of
+:mod:`stability.linearize` applied to :mod:`stability.rheologies` with the concrete
+material functions (2.10), (2.13) and d = rho_* = 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+
+import numpy as np
+import sympy as sp
+
+from . import linearize, rheologies
+from .material import check_phi, check_rate, check_rheology_name, check_xi, material_params
+from .mui import M_numeric, chi
+from .symbols import MATERIAL_SYMBOLS, d, phi, rho, uz, wz
+
+NAMES = ("a1", "a2", "b11", "b12", "b21", "b22")
+
+
+@lru_cache(maxsize=None)
+def _coefficient_lambda(name: str):
+    p, txz, tzz = rheologies.stress(name)
+    c = linearize.principal_coefficients(p, txz, tzz)
+    subs = rheologies.concrete_functions()
+    exprs = [c[k].subs(subs).doit().subs({d: 1, rho: 1}) for k in NAMES]
+    return sp.lambdify((phi, uz, wz, *MATERIAL_SYMBOLS.values()), exprs, modules="numpy")
+
+
+def _validate_state(name, phi_v, uz_v, wz_v, material):
+    check_rheology_name(name)
+    check_phi(phi_v, material)
+    check_rate(uz_v, "uz")
+    check_rate(wz_v, "wz")
+    if np.any((np.asarray(uz_v) == 0) & (np.asarray(wz_v) == 0)):
+        raise ValueError("`uz`, `wz` must not both be 0: at zero strain rate Gamma = 0 and the system is "
+                         "degenerate (see stability.icidr); give (uz, wz) != (0, 0)")
+
+
+def coefficients(name, phi_v, uz_v, wz_v, material=None) -> dict:
+    """a1, a2, b11, b12, b21, b22 of (A2) for rheology `name` at a base state (d = rho_* = 1)."""
+    _validate_state(name, phi_v, uz_v, wz_v, material)
+    prm = material_params(material)
+    vals = _coefficient_lambda(name)(float(phi_v), float(uz_v), float(wz_v), *prm.values())
+    return {k: float(v) for k, v in zip(NAMES, vals)}
+
+
+def A_matrix(c: dict, phi_v: float, xi_v: float, w0: float = 0.0) -> np.ndarray:
+    """A(xi) of (A4) from the coefficients `c`."""
+    i = 1j
+    return np.array([
+        [-i * w0 * xi_v, 0, -i * phi_v * xi_v],
+        [i * c["a1"] * xi_v, -c["b11"] * xi_v**2 - i * w0 * xi_v, -c["b12"] * xi_v**2],
+        [i * c["a2"] * xi_v, -c["b21"] * xi_v**2, -c["b22"] * xi_v**2 - i * w0 * xi_v],
+    ], dtype=complex)
+
+
+def gamma(c: dict) -> np.ndarray:
+    """Gamma of (A5)."""
+    return np.array([[c["b11"], c["b12"]], [c["b21"], c["b22"]]])
+
+
+@dataclass
+class StabilityNumbers:
+    """Item-7 numbers for one rheology and base state."""
+
+    rheology: str
+    phi: float
+    uz: float
+    wz: float
+    xi: float
+    M: float
+    chi: float
+    trace_gamma: float
+    det_gamma: float
+    lambda_plus: complex
+    lambda_minus: complex
+    max_re_eig_over_xi2: float
+    lambda0_limit: float
+
+    def to_json(self) -> dict:
+        out = asdict(self)
+        for k in ("lambda_plus", "lambda_minus"):
+            z = complex(out[k])
+            out[k] = z.real if abs(z.imag) <= 1e-14 * max(1.0, abs(z)) else {"re": z.real, "im": z.imag}
+        return out
+
+
+def stability_numbers(name: str, phi_v: float, uz_v: float, wz_v: float, xi_v: float = 1e4,
+                      material=None) -> StabilityNumbers:
+    """M, chi (A18), tr/det Gamma, Lambda_pm (A9), max Re eig A(xi)/xi^2 and -C/B for one state."""
+    xi_v = check_xi(xi_v)
+    c = coefficients(name, phi_v, uz_v, wz_v, material)
+    G = gamma(c)
+    tr, det = float(np.trace(G)), float(np.linalg.det(G))
+    disc = complex(tr * tr - 4 * det)
+    r = np.sqrt(disc)
+    lp, lm = (-tr + r) / 2, (-tr - r) / 2
+    if lp.real < lm.real:
+        lp, lm = lm, lp
+    ev = np.linalg.eigvals(A_matrix(c, float(phi_v), xi_v))
+    lim = float(phi_v) * (c["a2"] * c["b11"] - c["a1"] * c["b21"]) / det   # -C/B, see linearize
+    with np.errstate(divide="ignore", invalid="ignore"):
+        chi_v = float(chi(phi_v, uz_v, wz_v, material))
+    return StabilityNumbers(name, float(phi_v), float(uz_v), float(wz_v), xi_v,
+                            float(M_numeric(phi_v, material)), chi_v, tr, det,
+                            complex(lp), complex(lm), float(ev.real.max() / xi_v**2), lim)
