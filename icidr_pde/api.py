@@ -7,7 +7,7 @@ import time as _time
 import numpy as np
 from pde import FileStorage, MemoryStorage
 from pde.solvers import Controller
-from pde.trackers.trackers import ProgressTracker
+from pde.trackers.trackers import PlotTracker, ProgressTracker
 
 from .integrator import SimulationFailed, StiffSolver, check_tolerances
 from .pdes import ShearCellPDE
@@ -66,10 +66,11 @@ def run(
     method: str = "BDF",
     rtol: float = 1e-6,
     atol: float = 1e-9,
-    jacobian: str = "analytic",
+    jacobian: str | None = None,
     material: Material | None = None,
     advection: str = "upwind",
     progress: bool = False,
+    live_plot: bool = False,
     save: str | None = None,
     series_times=None,
     **scene_params,
@@ -84,12 +85,13 @@ def run(
         t_end: final time
         times: snapshot times (strings keep their spelling as labels)
         discretization: 'fd' (finite volumes on py-pde's grid) or 'cheb' (Chebyshev)
-        method: 'BDF', 'Radau' or 'LSODA'
+        method: 'BDF', 'Radau', 'LSODA' (scipy) or 'CVODE' (SUNDIALS, the fast path)
         rtol, atol: integrator tolerances
-        jacobian: 'analytic', 'sparse-fd' or 'none'
+        jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's best)
         material: parameters (default Table 1)
         advection: 'upwind' or 'central' (finite differences only)
         progress: show a progress bar
+        live_plot: show the fields while they evolve (py-pde PlotTracker, e.g. in Jupyter)
         save: optional HDF5 file for the snapshots (py-pde FileStorage)
         series_times: times of the max|w| and chi series (default: dense log+linear)
 
@@ -125,6 +127,8 @@ def run(
         trackers.append(FileStorage(save, write_mode="truncate").tracker(interrupts=list(snap_times)))
     if progress:
         trackers.append(ProgressTracker(interrupts=max(t_end / 200, 1e-6)))
+    if live_plot:
+        trackers.append(PlotTracker(interrupts=t_end / 50, show=True))
 
     solver = StiffSolver(pde, method=method, rtol=rtol, atol=atol, jacobian=jacobian)
     controller = Controller(solver, t_range=(0.0, t_end), tracker=trackers)
@@ -152,7 +156,7 @@ def run(
     return Result(
         rheology=pde.rheology.name, scene=scene_obj.name, discretization=discretization,
         N=int(N), t_end=float(t_end), rtol=float(rtol), atol=float(atol), method=method,
-        jacobian=jacobian, blew_up=blew_up, t_star=t_star, reason=reason,
+        jacobian=solver.jacobian, blew_up=blew_up, t_star=t_star, reason=reason,
         t_final=float(t_final), z=z, times=np.array(storage.times[:n_snap]),
         time_labels=labels[:n_snap], requested_times=labels,
         phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(final),

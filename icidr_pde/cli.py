@@ -38,7 +38,8 @@ def add_run_parser(subparsers):
     p.add_argument("--rtol", type=float, default=1e-6)
     p.add_argument("--atol", type=float, default=1e-9)
     p.add_argument("--method", choices=sorted(METHODS), default="BDF")
-    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default="analytic")
+    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
+                   help="default: the method's best (analytic for BDF/Radau, banded-fd for LSODA/CVODE)")
     p.add_argument("--advection", choices=["upwind", "central"], default="upwind")
     for name, help_text in [("phi0", "mean packing fraction"), ("eps", "amplitude of (3.16)"),
                             ("a", "u amplitude of (5.7)"), ("b", "w amplitude of (5.7)"),

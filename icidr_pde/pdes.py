@@ -182,11 +182,26 @@ class ShearCellPDE(PDEBase):
         return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
                 f"min {phi.min():.6g}, max {phi.max():.6g}")
 
+    def validity_margins(self, data: np.ndarray) -> np.ndarray:
+        """Distances of phi from the ends of (0, phi_c); both positive while valid."""
+        phi = data[0]
+        return np.array([phi.min(), self.material.phi_c - phi.max()])
+
     def jacobian_sparsity(self, state) -> sparse.csr_matrix:
         """Block-tridiagonal pattern of the Jacobian: every field couples to i-1, i, i+1."""
         n = state.grid.shape[0]
         tri = sparse.diags([1, 1, 1], [-1, 0, 1], shape=(n, n))
         return sparse.csr_matrix(sparse.bmat([[tri] * 3] * 3))
+
+    def interleaving(self, state):
+        """Ordering (phi_0, u_0, w_0, phi_1, ...) in which the Jacobian is banded.
+
+        Returns the permutation `perm` (interleaved = flat[perm]) and the lower and upper
+        bandwidths (5, 5): cell i couples to cells i - 1 .. i + 1.
+        """
+        n = state.grid.shape[0]
+        perm = (np.arange(n)[:, None] + n * np.arange(3)[None, :]).ravel()
+        return perm, 5, 5
 
     def make_jacobian(self, state) -> Callable:
         """Analytic sparse Jacobian jac(t, y) of the flattened right-hand side."""

@@ -270,14 +270,22 @@ class Rheology:
     def __repr__(self) -> str:
         return f"{self.__class__.__name__}({self.material!r})"
 
-    def stress(self, phi, uz, wz):
-        """Return (p, tau_xz, tau_zz) for arrays of phi, u_z and w_z."""
+    def _inputs(self, phi, uz, wz):
         phi, uz, wz = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (phi, uz, wz)))
+        self.material.check_phi(phi)
+        for name, value in (("uz", uz), ("wz", wz)):
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"`{name}` must be finite")
+        return phi, uz, wz
+
+    def stress(self, phi, uz, wz):
+        """Return (p, tau_xz, tau_zz) for arrays of phi in (0, phi_c), u_z and w_z."""
+        phi, uz, wz = self._inputs(phi, uz, wz)
         return type(self).stress_kernel(phi, uz, wz, self.material.params)
 
     def stress_jacobian(self, phi, uz, wz):
         """Return the nine partial derivatives of (p, tau_xz, tau_zz) by (phi, u_z, w_z)."""
-        phi, uz, wz = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (phi, uz, wz)))
+        phi, uz, wz = self._inputs(phi, uz, wz)
         return type(self).jacobian_kernel(phi, uz, wz, self.material.params)
 
     def momentum_flux(self, phi, uz, wz):

@@ -105,6 +105,11 @@ def test_phi_range_and_rheology_name_errors():
         Material().check_phi([0.5, 0.82])
     with pytest.raises(ValueError, match="rheology"):
         get_rheology("bingham")
+    for bad_phi in (0.817, 0.9, -0.1, float("nan")):
+        with pytest.raises(ValueError, match=r"`phi` must lie in \(0, phi_c\)"):
+            get_rheology("icidr").stress(bad_phi, 0.1, 0.0)
+    with pytest.raises(ValueError, match="`wz`"):
+        get_rheology("mui").stress(0.78, 0.1, float("inf"))
 
 
 def test_chi_sign():
