@@ -138,10 +138,10 @@ def checks() -> list[Check]:
     # Y = mu(Psi) p: satisfies (4.6) but violates (4.4)
     Y0 = yield_rate_independent()
     r44 = condition_44(Y0)
-    out.append(Check("(4.4)", "Y = mu(Psi(phi)) p violates (4.4) (dY/dI = 0, not > 0)",
+    out.append(Check("(4.4) Y = mu p", "Y = mu(Psi(phi)) p violates (4.4) (dY/dI = 0, not > 0)",
                      EXACT if r44 == 0 else FAILS, f"dY/dI = {r44}", section=sec))
     f0 = derive_dilatancy(Y0)
-    out.append(Check("(4.3)", "for Y = mu(Psi) p, (4.3)+(4.6) would force f = M (1 - Psi/I)",
+    out.append(Check("(4.3) Y = mu p", "for Y = mu(Psi) p, (4.3)+(4.6) would force f = M (1 - Psi/I)",
                      EXACT if exact_zero(condition_43(Y0, f0)) and exact_zero(f0 - M * (1 - Psi / I)) else FAILS,
                      f"f = {sp.sstr(f0)} (only (4.4) fails; (4.5) holds)", section=sec))
 
@@ -197,7 +197,7 @@ def checks() -> list[Check]:
     out.append(c)
     R = sp.sqrt(delta**2 + M**2 * Sn**2)
     nonneg = exact_zero((R - delta) * (R + delta) - M**2 * Sn**2)
-    out.append(Check("(4.12)", "well defined for all deformation rates: radicand div^2 + M^2||S||^2 >= 0, "
+    out.append(Check("(4.12) well-defined", "well defined for all deformation rates: radicand div^2 + M^2||S||^2 >= 0, "
                      "no division by ||S|| or I; sqrt(p) = sqrt(rho)2d/(M Psi)(R - div) with R - div >= 0",
                      EXACT if nonneg else FAILS,
                      "(R - div)(R + div) = M^2 ||S||^2 >= 0 and R >= |div|, so R - div >= 0; "

@@ -116,7 +116,7 @@ def checks() -> list[Check]:
 
     G = gamma_point()
     sym = exact_zero(G[0, 1] - G[1, 0])
-    out.append(Check("(A5) iCIDR", "Gamma of iCIDR is symmetric (Hessian of psi (B13) / phi): real Lambda",
+    out.append(Check("(A5) iCIDR symmetric", "Gamma of iCIDR is symmetric (Hessian of psi (B13) / phi): real Lambda",
                      EXACT if sym else FAILS, "b12 - b21 = 0", section=sec))
     try:
         tr, det, polys = wellposedness_proof()
@@ -131,7 +131,7 @@ def checks() -> list[Check]:
         status = EXACT if allpos and sym else FAILS
     except AssertionError as e:  # pragma: no cover
         status, detail = FAILS, str(e)
-    out.append(Check("(4.4)-(4.5) / sec. 5", "iCIDR 1-D system is well-posed for all (u_z, w_z) != (0, 0), phi < phi_c:"
+    out.append(Check("sec. 5 well-posed", "iCIDR 1-D system is well-posed for all (u_z, w_z) != (0, 0), phi < phi_c:"
                      " tr Gamma > 0, det Gamma > 0, Gamma symmetric => Lambda_pm < 0 real, lambda_0 -> -C/B finite",
                      status, detail, section=sec))
 

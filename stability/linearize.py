@@ -127,7 +127,7 @@ def checks() -> list[Check]:
                      "A(xi) derived by applying (A2) to e^{i xi z}", section=sec))
     Aw = symbol_matrix(base_w=w0)
     okw = all(exact_zero(x) for x in (Aw - Amat + sp.I * w0 * xi * sp.eye(3)))
-    out.append(Check("(A4)", "w0 only adds -i w0 xi to the diagonal: eigenvalues shift by an imaginary amount",
+    out.append(Check("(A4) w0", "w0 only adds -i w0 xi to the diagonal: eigenvalues shift by an imaginary amount",
                      EXACT if okw else FAILS, "A_w0(xi) - A_0(xi) = -i w0 xi Id", section=sec))
     okG = all(exact_zero(x) for x in (Amat[1:, 1:] + xi**2 * G))
     out.append(Check("(A5)", "Gamma = [[b11, b12], [b21, b22]] multiplies -xi^2 in A(xi)", EXACT if okG else FAILS,
@@ -153,6 +153,6 @@ def checks() -> list[Check]:
     lim = res["limit"]
     target = phi * (a2 * b11 - a1 * b21) / detG
     okl = exact_zero(lim - target)
-    out.append(Check("(A17)", "third eigenvalue lambda_0 -> -C/B = phi (a2 b11 - a1 b21)/det(Gamma) (finite if "
+    out.append(Check("(A17) -C/B", "third eigenvalue lambda_0 -> -C/B = phi (a2 b11 - a1 b21)/det(Gamma) (finite if "
                      "det Gamma != 0)", EXACT if okl else FAILS, f"-C/B -> {sp.sstr(lim)}", section=sec))
     return out

@@ -87,7 +87,7 @@ def checks() -> list[Check]:
     r1 = -d**2 * M * s / (phi * Psi**2)
     r2 = 2 * d**2 * (wz - M * s) / (phi * Psi**2)
     okr = exact_zero(r1 + r2 + tr) and exact_zero(r1 * r2 - det)
-    out.append(Check("(A9)", "for mu(I) the roots (A9) are Lambda = -d^2 M s/(phi Psi^2) and "
+    out.append(Check("(A9) mu(I)", "for mu(I) the roots (A9) are Lambda = -d^2 M s/(phi Psi^2) and "
                      "2 d^2 (w_z - M s)/(phi Psi^2), s = sqrt(u_z^2+w_z^2) (real, by (A14))",
                      EXACT if okr else FAILS, "Vieta: r1 + r2 = -tr Gamma, r1 r2 = det Gamma", section=sec))
 

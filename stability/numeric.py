@@ -16,7 +16,7 @@ import sympy as sp
 from . import linearize, rheologies
 from .material import check_phi, check_rate, check_rheology_name, check_xi, material_params
 from .mui import M_numeric, chi
-from .symbols import MATERIAL_SYMBOLS, d, phi, rho, uz, wz
+from . import symbols as S
 
 NAMES = ("a1", "a2", "b11", "b12", "b21", "b22")
 
@@ -26,8 +26,8 @@ def _coefficient_lambda(name: str):
     p, txz, tzz = rheologies.stress(name)
     c = linearize.principal_coefficients(p, txz, tzz)
     subs = rheologies.concrete_functions()
-    exprs = [c[k].subs(subs).doit().subs({d: 1, rho: 1}) for k in NAMES]
-    return sp.lambdify((phi, uz, wz, *MATERIAL_SYMBOLS.values()), exprs, modules="numpy")
+    exprs = [c[k].subs(subs).doit().subs({S.d: 1, S.rho: 1}) for k in NAMES]
+    return sp.lambdify((S.phi, S.uz, S.wz, *S.MATERIAL_SYMBOLS.values()), exprs, modules="numpy")
 
 
 def _validate_state(name, phi_v, uz_v, wz_v, material):
@@ -89,9 +89,15 @@ class StabilityNumbers:
         return out
 
 
-def stability_numbers(name: str, phi_v: float, uz_v: float, wz_v: float, xi_v: float = 1e4,
+def stability_numbers(name: str, phi: float, uz: float, wz: float, xi: float = 1e4,
                       material=None) -> StabilityNumbers:
-    """M, chi (A18), tr/det Gamma, Lambda_pm (A9), max Re eig A(xi)/xi^2 and -C/B for one state."""
+    """M, chi (A18), tr/det Gamma, Lambda_pm (A9), max Re eig A(xi)/xi^2 and -C/B for one state.
+
+    Lambda_pm are the roots (A9) of (A8) for this rheology's Gamma (lambda_plus has the larger
+    real part); -C/B = phi (a2 b11 - a1 b21)/det Gamma (derived in :mod:`stability.linearize`).
+    Raises ValueError for phi outside (0, phi_c), xi <= 0, non-finite or zero (u_z, w_z).
+    """
+    phi_v, uz_v, wz_v, xi_v = phi, uz, wz, xi
     xi_v = check_xi(xi_v)
     c = coefficients(name, phi_v, uz_v, wz_v, material)
     G = gamma(c)

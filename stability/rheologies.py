@@ -135,3 +135,55 @@ def numeric_stress(name: str, phi_v, uz_v, wz_v, material=None):
     res = f(phi_v, uz_v, wz_v, *(prm[k] for k in MATERIAL_SYMBOLS))
     shape = np.broadcast(phi_v, uz_v, wz_v).shape
     return tuple(np.broadcast_to(np.asarray(r, dtype=float), shape) for r in res)
+
+
+def checks():
+    """Verify (2.13), (3.4) and the non-dimensional flux forms (3.14)-(3.15), (5.4)-(5.5)."""
+    from .checks import EXACT, FAILS, Check, compare, exact_zero  # noqa: PLC0415
+    from .symbols import Mf as _M, Psif as _P  # noqa: PLC0415
+
+    out = [momentum_index_check()]
+    out += [compare("(2.13)", "Psi(phi) = (phi_c - phi)/a inverts (2.11)", Psi_of_phi_derived(),
+                   (phi_c - phi) / a, section="2")]
+    k = shear_cell_kinematics()
+    S34 = sp.Matrix([[-wz, uz], [uz, wz]]) / 2
+    out.append(Check("(3.4)", "S = (1/2)[[-w_z, u_z], [u_z, w_z]] and div u = w_z",
+                     EXACT if (k["S"] - S34).is_zero_matrix and k["div"] == wz else FAILS, "", section="3"))
+    s = sp.sqrt(uz**2 + wz**2)
+    p, txz, tzz = [e.subs({d: 1, rho: 1}) for e in mui_stress()]
+    M, Psi = _M(phi), _P(phi)
+    ok = exact_zero(txz - M / Psi**2 * s * uz) and exact_zero(tzz - p - (-(s**2) / Psi**2 + M / Psi**2 * s * wz))
+    out.append(Check("(3.14)-(3.15)", "non-dimensional mu(I) fluxes: tau_xz = M/Psi^2 s u_z, "
+                     "tau_zz - p = -s^2/Psi^2 + M/Psi^2 s w_z", EXACT if ok else FAILS, "d = rho_* = 1 (3.12)",
+                     section="3"))
+    p, txz, tzz = [e.subs({d: 1, rho: 1}) for e in icidr_stress()]
+    sqrt_p = cidr.icidr_sqrt_pressure(wz, s / 2, M, Psi).subs({d: 1, rho: 1})
+    ok = exact_zero(txz - M / Psi * sqrt_p * uz) and exact_zero(tzz - p - (-p + M / Psi * sqrt_p * wz))
+    out.append(Check("(5.4)-(5.5)", "non-dimensional iCIDR fluxes (M/Psi) sqrt(p~) u_z and -p~ + (M/Psi) sqrt(p~) w_z",
+                     EXACT if ok else FAILS, "with the corrected p~ of (5.6)", section="5 iCIDR"))
+    return out
+
+
+def momentum_index_check():
+    """(2.2) as transcribed, rho phi (d_t + u_i d_i) u_i = d_i sigma_ii, has no free index.
+
+    The correct law is rho phi (d_t + u_j d_j) u_i = d_j sigma_ij.  In the shear cell
+    (fields of z only) the correct form gives (3.2)-(3.3), d_z tau_xz and
+    d_z(tau_zz - p); the printed one would give d_x sigma_xx = 0 for i = 1.
+    """
+    from .checks import EXACT, FAILS, Check  # noqa: PLC0415
+
+    z, x = sp.symbols("z x", real=True)
+    pf, txz, tzz = (sp.Function(n)(z) for n in ("p", "tau_xz", "tau_zz"))
+    sigma = sp.Matrix([[-pf - tzz, txz], [txz, -pf + tzz]])   # (2.3), tau trace-free
+    X = (x, z)
+    correct = [sum(sp.diff(sigma[i, j], X[j]) for j in range(2)) for i in range(2)]
+    printed = [sp.diff(sigma[i, i], X[i]) for i in range(2)]
+    ok_correct = sp.simplify(correct[0] - sp.diff(txz, z)) == 0 and sp.simplify(
+        correct[1] - sp.diff(tzz - pf, z)) == 0
+    ok_printed = sp.simplify(printed[0] - sp.diff(txz, z)) == 0
+    return Check("(2.2)", "momentum: rho_* phi (d_t + u_i d_i) u_i = d_i sigma_ii, i = 1, 2 (as transcribed)",
+                 FAILS if (ok_correct and not ok_printed) else EXACT,
+                 "printed index form has no free index and would give d_x sigma_xx = 0 for i = 1; the correct form "
+                 "reproduces (3.2)-(3.3)" if ok_correct else "correct form does not reproduce (3.2)-(3.3)!",
+                 corrected="rho_* phi (d_t + u_j d_j) u_i = d_j sigma_ij, i = 1, 2 (sum over j)", section="2")
