@@ -245,6 +245,8 @@ def plot_fd_growth(path="docs/fd_growth.png", Ns=(32, 64, 128, 256, 512, 1024, 2
     ax.loglog(h, [r["mui"] for r in rows], "o-", color="C3", label=r"$\mu(I),\Phi(I)$")
     ax.loglog(h, [max(r["icidr"], 1e-12) for r in rows], "s-", color="C0", label="iCIDR")
     ax.loglog(h, 4 * sn.lambda_plus.real / h**2, "k--", lw=1, label=r"$4\Lambda_+/h^2$ (symbol, $kh=\pi$)")
+    lim = stability_numbers("icidr", state["phi"], state["uz"], state["wz"], material=material).lambda0_limit
+    ax.axhline(lim, color="C0", ls=":", lw=1, label=r"iCIDR bound $-C/B$ ($\xi\to\infty$)")
     ax.invert_xaxis()
     ax.set_xlabel("grid spacing $h$ (grain diameters)")
     ax.set_ylabel("max Re(eigenvalue) of linearised FD operator")
