@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from .checks import EXACT, FAILS, NUMERIC, Check, compare, exact_zero
+from .checks import EXACT, FAILS, Check, compare, exact_zero
 from .symbols import I, Mf, Psif, Sn, d, delta, p, phi, rho
 
 SECTION = "4 CIDR"

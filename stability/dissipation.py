@@ -17,7 +17,7 @@ import sympy as sp
 
 from . import cidr, rheologies
 from .checks import EXACT, FAILS, NUMERIC, Check, compare, exact_zero, numeric_zero
-from .symbols import I, M, MATERIAL_SYMBOLS, Psi, Sn, d, delta, p, phi, rho, uz, wz
+from .symbols import I, M, Psi, Sn, d, delta, p, phi, rho, uz, wz
 
 SECTION = "B dissipation"
 

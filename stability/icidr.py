@@ -26,7 +26,7 @@ from functools import lru_cache
 import sympy as sp
 
 from . import linearize, rheologies
-from .checks import EXACT, FAILS, NUMERIC, Check, compare, exact_zero
+from .checks import EXACT, FAILS, Check, compare, exact_zero
 from .symbols import M, Mf, Psi, Psif, d, phi, rho, uz, wz
 
 SECTION = "5 iCIDR"

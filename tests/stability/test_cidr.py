@@ -9,7 +9,7 @@ M, Psi = Mf(phi), Psif(phi)
 
 
 def test_conditions_on_a_hand_made_pair():
-    """Generic operators: for Y = p I, f = c p^-1/2 I... check the formulas against direct differentiation."""
+    """Generic operators on Y = p^2 I^3, f = p I, against hand differentiation."""
     Y = p**2 * I**3
     f = p * I
     assert sp.simplify(cidr.condition_43(Y, f) - (2 * p * I**3 - I / (2 * p) * 3 * p**2 * I**2 - 2 * p * I)) == 0

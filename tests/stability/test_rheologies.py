@@ -5,7 +5,7 @@ import pytest
 import sympy as sp
 
 from stability import rheologies
-from stability.symbols import phi, uz, wz
+from stability.symbols import uz, wz
 
 
 def test_kinematics_match_34_35(checks_by_eq):
