@@ -142,6 +142,15 @@ def checks() -> list[Check]:
                      EXACT if okA and okB and okC else FAILS,
                      f"A = {sp.sstr(sp.factor(A))}; B - det(Gamma) xi^4 = {sp.sstr(sp.factor(Brem))}; "
                      f"C = {sp.sstr(sp.factor(C))}", section=sec))
+    # with w0 != 0 the polynomial is the w0 = 0 one at lambda + i w0 xi: C picks up det(Gamma) xi^4 (i w0 xi)
+    Aw_, Bw_, Cw_ = (sp.expand(x) for x in sp.Poly(sp.expand(-(Aw - lam * sp.eye(3)).det()), lam).all_coeffs()[1:])
+    shift = sp.expand((lam + sp.I * w0 * xi) ** 3 + A * (lam + sp.I * w0 * xi) ** 2 + B * (lam + sp.I * w0 * xi) + C)
+    okshift = exact_zero(sp.expand(lam**3 + Aw_ * lam**2 + Bw_ * lam + Cw_) - shift)
+    degC = sp.Poly(Cw_, xi).degree()
+    out.append(Check("(A7) w0", "(A7) needs w0 = 0 (as the paper sets): with w0 != 0 the polynomial is shifted, "
+                     "lambda -> lambda + i w0 xi, and C = O(xi^5)", EXACT if okshift and degC == 5 else FAILS,
+                     f"char. poly(w0) = char. poly(0) at lambda + i w0 xi; deg_xi C(w0) = {degC}; the shift is "
+                     "imaginary so Re(lambda) and the well-posedness verdict are unchanged", section=sec))
     lead = large_xi_leading()
     ok8 = exact_zero(lead - Lam * (Lam**2 + trG * Lam + detG))
     out.append(Check("(A8)", "xi^6 balance: Lambda^3 + tr(Gamma) Lambda^2 + det(Gamma) Lambda = 0",
