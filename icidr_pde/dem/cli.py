@@ -26,8 +26,8 @@ def _common(p):
     p.add_argument("--seed", type=int, default=1, help="base seed (1)")
     p.add_argument("--jobs", type=_pos_int, default=2, help="parallel LAMMPS processes (2)")
     p.add_argument("--cache", default="data/dem/cache", help="per-run cache directory")
-    p.add_argument("--t-shear", type=float, default=50.0, help="shearing before averaging (50)")
-    p.add_argument("--t-avg", type=float, default=150.0, help="averaging window (150)")
+    p.add_argument("--t-shear", type=float, default=30.0, help="shearing before averaging (30)")
+    p.add_argument("--t-avg", type=float, default=100.0, help="averaging window (100)")
     p.add_argument("--dt-fraction", type=float, default=1 / 50,
                    help="time step / shortest contact time (0.02)")
     p.add_argument("--no-progress", action="store_true")

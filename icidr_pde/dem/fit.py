@@ -33,8 +33,8 @@ def _sigma(std, n):
     return None
 
 
-def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15)):
-    """Fit (2.10); returns (params dict, std dict)."""
+def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15), return_corr=False):
+    """Fit (2.10); returns (params dict, std dict[, correlation matrix (mu_s, mu_d, I0)])."""
     I, mu = np.asarray(I, float), np.asarray(mu, float)
     if I.size < 3 or np.any(I <= 0):
         raise ValueError("`I` must hold at least 3 positive inertial numbers to fit (2.10)")
@@ -44,7 +44,10 @@ def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15)):
     )
     perr = np.sqrt(np.abs(np.diag(pcov)))
     names = ("mu_s", "mu_d", "I0")
-    return dict(zip(names, map(float, popt))), dict(zip(names, map(float, perr)))
+    out = dict(zip(names, map(float, popt))), dict(zip(names, map(float, perr)))
+    if return_corr:
+        return (*out, (pcov / np.outer(perr, perr)).tolist())
+    return out
 
 
 def fit_phi(I, phi, I_std=None, n_repeats=1):

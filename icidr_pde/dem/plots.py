@@ -63,7 +63,7 @@ def fig8(ens: dict, cont_t1: dict, cont_fit: dict, err_t1: dict, err_fit: dict, 
         col = cmap(j / max(1, len(times) - 1))
         for ax, f in zip(axs[0, :3], ("phi", "u", "w")):
             ax.errorbar(ens[f"{f}_mean"][k], z, xerr=ens[f"{f}_std"][k], fmt="o", ms=3, color=col,
-                        capsize=1.5, label=f"t={tt[k]:g}" if f == "phi" else None)
+                        capsize=1.5, label=f"t={tt[k]:.3g}" if f == "phi" else None)
             ax.plot(cont_t1[f][k], z, "-", color=col)
             ax.plot(cont_fit[f][k], z, "--", color=col)
     axs[0, 0].set(xlabel=r"$\phi$", ylabel="z", title="(a)")

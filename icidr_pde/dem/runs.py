@@ -25,8 +25,8 @@ class Protocol:
         sample_every: time between averaged snapshots (> 0, <= t_avg)
     """
 
-    t_shear: float = 50.0
-    t_avg: float = 150.0
+    t_shear: float = 30.0
+    t_avg: float = 100.0
     sample_every: float = 0.5
 
     def __post_init__(self):

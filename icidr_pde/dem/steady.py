@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from . import cache
-from .fit import fit_mu, fit_phi
+from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams, check_phi0
 from .runs import Protocol, SineIC, run_cell
 
@@ -89,10 +89,21 @@ def summarize(results, table1=None) -> dict:
     I = np.array([pt["I"] for pt in points])
     out = {"points": points, "repeats": n_rep}
     if len(points) >= 3:
-        fm, sm = fit_mu(I, [pt["mu"] for pt in points], [pt["mu_std"] for pt in points], n_rep)
+        fm, sm, corr = fit_mu(I, [pt["mu"] for pt in points], [pt["mu_std"] for pt in points],
+                              n_rep, return_corr=True)
         fp, sp = fit_phi(I, [pt["phi"] for pt in points], [pt["I_std"] for pt in points], n_rep)
         out["fit"] = {**fm, **fp}
         out["fit_std"] = {**sm, **sp}
+        out["fit_corr_mu_s_mu_d_I0"] = corr
+        if table1 is not None:
+            # how far apart the two parameter sets are where there are data
+            Ig = np.linspace(I.min(), I.max(), 200)
+            t = table1
+            out["max_curve_difference_on_data_range"] = {
+                "mu": float(np.max(np.abs(mu_of_I(Ig, fm["mu_s"], fm["mu_d"], fm["I0"])
+                                          - mu_of_I(Ig, t["mu_s"], t["mu_d"], t["I0"])))),
+                "phi": float(np.max(np.abs((fp["phi_c"] - fp["a"] * Ig) - (t["phi_c"] - t["a"] * Ig)))),
+                "I_range": [float(I.min()), float(I.max())]}
     if table1 is not None:
         out["table1"] = table1
     out["wall_per_run_s"] = float(np.mean([r["wall_total"] for r in results]))
@@ -123,6 +134,7 @@ def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed
     tasks = plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient)
     results = execute(tasks, jobs=jobs, progress=progress)
     summary = summarize(results, table1_dict())
+    summary["wall_total_s"] = float(sum(r["wall_total"] for r in results))
     summary.update(params=asdict(params), protocol=asdict(protocol), base_seed=base_seed)
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)

@@ -111,8 +111,18 @@ def summarize(ens, cont_t1, cont_fit, fit_params) -> dict:
                 **{f"{f}_floor_mean": float(e[f"{f}_floor"].mean()) for f in FIELDS},
                 "max": float(e["total"].max()), "mean": float(e["total"].mean())}
 
+    def peak(series, t, t_min=1.5):
+        t = np.asarray(t)
+        sel = t >= t_min
+        k = int(np.argmax(np.asarray(series)[sel]))
+        return {"t": float(t[sel][k]), "max_w": float(np.asarray(series)[sel][k])}
+
+    tt = ens["times"]
     return {
         "repeats": int(ens["repeats"]),
+        "secondary_max_w_peak": {"dem": peak(ens["max_w"], tt), "table1": peak(cont_t1["max_w"], tt),
+                                 "fitted": peak(cont_fit["max_w"], tt),
+                                 "definition": "largest max_z|w| (2 d bins) for t >= 1.5"},
         "times": ens["times"].tolist(),
         "rel_error_table1": e1["total"].tolist(),
         "rel_error_fitted": e2["total"].tolist(),
