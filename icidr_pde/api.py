@@ -11,10 +11,11 @@ from pde.trackers.trackers import PlotTracker, ProgressTracker
 
 from .integrator import SimulationFailed, StiffSolver, check_tolerances
 from .pdes import ShearCellPDE
+from .presets import resolve
 from .result import Result
 from .rheology import Material, get_rheology
 from .scenes import get_scene
-from .trackers import ChiTracker, MaxWTracker, dense_times
+from .trackers import ChiTracker, MaxWTracker, dense_times, peak_abs
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS"]
 
@@ -58,14 +59,15 @@ def _time_labels(times, t_end):
 def run(
     rheology: str = "icidr",
     scene: str = "shear",
-    N: int = 201,
+    N: int | None = None,
     t_end: float = 10.0,
     times=None,
     *,
-    discretization: str = "fd",
-    method: str = "BDF",
-    rtol: float = 1e-6,
-    atol: float = 1e-9,
+    accuracy: str = "standard",
+    discretization: str | None = None,
+    method: str | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
     jacobian: str | None = None,
     material: Material | None = None,
     advection: str = "upwind",
@@ -84,6 +86,8 @@ def run(
         N: number of grid cells ('fd') or collocation points with walls ('cheb')
         t_end: final time
         times: snapshot times (strings keep their spelling as labels)
+        accuracy: preset 'draft', 'standard' or 'publication' (see :mod:`icidr_pde.presets`);
+            it fills in discretization, N, method, rtol and atol where they are None
         discretization: 'fd' (finite volumes on py-pde's grid) or 'cheb' (Chebyshev)
         method: 'BDF', 'Radau', 'LSODA' (scipy) or 'CVODE' (SUNDIALS, the fast path)
         rtol, atol: integrator tolerances
@@ -100,6 +104,9 @@ def run(
     """
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"`t_end` must be > 0; got {t_end}")
+    settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
+    discretization, N, method = settings["discretization"], settings["N"], settings["method"]
+    rtol, atol = settings["rtol"], settings["atol"]
     check_tolerances(rtol, atol)
     scene_obj = get_scene(scene, **scene_params)
     pde_kwargs = {"advection": advection} if discretization == "fd" else {}
@@ -117,7 +124,7 @@ def run(
     labels, snap_times = _time_labels(times, t_end)
     storage = MemoryStorage()
     series = dense_times(t_end) if series_times is None else np.asarray(series_times, float)
-    max_w = MaxWTracker(interrupts=list(series))
+    max_w = MaxWTracker(interrupts=list(series), z=z)
     trackers = [storage.tracker(interrupts=list(snap_times)), max_w]
     chi_tracker = None
     if "chi" in scene_obj.outputs:
@@ -141,10 +148,11 @@ def run(
         final = failure.state_data
         max_w.times.append(t_star)
         max_w.values.append(float(np.max(np.abs(final[2]))))
+        max_w.peaks.append(peak_abs(z, final[2]))
         for tracker in trackers:  # close files and progress bars
             tracker.finalize()
-    wall = _time.perf_counter() - start
-    compile_s = controller.info.get("profiler", {}).get("compilation", float("nan"))
+    compile_s = solver.info.get("compile_s", 0.0)
+    wall = _time.perf_counter() - start - compile_s  # numba compile time is reported apart
 
     data = np.array(storage.data) if len(storage) else np.empty((0, 3, len(z)))
     n_snap = data.shape[0]
@@ -161,9 +169,11 @@ def run(
         time_labels=labels[:n_snap], requested_times=labels,
         phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(final),
         max_w_t=np.array(max_w.times), max_w=np.array(max_w.values),
+        max_w_peak=np.array(max_w.peaks),
         mass_drift=(pde.integral(final[0], grid) - mass0) / mass0,
         wall_s=wall, compile_s=compile_s, n_steps=stats.n_steps, n_rhs=stats.n_rhs,
         n_jac=stats.n_jac, scene_params=scene_obj.parameters(),
-        material=pde.material.to_dict(), settings={"advection": advection} if discretization == "fd" else {},
+        material=pde.material.to_dict(),
+        settings=dict(accuracy=accuracy, **({"advection": advection} if discretization == "fd" else {})),
         **chi_kwargs,
     )

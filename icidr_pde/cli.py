@@ -9,6 +9,7 @@ import sys
 import time
 
 from .integrator import JACOBIAN_MODES, METHODS
+from .presets import PRESETS
 from .rheology import RHEOLOGIES
 
 # optional subcommands, each provided by its own module: (module, function)
@@ -31,13 +32,16 @@ def add_run_parser(subparsers):
     p = subparsers.add_parser("run", help="run one scene with one rheology")
     p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="icidr")
     p.add_argument("--scene", choices=["shear", "sine"], default="shear")
-    p.add_argument("--discretization", default="fd", help="fd (default) or cheb")
-    p.add_argument("--N", type=_positive_int, default=201, help="grid cells (fd) or collocation points (cheb)")
+    p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
+                   help="preset for discretization, N, method and tolerances (measured: see README)")
+    p.add_argument("--discretization", default=None, help="fd or cheb (default: from --accuracy)")
+    p.add_argument("--N", type=_positive_int, default=None,
+                   help="grid cells (fd) or collocation points (cheb) (default: from --accuracy)")
     p.add_argument("--t-end", type=float, default=10.0)
     p.add_argument("--times", nargs="+", default=None, help="snapshot times (labels of the JSON max_w)")
-    p.add_argument("--rtol", type=float, default=1e-6)
-    p.add_argument("--atol", type=float, default=1e-9)
-    p.add_argument("--method", choices=sorted(METHODS), default="BDF")
+    p.add_argument("--rtol", type=float, default=None, help="default: from --accuracy")
+    p.add_argument("--atol", type=float, default=None, help="default: from --accuracy")
+    p.add_argument("--method", choices=METHODS, default=None, help="default: from --accuracy")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="default: the method's best (analytic for BDF/Radau, banded-fd for LSODA/CVODE)")
     p.add_argument("--advection", choices=["upwind", "central"], default="upwind")
@@ -59,7 +63,7 @@ def cmd_run(args) -> int:
                     if getattr(args, k) is not None}
     result = run(
         args.rheology, args.scene, args.N, args.t_end, args.times,
-        discretization=args.discretization, method=args.method, rtol=args.rtol,
+        accuracy=args.accuracy, discretization=args.discretization, method=args.method, rtol=args.rtol,
         atol=args.atol, jacobian=args.jacobian, advection=args.advection,
         progress=not args.no_progress, save=args.save, **scene_params,
     )

@@ -1,0 +1,41 @@
+"""Accuracy presets: discretization, N, integrator and tolerances chosen from measurements.
+
+The numbers behind each choice come from ``python benchmarks/work_precision.py``
+(data/benchmarks/work_precision.json, docs/speed_accuracy.md): iCIDR reference cases
+(i) scene shear to t = 10 and (ii) scene sine to t = 20, errors against N = 3201 references.
+
+* ``draft``: fd, N = 51, CVODE rtol 1e-3 -- seconds of compile, ~0.05 s of solve; max|w|
+  error ~1e-2 (sine);
+* ``standard`` (default): fd, N = 201, CVODE rtol 1e-5 -- ~0.1 s; max|w| error ~5e-4 (sine),
+  the N = 201 grid's own error (the time error is below it);
+* ``publication``: fd, N = 801, CVODE rtol 1e-8 -- ~1.5 s; max|w| error ~1e-4 (sine).
+
+An explicit discretization, N, method, rtol or atol overrides that knob only.
+"""
+
+from __future__ import annotations
+
+__all__ = ["PRESETS", "resolve"]
+
+PRESETS = {
+    "draft": dict(discretization="fd", N={"fd": 51, "cheb": 33}, method="CVODE", rtol=1e-3, atol=1e-6),
+    "standard": dict(discretization="fd", N={"fd": 201, "cheb": 65}, method="CVODE", rtol=1e-5, atol=1e-8),
+    "publication": dict(discretization="fd", N={"fd": 801, "cheb": 129}, method="CVODE", rtol=1e-8, atol=1e-11),
+}
+
+
+def resolve(accuracy: str = "standard", **overrides) -> dict:
+    """Settings of preset `accuracy` with every non-None override applied.
+
+    Returns a dict with keys discretization, N, method, rtol, atol.
+    """
+    if accuracy not in PRESETS:
+        raise ValueError(f"`accuracy` must be one of {sorted(PRESETS)}; got {accuracy!r}")
+    preset = PRESETS[accuracy]
+    settings = {k: v for k, v in overrides.items() if v is not None}
+    settings.setdefault("discretization", preset["discretization"])
+    N = preset["N"]
+    settings.setdefault("N", N.get(settings["discretization"], N["fd"]))
+    for key in ("method", "rtol", "atol"):
+        settings.setdefault(key, preset[key])
+    return settings

@@ -1,0 +1,115 @@
+"""Converged reference solutions for the speed-accuracy study, cached in data/reference/.
+
+Cases (issue "speed-accuracy"):
+
+* ``icidr-shear``: iCIDR, scene shear (3.16), t = 10;
+* ``icidr-sine``: iCIDR, scene sine (5.7), t = 20;
+* ``mui-shear-tstar-{fd,cheb}``: mu(I),Phi(I), scene shear, failure time t* at N = 201.
+
+The iCIDR references are finite-volume runs at N = 3201 with CVODE at rtol 1e-10,
+atol 1e-13. Their convergence is recorded beside them: the difference to N = 1601 (space)
+and to rtol 1e-9 (time), both relative to max|w|.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+
+from .api import run
+
+__all__ = ["CASES", "reference", "series_error", "profile_error", "REFERENCE_DIR"]
+
+REFERENCE_DIR = pathlib.Path(__file__).resolve().parent.parent / "data" / "reference"
+
+CASES = {
+    "icidr-shear": dict(rheology="icidr", scene="shear", t_end=10.0, profile_times=[0.5, 1, 2, 5, 10]),
+    "icidr-sine": dict(rheology="icidr", scene="sine", t_end=20.0, profile_times=[1, 2, 3, 5, 10, 20]),
+}
+REF_SETTINGS = dict(N=3201, method="CVODE", rtol=1e-10, atol=1e-13)
+
+
+def series_times(t_end: float, n: int = 201) -> np.ndarray:
+    return np.linspace(0.0, t_end, n)
+
+
+def _compute(case: str, N: int, rtol: float, atol: float, method: str, discretization="fd"):
+    spec = CASES[case]
+    return run(spec["rheology"], spec["scene"], N, spec["t_end"], spec["profile_times"],
+               method=method, rtol=rtol, atol=atol, discretization=discretization,
+               series_times=series_times(spec["t_end"]))
+
+
+def series_error(result, ref) -> float:
+    """max over t of |max|w|(t) - reference| / max_t reference, on the common time grid.
+
+    max|w| is the sub-node peak (:func:`~icidr_pde.trackers.peak_abs`): the maximum over
+    nodes alone carries a sampling error (3e-3 at N = 201 for the sharp bump of (3.16) at
+    t = 0) that is not an error of the solution.
+    """
+    values = result.max_w_peak
+    n = min(len(values), len(ref["max_w_peak"]))
+    return float(np.max(np.abs(values[:n] - ref["max_w_peak"][:n])) / np.max(ref["max_w_peak"]))
+
+
+def profile_error(result, ref) -> float:
+    """Largest L2 error of the deviations (phi - phi0, u - z/H, w) from steady shear (3.10)
+    over the profile times, relative to the largest L2 norm of the reference deviations.
+
+    (Normalising each time by its own norm would blow up as the flow relaxes to (3.10).)
+    """
+    H, phi0 = result.scene_params["H"], result.scene_params["phi0"]
+    errors, norms = [], []
+    for k in range(len(result.times)):
+        err2 = ref2 = 0.0
+        for name, steady in (("phi", phi0 + 0 * result.z), ("u", result.z / H), ("w", 0 * result.z)):
+            r = np.interp(result.z, ref["z"], ref[name][k]) - steady
+            err2 += np.sum((getattr(result, name)[k] - steady - r) ** 2)
+            ref2 += np.sum(r**2)
+        errors.append(np.sqrt(err2))
+        norms.append(np.sqrt(ref2))
+    return float(max(errors) / max(norms))
+
+
+def _to_arrays(result) -> dict:
+    return dict(z=result.z, times=result.times, phi=result.phi, u=result.u, w=result.w,
+                max_w_t=result.max_w_t, max_w=result.max_w, max_w_peak=result.max_w_peak)
+
+
+def reference(case: str, recompute: bool = False) -> dict:
+    """Load (or compute and cache) the reference of `case`: arrays plus metadata."""
+    if case not in CASES:
+        raise ValueError(f"`case` must be one of {sorted(CASES)}; got {case!r}")
+    path = REFERENCE_DIR / f"{case}.npz"
+    meta_path = REFERENCE_DIR / f"{case}.json"
+    if path.exists() and meta_path.exists() and not recompute:
+        data = dict(np.load(path))
+        data["meta"] = json.loads(meta_path.read_text())
+        return data
+    REFERENCE_DIR.mkdir(parents=True, exist_ok=True)
+    ref = _compute(case, **REF_SETTINGS)
+    if ref.blew_up:
+        raise RuntimeError(f"reference run of {case} failed: {ref.reason}")
+    arrays = _to_arrays(ref)
+    half = _compute(case, REF_SETTINGS["N"] // 2, REF_SETTINGS["rtol"], REF_SETTINGS["atol"], REF_SETTINGS["method"])
+    looser = _compute(case, REF_SETTINGS["N"], 10 * REF_SETTINGS["rtol"], 10 * REF_SETTINGS["atol"], REF_SETTINGS["method"])
+    meta = dict(case=case, **CASES[case], **REF_SETTINGS, scene_params=ref.scene_params,
+                material=ref.material, wall_s=ref.wall_s, mass_drift=ref.mass_drift,
+                space_check=dict(N=half.N, series_error=series_error(half, arrays),
+                                 profile_error=profile_error(half, arrays)),
+                time_check=dict(rtol=looser.rtol, series_error=series_error(looser, arrays),
+                                profile_error=profile_error(looser, arrays)))
+    np.savez_compressed(path, **{k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()})
+    meta_path.write_text(json.dumps(meta, indent=1))
+    arrays["meta"] = meta
+    return arrays
+
+
+if __name__ == "__main__":
+    import sys
+
+    for name in sys.argv[1:] or CASES:
+        data = reference(name, recompute=True)
+        print(name, json.dumps({k: data["meta"][k] for k in ("space_check", "time_check", "wall_s")}))

@@ -1,0 +1,55 @@
+"""Presets resolve as documented, and the cached references are consistent (no timings)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from icidr_pde import run
+from icidr_pde.presets import PRESETS, resolve
+from icidr_pde.reference import CASES, REFERENCE_DIR, reference, series_error
+from icidr_pde.trackers import peak_abs
+
+
+def test_presets_resolve_and_explicit_knobs_override():
+    assert resolve()["N"] == PRESETS["standard"]["N"]["fd"]  # standard is the default
+    assert resolve("draft")["rtol"] == PRESETS["draft"]["rtol"]
+    s = resolve("publication", N=101, method="BDF")
+    assert s["N"] == 101 and s["method"] == "BDF" and s["rtol"] == PRESETS["publication"]["rtol"]
+    assert resolve("standard", discretization="cheb")["N"] == PRESETS["standard"]["N"]["cheb"]
+    with pytest.raises(ValueError, match="accuracy"):
+        resolve("best")
+
+
+def test_run_records_the_settings_it_used():
+    res = run("icidr", "shear", t_end=0.5, times=[0.5], accuracy="draft", rtol=1e-4)
+    assert res.N == PRESETS["draft"]["N"]["fd"] and res.rtol == 1e-4
+    assert res.method == PRESETS["draft"]["method"]
+    assert res.to_dict()["settings"]["accuracy"] == "draft"
+
+
+def test_peak_abs_is_exact_for_polynomials_and_robust_at_walls():
+    z = np.sort(np.random.default_rng(0).uniform(0, 1, 9))
+    assert peak_abs(z, 2 - (z - 0.37) ** 2) == pytest.approx(2.0, rel=1e-12)
+    assert peak_abs(z, z) == pytest.approx(z[-1])  # maximum at a wall node
+    zc = (np.arange(201) + 0.5) * 30 / 201  # the (3.16) bump: analytic peak eps e^-1/2/sqrt 2
+    w = 0.05 * (zc - 15) * np.exp(-(zc - 15) ** 2)
+    assert peak_abs(zc, w) == pytest.approx(0.05 * np.exp(-0.5) / np.sqrt(2), rel=1e-4)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_reference_cache_is_consistent(case):
+    """The committed reference matches the code's scene, material and settings, is
+    converged in space and time as recorded, conserves mass and decays to (3.10)."""
+    assert (REFERENCE_DIR / f"{case}.npz").exists(), "run: python -m icidr_pde.reference"
+    ref = reference(case)
+    meta = ref["meta"]
+    spec = CASES[case]
+    res = run(spec["rheology"], spec["scene"], 51, 0.1, [0.1], accuracy="draft")
+    assert meta["scene_params"] == res.scene_params and meta["material"] == res.material
+    assert meta["t_end"] == spec["t_end"] and list(ref["times"]) == spec["profile_times"]
+    assert meta["space_check"]["series_error"] < 3e-4 and meta["time_check"]["series_error"] < 1e-6
+    assert abs(meta["mass_drift"]) < 1e-12
+    assert ref["max_w_peak"][-1] < 0.02 * ref["max_w_peak"][0]
+    initial_peak = {"shear": 0.05 * np.exp(-0.5) / np.sqrt(2), "sine": 0.1}[spec["scene"]]  # (3.16), (5.7)
+    assert ref["max_w_t"][0] == 0.0 and ref["max_w_peak"][0] == pytest.approx(initial_peak, rel=1e-6)
