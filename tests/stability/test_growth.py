@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conftest import ILL_POSED
+from .conftest import ILL_POSED
 from stability import growth
 from stability.numeric import A_matrix, coefficients
 
