@@ -52,6 +52,8 @@ def add_parser(subparsers):
     tr.add_argument("--json", default="data/dem/transient.json")
     tr.add_argument("--npz", default="data/dem/transient_ensemble.npz")
     tr.add_argument("--fig", default="docs/fig8_dem.png")
+    tr.add_argument("--drop-fluctuations", action="store_true",
+                    help="replace particle velocities by (5.7) exactly (use a separate --cache)")
     tr.set_defaults(func=cmd_transient)
     return dem
 
@@ -95,8 +97,13 @@ def cmd_transient(args) -> int:
     if not path.exists():
         raise SystemExit(f"--steady-json {path} not found: run `dem steady` first")
     fit = json.loads(path.read_text())["fit"]
+    from .runs import SineIC
+
+    sine_ic = SineIC(keep_fluctuations=not args.drop_fluctuations)
+    if args.drop_fluctuations and Path(args.cache).resolve() == Path("data/dem/cache").resolve():
+        raise ValueError("`--cache` must differ from data/dem/cache with --drop-fluctuations")
     results = transient.transient_results(args.repeats, args.particles, args.seed, args.jobs,
-                                          args.cache, protocol, params, not args.no_progress)
+                                          args.cache, protocol, params, not args.no_progress, sine_ic)
     ens = transient.ensemble(results)
     edges = transient_edges(ens)
     c1 = transient.continuum(ens["times"], Material(), N=args.N, edges=edges)

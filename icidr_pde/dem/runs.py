@@ -47,12 +47,15 @@ class SineIC:
         b: amplitude b-hat of w (|b| < 1)
         t_end: duration of the transient (> 0)
         record_every: time between recorded profiles (> 0)
+        keep_fluctuations: keep each particle's velocity fluctuation about its bin
+            mean (default); False replaces the particle velocities by (5.7) exactly
     """
 
     a: float = 0.16
     b: float = 0.1
     t_end: float = 20.0
     record_every: float = 0.1
+    keep_fluctuations: bool = True
 
     def __post_init__(self):
         for name in ("a", "b"):
@@ -144,8 +147,9 @@ def _transient(cell: ShearCell, params: DEMParams, sine: SineIC) -> dict:
     du_b = np.bincount(idx, s.mass * du, minlength=edges.size - 1) / np.maximum(m_b, 1e-300)
     w_b = np.bincount(idx, s.mass * s.w, minlength=edges.size - 1) / np.maximum(m_b, 1e-300)
     u_ic, w_ic = sine.velocities(zz, s.H, params.V0)
-    vx = u_ic + (du - du_b[idx])   # (5.7) mean field + the particle's own fluctuation
-    vz = w_ic + (s.w - w_b[idx])
+    keep = 1.0 if sine.keep_fluctuations else 0.0
+    vx = u_ic + keep * (du - du_b[idx])   # (5.7) mean field + the particle's own fluctuation
+    vz = w_ic + keep * (s.w - w_b[idx])
     cell.set_velocities(vx, vz)
     t0 = cell.t
     times, phis, us, ws = [], [], [], []

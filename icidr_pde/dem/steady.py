@@ -33,12 +33,13 @@ def _task(args):
     return key, res
 
 
-def plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient=True):
+def plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient=True,
+         sine_ic=None):
     """Task list ordered repeat-major, so an interrupted study has whole repeats."""
     tasks = []
     for r in range(repeats):
         for phi0 in phi0s:
-            sine = SineIC() if (with_transient and abs(phi0 - TRANSIENT_PHI0) < 1e-9) else None
+            sine = (sine_ic or SineIC()) if (with_transient and abs(phi0 - TRANSIENT_PHI0) < 1e-9) else None
             tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, sine, cache_dir))
     return tasks
 

@@ -138,11 +138,16 @@ def summarize(ens, cont_t1, cont_fit, fit_params) -> dict:
 
 
 def transient_results(repeats=10, n_particles=1000, base_seed=1, jobs=2,
-                      cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None, progress=True):
-    """DEM transients (from cache, else run): the phi0 = 0.78 tasks of the steady study."""
+                      cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None, progress=True,
+                      sine_ic=None):
+    """DEM transients (from cache, else run): the phi0 = 0.78 tasks of the steady study.
+
+    A non-default ``sine_ic`` must use its own ``cache_dir`` (the cache key
+    covers the cell and protocol, not the initial condition of the transient).
+    """
     params = params or DEMParams(n_particles=n_particles)
     protocol = protocol or Protocol()
-    tasks = plan([TRANSIENT_PHI0], repeats, base_seed, params, protocol, cache_dir, True)
+    tasks = plan([TRANSIENT_PHI0], repeats, base_seed, params, protocol, cache_dir, True, sine_ic)
     return execute(tasks, jobs=jobs, progress=progress)
 
 
