@@ -290,6 +290,15 @@ class ChebyshevShearCellPDE(PDEBase):
         return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
                 f"min {phi.min():.6g}, max {phi.max():.6g}")
 
+    def validity_margins(self, data: np.ndarray) -> np.ndarray:
+        """Distances of phi from the ends of (0, phi_c); both positive while valid."""
+        phi = data[0]
+        return np.array([phi.min(), self.material.phi_c - phi.max()])
+
+    def interleaving(self, state) -> None:
+        """None: no banded ordering exists for a dense collocation Jacobian."""
+        return None
+
     def jacobian_sparsity(self, state) -> None:
         """None: the Jacobian of a collocation scheme is dense."""
         return None
@@ -312,11 +321,15 @@ def _cheb_jacobian(rheology: Rheology, D: np.ndarray) -> Callable:
     interior = np.ones(n)
     interior[[0, -1]] = 0.0
 
+    stress = type(rheology).stress_kernel  # the same kernels as the right-hand side
+    stress_jacobian = type(rheology).jacobian_kernel
+    params = rheology.material.params
+
     def jacobian(t, y):
         phi, u, w = y.reshape(3, n)
         uz, wz = D @ u, D @ w
-        p, txz, tzz = rheology.stress(phi, uz, wz)
-        d = rheology.stress_jacobian(phi, uz, wz)
+        p, txz, tzz = stress(phi, uz, wz, params)
+        d = stress_jacobian(phi, uz, wz, params)
         dfu = d[3:6]
         dfw = [d[6 + k] - d[k] for k in range(3)]
         J = np.zeros((3 * n, 3 * n))

@@ -106,7 +106,7 @@ def failure_time(
     method: str = "BDF",
     rtol: float = 1e-6,
     atol: float = 1e-9,
-    jacobian: str = "analytic",
+    jacobian: str | None = None,
     backend: str = "numpy",
     max_wall: float | None = None,
     return_state: bool = False,
@@ -170,14 +170,18 @@ def failure_time(
             t_final, final = t_star, failure.state_data
     stats = solver.stats
     out = {"N": int(N), "t_star": t_star, "reason": reason,
-           "wall_s": time.perf_counter() - start, "n_steps": stats.n_steps,
-           "n_rhs": stats.n_rhs, "n_jac": stats.n_jac, "n_lu": stats.n_lu}
+           "wall_s": time.perf_counter() - start, "n_steps": _int(stats.n_steps),
+           "n_rhs": _int(stats.n_rhs), "n_jac": _int(stats.n_jac), "n_lu": _int(stats.n_lu)}
     if return_state:
         out.update(t_final=t_final, z=pde.nodes(grid), state=np.array(final))
     if times is not None:
         out.update(z=pde.nodes(grid), snapshot_times=snapshot_times,
                    snapshots=np.array(snapshots))
     return out
+
+
+def _int(value):
+    return None if value is None else int(value)
 
 
 def _worker_init() -> None:
@@ -296,8 +300,9 @@ def tolerance_study(
     discretizations=("cheb", "fd"),
     tolerances=((1e-3, 1e-6), (1e-4, 1e-6), (1e-6, 1e-6), (1e-6, 1e-9), (1e-8, 1e-9),
                 (1e-8, 1e-12), (1e-10, 1e-12)),
-    methods=("BDF", "Radau", "LSODA"),
+    methods=("BDF", "Radau", "LSODA", "CVODE"),
     method_tolerances=((1e-6, 1e-9), (1e-3, 1e-6)),
+    jacobians=None,
     *,
     t_end: float = 0.2,
     jobs: int = 2,
@@ -305,7 +310,17 @@ def tolerance_study(
     **kwargs,
 ) -> list[dict]:
     """t* of mu(I), IC (3.16) at one N for BDF at several (rtol, atol), and for each method
-    at `method_tolerances`. Returns one row per run (failure_time's dict plus the settings)."""
+    at `method_tolerances`. Returns one row per run (failure_time's dict plus the settings).
+
+    `jacobians` maps (discretization, method) to the Jacobian mode; by default the
+    analytic one, except LSODA: dense differences for 'cheb' ('none') and banded
+    differences for 'fd' ('banded-fd'), and CVODE on 'fd' ('banded-fd').
+    """
+    from .integrator import METHODS
+
+    table = {("cheb", "LSODA"): "none", ("fd", "LSODA"): "banded-fd", ("fd", "CVODE"): "banded-fd"}
+    table.update(jacobians or {})
+    methods = [m for m in methods if m in METHODS]
     cases = []
     for disc in discretizations:
         for rtol, atol in tolerances:
@@ -315,7 +330,7 @@ def tolerance_study(
                 if method == "BDF" and (rtol, atol) in tolerances:
                     continue
                 cases.append(dict(kwargs, discretization=disc, N=N, method=method, rtol=rtol,
-                                  atol=atol))
+                                  atol=atol, jacobian=table.get((disc, method), "analytic")))
     for case in cases:
         case.setdefault("rheology", "mui")
         case.setdefault("scene", "shear")
@@ -325,8 +340,10 @@ def tolerance_study(
 
 def _run_row(case: dict) -> dict:
     res = failure_time(**case)
-    return {**{k: case[k] for k in ("discretization", "N", "method", "rtol", "atol")},
-            "jacobian": case.get("jacobian", "analytic"), "backend": case.get("backend", "numpy"),
+    defaults = {"method": "BDF", "rtol": 1e-6, "atol": 1e-9}
+    return {**{k: case.get(k, defaults.get(k)) for k in ("discretization", "N", "method", "rtol",
+                                                          "atol")},
+            "jacobian": case.get("jacobian") or "default", "backend": case.get("backend", "numpy"),
             **{k: v for k, v in res.items() if k != "N"}}
 
 
@@ -412,17 +429,19 @@ def compare_discretizations(
     """w(z, t) of several discretizations at the times of figs 6, 7, compared on the
     reference nodes of the first Chebyshev case with the most points.
 
-    Returns {"times": [...], "max_w": {label: [...]}, "diff": {label: [...]}} where diff is
-    max_z |w - w_ref| at each time (Chebyshev states interpolated spectrally, finite-volume
-    cell values linearly) and max_w the reference amplitude.
+    Returns {"times": [0, ...], "max_w": [...], "diff": {label: [...]}, "failed": {...}}
+    where diff is max |w - w_ref| over the nodes of each case (cell centres for 'fd'), the
+    reference being interpolated there spectrally (as the figures draw the coarse runs as
+    circles at their nodes over the reference line), and max_w the reference amplitude
+    max_z |w_ref| (so max_w[0] is that of the initial condition).
     """
     from .chebyshev import interpolate
     from .scenes import get_scene
 
     scene_obj = get_scene(scene)
     if times is None:
-        times = [t for t in scene_obj.default_times if t > 0]
-    times = sorted(float(t) for t in times)
+        times = list(scene_obj.default_times)
+    times = sorted({0.0} | {float(t) for t in times})
     runs = [dict(rheology=rheology, scene=scene, discretization=d, N=n, t_end=times[-1],
                  rtol=rtol, atol=atol, times=times) for d, n in cases]
     rows = _run_cases(runs, jobs, progress)
@@ -431,27 +450,24 @@ def compare_discretizations(
     ref_label = max((lab for lab, (d, n) in zip(labels, cases) if d == "cheb"),
                     key=lambda lab: int(lab[4:]))
     H = scene_obj.H
-    z_cmp = np.linspace(0, H, 601)
     out = {"times": times, "reference": ref_label, "max_w": [], "diff": {},
            "failed": {lab: by[lab]["t_star"] for lab in labels if by[lab]["t_star"] is not None}}
-
-    def w_on(label, k):
-        row = by[label]
-        if k >= len(row["snapshots"]):
-            return np.full_like(z_cmp, np.nan)
-        w = row["snapshots"][k][2]
-        if label.startswith("cheb"):
-            return interpolate(w, z_cmp, H)
-        zc = np.concatenate(([0.0], row["z"], [H]))
-        return np.interp(z_cmp, zc, np.concatenate(([0.0], w, [0.0])))
-
+    ref = by[ref_label]
+    n_ref = len(ref["snapshots"])
     for k in range(len(times)):
-        out["max_w"].append(float(np.max(np.abs(w_on(ref_label, k)))))
+        out["max_w"].append(float(np.max(np.abs(ref["snapshots"][k][2]))) if k < n_ref
+                            else float("nan"))
     for label in labels:
         if label == ref_label:
             continue
-        out["diff"][label] = [float(np.max(np.abs(w_on(label, k) - w_on(ref_label, k))))
-                              for k in range(len(times))]
+        row, diffs = by[label], []
+        for k in range(len(times)):
+            if k >= len(row["snapshots"]) or k >= n_ref:
+                diffs.append(float("nan"))
+                continue
+            w_ref = interpolate(ref["snapshots"][k][2], row["z"], H)
+            diffs.append(float(np.max(np.abs(row["snapshots"][k][2] - w_ref))))
+        out["diff"][label] = diffs
     return out
 
 
@@ -486,7 +502,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--method", choices=sorted(METHODS), default="BDF")
     p.add_argument("--rtol", type=float, default=1e-6)
     p.add_argument("--atol", type=float, default=1e-9)
-    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default="analytic")
+    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
+                   help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
                    help="right-hand side backend (numpy: no compile time, default)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")

@@ -79,3 +79,27 @@ def test_invalid_sizes():
         cheb(0)
     with pytest.raises(ValueError):
         clencurt(1.5)
+
+
+def test_rhs_of_analytic_data_converges_exponentially():
+    # the collocated right-hand side of iCIDR at the (entire) sine IC (5.7) converges
+    # geometrically to that of a much finer grid: error ~ exp(-r N), r > 0.05
+    from icidr_pde.chebyshev import ChebyshevShearCellPDE, interpolate
+    from icidr_pde.scenes import get_scene
+
+    pde = ChebyshevShearCellPDE("icidr")
+
+    def rate(N):
+        grid = pde.make_grid(N, 30.0)
+        state = pde.make_state(grid, *get_scene("sine").initial_condition(pde.nodes(grid)))
+        return pde.nodes(grid), pde.evolution_rate(state).data
+
+    _, r_ref = rate(241)
+    Ns = np.arange(17, 110, 12)
+    err = []
+    for N in Ns:
+        z, r = rate(N)
+        err.append(np.max(np.abs(r - interpolate(r_ref, z, 30.0))))
+    slope = -np.polyfit(Ns, np.log(err), 1)[0]
+    assert slope > 0.05
+    assert err[-1] < 1e-4 * err[0]

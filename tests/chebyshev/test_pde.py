@@ -39,9 +39,12 @@ def test_registered_and_interface():
     J = pde.make_jacobian(state)(0.0, state.data.ravel())
     assert isinstance(J, np.ndarray) and J.shape == (33, 33)
     assert pde.check_state(state.data) is None
+    assert pde.interleaving(state) is None  # no banded ordering for a dense Jacobian
+    np.testing.assert_allclose(pde.validity_margins(state.data), [0.78, pde.material.phi_c - 0.78])
     bad = state.data.copy()
     bad[0, 3] = 0.9
     assert "phi" in pde.check_state(bad)
+    assert pde.validity_margins(bad)[1] < 0
     with pytest.raises(ValueError):
         pde.make_grid(3)
     with pytest.raises(ValueError):
