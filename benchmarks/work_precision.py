@@ -157,6 +157,31 @@ def configurations(quick: bool):
     return configs
 
 
+def tstar_study(discretization: str, quick: bool, repeats: int) -> dict:
+    """Case (iii): error of the failure time t* (mu(I), shear, N = 201) against the
+    tight-tolerance reference, and its cost, for each integrator and rtol."""
+    from icidr_pde.reference import reference_tstar
+
+    ref = reference_tstar(discretization)
+    rtols = [1e-3, 1e-6] if quick else [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
+    methods = [("BDF", "analytic"), ("Radau", "analytic"), ("CVODE", None)]
+    if discretization == "fd":
+        methods.append(("LSODA", "banded-fd"))
+    rows = []
+    for method, jacobian in methods:
+        for rtol in rtols:
+            walls, res = [], None
+            for _ in range(repeats):
+                res = run("mui", "shear", 201, 1.0, [0.0], discretization=discretization, method=method,
+                          jacobian=jacobian, rtol=rtol, atol=rtol * 1e-3)
+                walls.append(res.wall_s)
+            err = abs(res.t_star - ref["t_star"]) / ref["t_star"] if res.blew_up else float("inf")
+            rows.append(dict(family=f"{method} {res.jacobian}", method=method, rtol=rtol,
+                             t_star=res.t_star, reason=res.reason, tstar_error=err,
+                             wall_s=statistics.median(walls), compile_s=res.compile_s))
+    return {"reference": ref, "rows": rows}
+
+
 def best_at(rows, family_filter, target):
     ok = [r for r in rows if family_filter(r) and "error" not in r and r["series"] <= target]
     return min(ok, key=lambda r: r["wall_s"]) if ok else None
@@ -185,8 +210,11 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--cases", nargs="+", default=list(CASES))
+    parser.add_argument("--cases", nargs="*", default=list(CASES),
+                        help="iCIDR cases (i), (ii); none: only the t* case (iii)")
     parser.add_argument("--target", type=float, default=1e-3, help="max|w| error for the speed-up ratio")
+    parser.add_argument("--tstar", nargs="*", default=["fd", "cheb"],
+                        help="discretizations for case (iii), the t* of mu(I) at N = 201")
     args = parser.parse_args(argv)
     repeats = args.repeats or (1 if args.quick else 3)
     from tqdm import tqdm
@@ -208,7 +236,14 @@ def main(argv=None):
               f"{fast and fast['label']} {fast and round(fast['wall_s'], 4)} s; baseline (c): "
               f"{base_c and base_c['label']} {base_c and round(base_c['wall_s'], 4)} s; "
               f"ratio {summary['speedup_vs_c'] and round(summary['speedup_vs_c'], 1)}")
-    path = ROOT / "data" / "benchmarks" / f"work_precision{'_quick' if args.quick else ''}.json"
+    out["tstar"] = {}
+    for discretization in args.tstar:
+        try:
+            out["tstar"][discretization] = tstar_study(discretization, args.quick, repeats)
+        except ValueError as err:  # e.g. the Chebyshev discretization is not installed
+            out["tstar"][discretization] = {"error": str(err)}
+    suffix = ("_quick" if args.quick else "") + ("" if args.cases else "_tstar")
+    path = ROOT / "data" / "benchmarks" / f"work_precision{suffix}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(out, indent=1, default=float))
     print(markdown_table(out))
@@ -217,6 +252,13 @@ def main(argv=None):
 
 def markdown_table(out) -> str:
     lines = []
+    for disc, data in out.get("tstar", {}).items():
+        if "rows" not in data:
+            continue
+        lines += [f"\n#### mu(I) shear t* at N = 201, {disc} (reference t* = {data['reference']['t_star']:.6g})\n",
+                  "| integrator | rtol | t* | rel. error of t* | wall [s] |", "| --- | --- | --- | --- | --- |"]
+        for r in data["rows"]:
+            lines.append(f"| {r['family']} | {r['rtol']:g} | {r['t_star']:.6g} | {r['tstar_error']:.1e} | {r['wall_s']:.3f} |")
     for case, data in out["cases"].items():
         lines += [f"\n#### {case}\n", "| configuration | N | rtol | wall [s] | compile [s] | max\\|w\\| error | profile error |",
                   "| --- | --- | --- | --- | --- | --- | --- |"]

@@ -8,6 +8,7 @@ import json
 import sys
 import time
 
+from .api import DISCRETIZATIONS
 from .integrator import JACOBIAN_MODES, METHODS
 from .presets import PRESETS
 from .rheology import RHEOLOGIES
@@ -34,7 +35,8 @@ def add_run_parser(subparsers):
     p.add_argument("--scene", choices=["shear", "sine"], default="shear")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
                    help="preset for discretization, N, method and tolerances (measured: see README)")
-    p.add_argument("--discretization", default=None, help="fd or cheb (default: from --accuracy)")
+    p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
+                   help="default: from --accuracy")
     p.add_argument("--N", type=_positive_int, default=None,
                    help="grid cells (fd) or collocation points (cheb) (default: from --accuracy)")
     p.add_argument("--t-end", type=float, default=10.0)

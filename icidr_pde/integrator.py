@@ -252,8 +252,13 @@ class StiffSolver(SolverBase):
         elif self.jacobian == "sparse-fd":
             options["jac_sparsity"] = self.pde.jacobian_sparsity(state)
         if self.jacobian == "analytic" and self.method == "LSODA":  # Fortran wants dense
-            sparse_jac = options["jac"]
-            options["jac"] = lambda t, y: sparse_jac(t, y).toarray()
+            any_jac = options["jac"]
+
+            def dense_jac(t, y):
+                J = any_jac(t, y)
+                return J.toarray() if hasattr(J, "toarray") else J
+
+            options["jac"] = dense_jac
         elif band is not None and self.method == "LSODA":
             options.update(lband=band[0], uband=band[1])
         elif band is not None:

@@ -20,7 +20,7 @@ import numpy as np
 
 from .api import run
 
-__all__ = ["CASES", "reference", "series_error", "profile_error", "REFERENCE_DIR"]
+__all__ = ["CASES", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
 
 REFERENCE_DIR = pathlib.Path(__file__).resolve().parent.parent / "data" / "reference"
 
@@ -107,9 +107,38 @@ def reference(case: str, recompute: bool = False) -> dict:
     return arrays
 
 
+TSTAR_SETTINGS = dict(N=201, method="BDF", rtol=1e-10, atol=1e-13)
+
+
+def reference_tstar(discretization: str, recompute: bool = False) -> dict:
+    """Case (iii): failure time t* of mu(I), scene shear, N = 201, at tight tolerance.
+
+    t* belongs to the discrete system (grid, scheme, integrator, tolerance), so the
+    reference records the values at rtol 1e-10 and 1e-9 with BDF and at 1e-10 with Radau;
+    their spread is the uncertainty of the reference.
+    """
+    path = REFERENCE_DIR / f"mui-shear-tstar-{discretization}.json"
+    if path.exists() and not recompute:
+        return json.loads(path.read_text())
+    values = {}
+    for method, rtol in (("BDF", 1e-10), ("BDF", 1e-9), ("Radau", 1e-10)):
+        res = run("mui", "shear", TSTAR_SETTINGS["N"], 1.0, [0.0], discretization=discretization,
+                  method=method, rtol=rtol, atol=rtol * 1e-3)
+        values[f"{method} rtol={rtol:g}"] = res.t_star
+    data = dict(discretization=discretization, **TSTAR_SETTINGS,
+                t_star=values[f"BDF rtol={TSTAR_SETTINGS['rtol']:g}"], variants=values,
+                spread=max(values.values()) - min(values.values()))
+    REFERENCE_DIR.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1))
+    return data
+
+
 if __name__ == "__main__":
     import sys
 
-    for name in sys.argv[1:] or CASES:
+    for name in sys.argv[1:] or list(CASES) + ["tstar-fd", "tstar-cheb"]:
+        if name.startswith("tstar-"):
+            print(name, json.dumps(reference_tstar(name[6:], recompute=True)))
+            continue
         data = reference(name, recompute=True)
         print(name, json.dumps({k: data["meta"][k] for k in ("space_check", "time_check", "wall_s")}))
