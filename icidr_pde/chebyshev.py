@@ -32,11 +32,11 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pde import CartesianGrid, FieldCollection, ScalarField
+from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
-from pde.pdes.base import PDEBase
 
-from .rheology import Material, Rheology, get_rheology
+from .pdes import ShearCellBase
+from .rheology import Material, Rheology
 
 __all__ = ["ChebyshevShearCellPDE", "cheb", "clencurt", "cgl_nodes", "diff_matrix", "cc_weights",
            "interpolate"]
@@ -150,7 +150,7 @@ def make_cheb_rates(stress: Callable, compile_function: Callable | None) -> Call
     return compile_function(rates)
 
 
-class ChebyshevShearCellPDE(PDEBase):
+class ChebyshevShearCellPDE(ShearCellBase):
     """Gravity-free 1-D shear cell (3.1)-(3.3), Chebyshev collocation (Trefethen's ``cheb``).
 
     Args:
@@ -163,25 +163,10 @@ class ChebyshevShearCellPDE(PDEBase):
     storage); data[k, j] is field k at the collocation point :meth:`nodes` [j].
     """
 
-    check_implementation = False  # the numba and numpy paths share one source
-
-    def __init__(
-        self,
-        rheology: str | Rheology = "icidr",
-        material: Material | None = None,
-        *,
-        V0: float = 1.0,
-    ):
-        super().__init__()
-        self.rheology = get_rheology(rheology, material)
-        if not np.isfinite(V0):
-            raise ValueError(f"`V0` must be finite; got {V0}")
-        self.V0 = float(V0)
+    def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
+                 *, V0: float = 1.0):
+        super().__init__(rheology, material, V0=V0)
         self._ops: dict = {}
-
-    @property
-    def material(self) -> Material:
-        return self.rheology.material
 
     @property
     def expression(self) -> str:
@@ -190,19 +175,8 @@ class ChebyshevShearCellPDE(PDEBase):
 
     # --- grid and operators --------------------------------------------------------
 
-    @staticmethod
-    def make_grid(N: int, H: float = 30.0) -> CartesianGrid:
-        """Carrier grid CartesianGrid([[0, H]], N) holding the N collocation values."""
-        if int(N) != N or N < 4:
-            raise ValueError(f"`N` must be an integer >= 4; got {N}")
-        if not (np.isfinite(H) and H > 0):
-            raise ValueError(f"`H` must be > 0; got {H}")
-        return CartesianGrid([[0.0, float(H)]], int(N))
-
     def check_grid(self, grid) -> None:
-        if not isinstance(grid, CartesianGrid) or grid.num_axes != 1 or grid.periodic[0]:
-            raise ValueError("`grid` must be a non-periodic 1-D CartesianGrid([[0, H]], N) "
-                             "(use ChebyshevShearCellPDE.make_grid)")
+        super().check_grid(grid)
         if grid.axes_bounds[0][0] != 0:
             raise ValueError("the carrier grid must start at z = 0")
 
@@ -232,15 +206,10 @@ class ChebyshevShearCellPDE(PDEBase):
         The wall values of u and w are set to the Dirichlet data (3.9), u = 0, V0 and
         w = 0 (the IC (3.16) meets them to within 1e-97).
         """
-        self.check_grid(grid)
-        z = self.nodes(grid)
-        fields = []
-        for label, f in (("phi", phi), ("u", u), ("w", w)):
-            data = f(z) if callable(f) else np.broadcast_to(np.asarray(f, float), z.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
-        fields[1].data[[0, -1]] = 0.0, self.V0
-        fields[2].data[[0, -1]] = 0.0
-        return FieldCollection(fields)
+        state = super().make_state(grid, phi, u, w)
+        state[1].data[[0, -1]] = 0.0, self.V0
+        state[2].data[[0, -1]] = 0.0
+        return state
 
     # --- right-hand side -------------------------------------------------------------
 
@@ -273,27 +242,7 @@ class ChebyshevShearCellPDE(PDEBase):
         _RHS_CACHE[key] = pde_rhs
         return pde_rhs
 
-    def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
-        """Numpy evaluation of the right-hand side (same source as the numba one)."""
-        rhs = self.make_evolution_rate(state, "numpy")
-        result = state.copy(label="evolution rate")
-        result.data[:] = rhs(state.data, t)
-        return result
-
     # --- what the stiff integrator asks of a discretization ---------------------------
-
-    def check_state(self, data: np.ndarray) -> str | None:
-        """Reason why `data` is outside the inertial regime, or None if it is valid."""
-        phi = data[0]
-        if np.all(phi > 0) and np.all(phi < self.material.phi_c):
-            return None
-        return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
-
-    def validity_margins(self, data: np.ndarray) -> np.ndarray:
-        """Distances of phi from the ends of (0, phi_c); both positive while valid."""
-        phi = data[0]
-        return np.array([phi.min(), self.material.phi_c - phi.max()])
 
     def interleaving(self, state) -> None:
         """None: no banded ordering exists for a dense collocation Jacobian."""

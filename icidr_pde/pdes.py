@@ -36,7 +36,7 @@ from pde.pdes.base import PDEBase
 
 from .rheology import Material, Rheology, get_rheology
 
-__all__ = ["ShearCellPDE", "ADVECTION_SCHEMES"]
+__all__ = ["ShearCellBase", "ShearCellPDE", "ADVECTION_SCHEMES"]
 
 ADVECTION_SCHEMES = ("upwind", "central")
 _RHS_CACHE: dict = {}
@@ -82,18 +82,87 @@ def make_fd_rates(stress: Callable, compile_function: Callable, upwind: bool) ->
     return compile_function(rates)
 
 
-class ShearCellPDE(PDEBase):
-    """Gravity-free 1-D shear cell (3.1)-(3.3) closed by a rheology.
+class ShearCellBase(PDEBase):
+    """What every discretization of the shear cell shares: the rheology, the walls (3.9),
+    state construction, the numpy rate and the validity checks the stiff solver asks for.
 
     Args:
         rheology: 'mui' (mu(I),Phi(I), (3.6), (3.8)) or 'icidr' ((4.12), (4.14)), or a
             :class:`~icidr_pde.rheology.Rheology` instance
         material: parameters of (2.10)-(2.11) (default: Table 1)
         V0: velocity of the top wall (1 in the scalings (3.12))
-        advection: 'upwind' (first order) or 'central' (second order) for w d_z
     """
 
     check_implementation = False  # the numba and numpy paths share one source
+
+    def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
+                 *, V0: float = 1.0):
+        super().__init__()
+        self.rheology = get_rheology(rheology, material)
+        if not np.isfinite(V0):
+            raise ValueError(f"`V0` must be finite; got {V0}")
+        self.V0 = float(V0)
+
+    @property
+    def material(self) -> Material:
+        return self.rheology.material
+
+    @staticmethod
+    def make_grid(N: int, H: float = 30.0) -> CartesianGrid:
+        """The grid CartesianGrid([[0, H]], N) holding N values per field."""
+        if int(N) != N or N < 4:
+            raise ValueError(f"`N` must be an integer >= 4; got {N}")
+        if not (np.isfinite(H) and H > 0):
+            raise ValueError(f"`H` must be > 0; got {H}")
+        return CartesianGrid([[0.0, float(H)]], int(N))
+
+    def check_grid(self, grid) -> None:
+        if not isinstance(grid, CartesianGrid) or grid.num_axes != 1 or grid.periodic[0]:
+            raise ValueError("`grid` must be a non-periodic 1-D CartesianGrid([[0, H]], N) "
+                             f"(use {type(self).__name__}.make_grid)")
+
+    def nodes(self, grid) -> np.ndarray:
+        """Positions z of the unknowns."""
+        raise NotImplementedError
+
+    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
+        """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays."""
+        self.check_grid(grid)
+        z = self.nodes(grid)
+        fields = []
+        for label, f in (("phi", phi), ("u", u), ("w", w)):
+            data = f(z) if callable(f) else np.broadcast_to(np.asarray(f, float), z.shape)
+            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+        return FieldCollection(fields)
+
+    def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
+        """Numpy evaluation of the right-hand side (same source as the numba one)."""
+        rhs = self.make_evolution_rate(state, "numpy")
+        result = state.copy(label="evolution rate")
+        result.data[:] = rhs(state.data, t)
+        return result
+
+    def check_state(self, data: np.ndarray) -> str | None:
+        """Reason why `data` is outside the inertial regime, or None if it is valid."""
+        phi = data[0]
+        if np.all(phi > 0) and np.all(phi < self.material.phi_c):
+            return None
+        return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
+                f"min {phi.min():.6g}, max {phi.max():.6g}")
+
+    def validity_margins(self, data: np.ndarray) -> np.ndarray:
+        """Distances of phi from the ends of (0, phi_c); both positive while valid."""
+        phi = data[0]
+        return np.array([phi.min(), self.material.phi_c - phi.max()])
+
+
+class ShearCellPDE(ShearCellBase):
+    """Gravity-free 1-D shear cell (3.1)-(3.3) closed by a rheology, finite volumes.
+
+    Args:
+        rheology, material, V0: as for :class:`ShearCellBase`
+        advection: 'upwind' (first order) or 'central' (second order) for w d_z
+    """
 
     def __init__(
         self,
@@ -103,30 +172,18 @@ class ShearCellPDE(PDEBase):
         V0: float = 1.0,
         advection: str = "upwind",
     ):
-        super().__init__()
-        self.rheology = get_rheology(rheology, material)
+        super().__init__(rheology, material, V0=V0)
         if advection not in ADVECTION_SCHEMES:
             raise ValueError(f"`advection` must be one of {ADVECTION_SCHEMES}; got {advection!r}")
-        if not np.isfinite(V0):
-            raise ValueError(f"`V0` must be finite; got {V0}")
-        self.V0 = float(V0)
         self.advection = advection
         self.bc_phi = {"derivative": 0}
         self.bc_u = {"x-": {"value": 0.0}, "x+": {"value": self.V0}}
         self.bc_w = {"value": 0.0}
 
     @property
-    def material(self) -> Material:
-        return self.rheology.material
-
-    @property
     def expression(self) -> str:
-        return (f"shear cell ({self.rheology.name}): d_t phi = -d_z(phi w); "
+        return (f"shear cell ({self.rheology.name}, finite volumes): d_t phi = -d_z(phi w); "
                 "d_t u = d_z tau_xz/phi - w d_z u; d_t w = d_z(tau_zz - p)/phi - w d_z w")
-
-    def check_grid(self, grid) -> None:
-        if not isinstance(grid, CartesianGrid) or grid.num_axes != 1 or grid.periodic[0]:
-            raise ValueError("`grid` must be a non-periodic 1-D CartesianGrid([[0, H]], N)")
 
     def make_evolution_rate(self, state: FieldCollection, backend) -> Callable:
         """Return rhs(state_data, t) for the `numpy` or `numba` backend."""
@@ -165,27 +222,7 @@ class ShearCellPDE(PDEBase):
         _RHS_CACHE[key] = pde_rhs
         return pde_rhs
 
-    def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
-        """Numpy evaluation of the right-hand side (same source as the numba one)."""
-        rhs = self.make_evolution_rate(state, "numpy")
-        result = state.copy(label="evolution rate")
-        result.data[:] = rhs(state.data, t)
-        return result
-
     # --- what the stiff integrator asks of a discretization ---------------------------
-
-    def check_state(self, data: np.ndarray) -> str | None:
-        """Reason why `data` is outside the inertial regime, or None if it is valid."""
-        phi = data[0]
-        if np.all(phi > 0) and np.all(phi < self.material.phi_c):
-            return None
-        return (f"phi left (0, phi_c) = (0, {self.material.phi_c}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
-
-    def validity_margins(self, data: np.ndarray) -> np.ndarray:
-        """Distances of phi from the ends of (0, phi_c); both positive while valid."""
-        phi = data[0]
-        return np.array([phi.min(), self.material.phi_c - phi.max()])
 
     def jacobian_sparsity(self, state) -> sparse.csr_matrix:
         """Block-tridiagonal pattern of the Jacobian: every field couples to i-1, i, i+1."""
@@ -223,25 +260,6 @@ class ShearCellPDE(PDEBase):
         """Integral over 0 < z < H of cell-centred values (midpoint rule, exact for mass)."""
         return float(np.sum(values) * grid.discretization[0])
 
-    # --- helpers for users ----------------------------------------------------------
-
-    @staticmethod
-    def make_grid(N: int, H: float = 30.0) -> CartesianGrid:
-        """The cell-centred grid CartesianGrid([[0, H]], N)."""
-        if int(N) != N or N < 4:
-            raise ValueError(f"`N` must be an integer >= 4; got {N}")
-        if not H > 0:
-            raise ValueError(f"`H` must be > 0; got {H}")
-        return CartesianGrid([[0.0, float(H)]], int(N))
-
-    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
-        """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays."""
-        z = self.nodes(grid)
-        fields = []
-        for label, f in (("phi", phi), ("u", u), ("w", w)):
-            data = f(z) if callable(f) else np.broadcast_to(np.asarray(f, float), z.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
-        return FieldCollection(fields)
 
 
 def _ghost_extension(n: int, sign_left: float, sign_right: float):

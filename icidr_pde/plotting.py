@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .result import Result  # noqa: E402
+from .result import Result
 
 __all__ = ["plot_result", "plot_profiles", "plot_max_w", "demo_figure"]
 
