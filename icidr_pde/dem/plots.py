@@ -93,5 +93,5 @@ def fig8(ens: dict, cont_t1: dict, cont_fit: dict, err_t1: dict, err_fit: dict, 
     fig.suptitle("Sine-perturbed shear cell (5.7), phi0=0.78, a=0.16, b=0.1: "
                  "DEM (symbols, mean $\\pm$ std) vs iCIDR (solid: Table 1, dashed: our fit)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=90)
     plt.close(fig)
