@@ -82,7 +82,9 @@ def cmd_steady(args) -> int:
               f"mu={pt['mu']:.4f}+-{pt['mu_std']:.4f}  ({pt['repeats']} runs)")
     if "fit" in s:
         for k, v in s["fit"].items():
-            print(f"{k:6s} = {v:.4f} +- {s['fit_std'][k]:.4f}   (Table 1: {s['table1'][k]})")
+            sd = s["fit_std"][k]
+            sd = "undetermined" if sd is None else f"{sd:.4f}"
+            print(f"{k:6s} = {v:.4f} +- {sd}   (Table 1: {s['table1'][k]})")
     print(f"wrote {args.json}" + (f", {args.fig}" if args.fig and 'fit' in s else ""))
     return 0
 

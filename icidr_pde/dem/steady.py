@@ -94,7 +94,8 @@ def summarize(results, table1=None) -> dict:
                               n_rep, return_corr=True)
         fp, sp = fit_phi(I, [pt["phi"] for pt in points], [pt["I_std"] for pt in points], n_rep)
         out["fit"] = {**fm, **fp}
-        out["fit_std"] = {**sm, **sp}
+        # non-finite uncertainties (e.g. 3 points for 3 parameters) -> null in JSON
+        out["fit_std"] = {k: (v if np.isfinite(v) else None) for k, v in {**sm, **sp}.items()}
         out["fit_corr_mu_s_mu_d_I0"] = corr
         if table1 is not None:
             # how far apart the two parameter sets are where there are data
