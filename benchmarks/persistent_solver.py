@@ -55,7 +55,6 @@ def main():
                           jac=pde.make_jacobian(fresh()))
     t_stock_j, y_stock_j = integrate(stock_j, fresh(), args.t_end, args.every)
     rows.append(("py-pde ScipySolver (BDF, analytic J)", t_stock_j, None, stock_j.info["steps"], y_stock_j))
-    w_ref = np.max(np.abs(ref[2])) or 1.0
     print(f"iCIDR scene {args.scene}, N = {args.N}, t_end = {args.t_end}, tracker every {args.every}, "
           f"rtol = {args.rtol}, atol = {atol:g}")
     print(f"{'solver':44s} {'wall [s]':>9s} {'ratio':>7s} {'steps':>7s} {'rhs evals':>10s} {'rel err w':>10s}")

@@ -24,7 +24,6 @@ class Result:
         times, phi, u, w: snapshots at the requested times that were reached
         final: (phi, u, w) at t_final
         max_w_t, max_w: time series of max|w| over the nodes
-        max_w_peak: the same series as sub-node peaks (parabola through the largest node)
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
         mass_drift: relative change of the integral of phi between 0 and t_final
     """
@@ -58,7 +57,6 @@ class Result:
     n_rhs: int
     n_jac: int
     requested_times: list[str] = field(default_factory=list)
-    max_w_peak: np.ndarray | None = None
     chi_t: np.ndarray | None = None
     chi_z: np.ndarray | None = None
     chi: np.ndarray | None = None

@@ -1,6 +1,5 @@
 """Presets resolve as documented, and the cached references are consistent (no timings)."""
 
-import json
 
 import numpy as np
 import pytest
@@ -8,7 +7,6 @@ import pytest
 from icidr_pde import run
 from icidr_pde.presets import PRESETS, resolve
 from icidr_pde.reference import CASES, REFERENCE_DIR, reference, series_error
-from icidr_pde.trackers import peak_abs
 
 
 def test_presets_resolve_and_explicit_knobs_override():
@@ -26,15 +24,6 @@ def test_run_records_the_settings_it_used():
     assert res.N == PRESETS["draft"]["N"]["fd"] and res.rtol == 1e-4
     assert res.method == PRESETS["draft"]["method"]
     assert res.to_dict()["settings"]["accuracy"] == "draft"
-
-
-def test_peak_abs_is_exact_for_polynomials_and_robust_at_walls():
-    z = np.sort(np.random.default_rng(0).uniform(0, 1, 9))
-    assert peak_abs(z, 2 - (z - 0.37) ** 2) == pytest.approx(2.0, rel=1e-12)
-    assert peak_abs(z, z) == pytest.approx(z[-1])  # maximum at a wall node
-    zc = (np.arange(201) + 0.5) * 30 / 201  # the (3.16) bump: analytic peak eps e^-1/2/sqrt 2
-    w = 0.05 * (zc - 15) * np.exp(-(zc - 15) ** 2)
-    assert peak_abs(zc, w) == pytest.approx(0.05 * np.exp(-0.5) / np.sqrt(2), rel=1e-4)
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
