@@ -227,7 +227,7 @@ class ShearCellPDE(ShearCellBase):
     def jacobian_sparsity(self, state) -> sparse.csr_matrix:
         """Block-tridiagonal pattern of the Jacobian: every field couples to i-1, i, i+1."""
         n = state.grid.shape[0]
-        tri = sparse.diags([1, 1, 1], [-1, 0, 1], shape=(n, n))
+        tri = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(n, n))
         return sparse.csr_matrix(sparse.bmat([[tri] * 3] * 3))
 
     def interleaving(self, state):

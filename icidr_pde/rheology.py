@@ -93,10 +93,8 @@ class Material:
         """Return `phi` as an array, raising if it leaves the inertial range (0, phi_c)."""
         phi = np.asarray(phi, dtype=float)
         if not np.all(np.isfinite(phi)) or np.any(phi <= 0) or np.any(phi >= self.phi_c):
-            raise ValueError(
-                f"`{name}` must lie in (0, phi_c) = (0, {self.phi_c}); "
-                f"got values in [{np.nanmin(phi):g}, {np.nanmax(phi):g}]"
-            )
+            shown = f"[{phi.min():g}, {phi.max():g}]" if np.all(np.isfinite(phi)) else "non-finite values"
+            raise ValueError(f"`{name}` must lie in (0, phi_c) = (0, {self.phi_c}); got {shown}")
         return phi
 
     def mu(self, I):
