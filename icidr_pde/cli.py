@@ -22,7 +22,8 @@ _PLUGINS = [
 ]
 
 
-def _positive_int(text):
+def positive_int(text):
+    """argparse type: an integer >= 1."""
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
@@ -37,7 +38,7 @@ def add_run_parser(subparsers):
                    help="preset for discretization, N, method and tolerances (measured: see README)")
     p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
                    help="default: from --accuracy")
-    p.add_argument("--N", type=_positive_int, default=None,
+    p.add_argument("--N", type=positive_int, default=None,
                    help="grid cells (fd) or collocation points (cheb) (default: from --accuracy)")
     p.add_argument("--t-end", type=float, default=10.0)
     p.add_argument("--times", nargs="+", default=None, help="snapshot times (labels of the JSON max_w)")
@@ -86,8 +87,8 @@ def add_demo_parser(subparsers):
     p = subparsers.add_parser(
         "demo", help="the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges")
     p.add_argument("--plot", default="icidr_demo.png")
-    p.add_argument("--coarse", type=_positive_int, default=47)
-    p.add_argument("--fine", type=_positive_int, default=201)
+    p.add_argument("--coarse", type=positive_int, default=47)
+    p.add_argument("--fine", type=positive_int, default=201)
     p.set_defaults(func=cmd_demo)
 
 

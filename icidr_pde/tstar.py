@@ -564,18 +564,11 @@ def cmd_tstar(args) -> int:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.tstar")
-    subparsers = parser.add_subparsers(dest="command")
-    add_parser(subparsers)
+    """`python -m icidr_pde.tstar ...`: the same as `icidr-pde tstar ...`."""
+    from .cli import main as cli_main
+
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] != "tstar":
-        argv = ["tstar"] + argv
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except ValueError as err:
-        print(f"tstar: error: {err}", file=sys.stderr)
-        return 2
+    return cli_main(argv if argv[:1] == ["tstar"] else ["tstar"] + argv)
 
 
 if __name__ == "__main__":

@@ -12,12 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-
-def _pos_int(text):
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1; got {text}")
-    return v
+from ..cli import positive_int as _pos_int
 
 
 def _common(p):
