@@ -104,10 +104,12 @@ class _CvodeEngine:
         from sksundae.cvode import CVODE
 
         jac = options.pop("jac", None)
+        # min_step: like scipy's "step size below the spacing of numbers" test; without it
+        # CVODE halves h down to 1e-165 before giving up on a blow-up (seconds of work)
         kwargs = dict(method="BDF", rtol=options["rtol"], atol=options["atol"],
-                      max_num_steps=1_000_000)
-        if np.isfinite(options.get("max_step", np.inf)):
-            kwargs["max_step"] = options["max_step"]
+                      max_num_steps=1_000_000, min_step=1e-14)
+        max_step = options.get("max_step", np.inf)
+        kwargs["max_step"] = max_step if np.isfinite(max_step) else 1e300  # 0 ("none") < min_step
         if "first_step" in options:
             kwargs["first_step"] = options["first_step"]
         if "band" in options:
@@ -117,7 +119,7 @@ class _CvodeEngine:
                 J = jac(t, y)
                 JJ[:, :] = J.toarray() if hasattr(J, "toarray") else J
 
-            kwargs.update(linsolver="dense", jacfn=jacfn)
+            kwargs.update(linsolver="lapackdense", jacfn=jacfn)
         if margins is not None:
             n_events = len(margins(y0))
 
