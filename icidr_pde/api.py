@@ -9,6 +9,7 @@ from pde import FileStorage, MemoryStorage
 from pde.solvers import Controller
 from pde.trackers.trackers import PlotTracker, ProgressTracker
 
+from .chebyshev import ChebyshevShearCellPDE
 from .integrator import SimulationFailed, StiffSolver, check_tolerances
 from .pdes import ShearCellPDE
 from .presets import resolve
@@ -20,18 +21,7 @@ from .trackers import ChiTracker, MaxWTracker, dense_times
 __all__ = ["run", "make_pde", "DISCRETIZATIONS"]
 
 
-def _discretizations() -> dict:
-    table = {"fd": ShearCellPDE}
-    try:
-        from .chebyshev import ChebyshevShearCellPDE
-    except ImportError:  # pragma: no cover - before the Chebyshev module exists
-        pass
-    else:
-        table["cheb"] = ChebyshevShearCellPDE
-    return table
-
-
-DISCRETIZATIONS = _discretizations()
+DISCRETIZATIONS = {"fd": ShearCellPDE, "cheb": ChebyshevShearCellPDE}
 
 
 def make_pde(rheology="icidr", discretization="fd", material=None, **kwargs):
