@@ -239,7 +239,9 @@ class StiffSolver(SolverBase):
         inverse = None if perm is None else np.argsort(perm)
 
         def to_native(y):  # integrator ordering -> (3, N) state data
-            return (y if perm is None else y[inverse]).reshape(shape)
+            # always a fresh writable C array: a read-only or strided view (as CVODE passes)
+            # would make numba compile a second specialisation in the middle of the run
+            return (np.array(y, dtype=float) if perm is None else y[inverse]).reshape(shape)
 
         def fun(t, y):
             stats.n_rhs += 1
