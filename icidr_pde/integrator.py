@@ -52,7 +52,9 @@ class SimulationFailed(RuntimeError):
 
 @dataclass
 class StepStatistics:
-    n_steps: int = 0
+    """Counts of a run; n_steps is None for CVODE (scikit-sundae does not report it)."""
+
+    n_steps: int | None = 0
     n_rhs: int = 0
     n_jac: int = 0
     n_lu: int = 0
