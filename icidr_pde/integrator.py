@@ -2,9 +2,10 @@
 
 py-pde's stock ``scipy`` solver calls :func:`scipy.integrate.solve_ivp` afresh between
 every two tracker interrupts, so BDF restarts at order 1 with a tiny step and a new
-Jacobian each time. :class:`StiffSolver` instead holds one :class:`scipy.integrate.OdeSolver`
-(BDF, Radau or LSODA, as MATLAB's ode15s used by the paper) for the whole run, steps it
-past each interrupt and reads the state there from its dense output.
+Jacobian each time. :class:`StiffSolver` instead holds one integrator for the whole run
+(scipy's BDF, Radau or LSODA -- BDF being the analogue of MATLAB's ode15s used by the
+paper -- or SUNDIALS CVODE, the compiled fast path), steps it past each interrupt and reads
+the state there from its dense output.
 
 A run fails (:class:`SimulationFailed`) when the integrator cannot meet its tolerances
 (step-size underflow, the paper's 'non-convergent'), when the state becomes non-finite
