@@ -4,13 +4,13 @@ The numbers behind each choice come from ``python benchmarks/work_precision.py``
 (data/benchmarks/work_precision.json, docs/speed_accuracy.md): iCIDR reference cases
 (i) scene shear to t = 10 and (ii) scene sine to t = 20, errors against N = 3201 references.
 
-* ``draft``: fd, N = 51, CVODE rtol 1e-3: ~0.03 s of solve; max|w| error 4e-3 (shear),
-  2e-3 (sine), profile error 0.25 (shear), 5e-3 (sine);
-* ``standard`` (default): fd, N = 201, CVODE rtol 1e-5: ~0.03 s (shear), 0.06 s (sine);
-  max|w| error 2.4e-4 (shear), 4.6e-4 (sine): the N = 201 grid's own error, the time
+* ``draft``: fd, N = 51, CVODE rtol 1e-3: 0.008 s (shear), 0.011 s (sine) of solve; max|w|
+  error 4.1e-3 (shear), 3.3e-3 (sine), profile error 0.25 (shear), 5.4e-3 (sine);
+* ``standard`` (default): fd, N = 201, CVODE rtol 1e-5: 0.024 s (shear), 0.060 s (sine);
+  max|w| error 2.4e-4 (shear), 4.7e-4 (sine): the N = 201 grid's own error, the time
   error is below it;
-* ``publication``: fd, N = 801, CVODE rtol 1e-8: 0.17 s (shear), 0.9 s (sine); max|w|
-  error 2.4e-5 (shear), 7e-5 (sine).
+* ``publication``: fd, N = 801, CVODE rtol 1e-8: 0.16 s (shear), 0.87 s (sine); max|w|
+  error 2.4e-5 (shear), 7.1e-5 (sine).
 
 Numba compiles each new (rheology, N) once per process, 6-15 s, reported apart as
 ``compile_s``. Chebyshev is not the default: the evolved iCIDR solutions are not smooth
