@@ -28,7 +28,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from icidr_pde import make_pde, run  # noqa: E402
-from icidr_pde.reference import CASES, profile_error, reference, series_error, series_times  # noqa: E402
+from icidr_pde.reference import (  # noqa: E402
+    CASES, case_run, profile_error, reference, series_error, series_times)
 from icidr_pde.scenes import get_scene  # noqa: E402
 
 
@@ -90,11 +91,7 @@ def run_solve_ivp(case, N, rtol):
 
 
 def run_ours(case, N, rtol, method, jacobian, discretization="fd"):
-    spec = CASES[case]
-    times = series_times(spec["t_end"])
-    res = run(spec["rheology"], spec["scene"], N, spec["t_end"], list(times), method=method,
-              jacobian=jacobian, rtol=rtol, atol=rtol * 1e-3, discretization=discretization,
-              series_times=times)
+    res = case_run(case, N, rtol, rtol * 1e-3, method, discretization, jacobian)
     if res.blew_up:
         raise RuntimeError(res.reason)
     return res.wall_s, res, res.compile_s

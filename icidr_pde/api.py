@@ -10,7 +10,7 @@ from pde.solvers import Controller
 from pde.trackers.trackers import PlotTracker, ProgressTracker
 
 from .chebyshev import ChebyshevShearCellPDE
-from .integrator import SimulationFailed, StiffSolver, check_tolerances
+from .integrator import SimulationFailed, StiffSolver
 from .pdes import ShearCellPDE
 from .presets import resolve
 from .result import Result
@@ -97,7 +97,6 @@ def run(
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     discretization, N, method = settings["discretization"], settings["N"], settings["method"]
     rtol, atol = settings["rtol"], settings["atol"]
-    check_tolerances(rtol, atol)
     scene_obj = get_scene(scene, **scene_params)
     pde_kwargs = {"advection": advection} if discretization == "fd" else {}
     if discretization != "fd" and advection != "upwind":
@@ -163,6 +162,6 @@ def run(
         wall_s=wall, compile_s=compile_s, n_steps=stats.n_steps, n_rhs=stats.n_rhs,
         n_jac=stats.n_jac, scene_params=scene_obj.parameters(),
         material=pde.material.to_dict(),
-        settings=dict(accuracy=accuracy, **({"advection": advection} if discretization == "fd" else {})),
+        settings=dict(accuracy=accuracy, **pde_kwargs),
         **chi_kwargs,
     )

@@ -293,7 +293,7 @@ class StiffSolver(SolverBase):
                 y0 = np.array(state.data, dtype=float).ravel()
                 y0 = y0 if perm is None else y0[perm]
                 self.last_good = (t_start, y0.copy())
-                reason = check_state(to_native(y0))
+                reason = check(y0)
                 if reason:
                     fail(f"initial state invalid: {reason}")
                 if self.method == "CVODE":

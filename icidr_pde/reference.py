@@ -20,7 +20,7 @@ import numpy as np
 
 from .api import run
 
-__all__ = ["CASES", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
+__all__ = ["CASES", "case_run", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
 
 REFERENCE_DIR = pathlib.Path(__file__).resolve().parent.parent / "data" / "reference"
 
@@ -35,13 +35,14 @@ def series_times(t_end: float, n: int = 101) -> np.ndarray:
     return np.linspace(0.0, t_end, n)
 
 
-def _compute(case: str, N: int, rtol: float, atol: float, method: str, discretization="fd"):
+def case_run(case: str, N: int, rtol: float, atol: float, method: str, discretization="fd",
+             jacobian=None):
     """A run of `case` with snapshots at the series times (which contain the profile times)."""
     spec = CASES[case]
     times = series_times(spec["t_end"])
     return run(spec["rheology"], spec["scene"], N, spec["t_end"], list(times),
                method=method, rtol=rtol, atol=atol, discretization=discretization,
-               series_times=times)
+               jacobian=jacobian, series_times=times)
 
 
 def series_error(result, ref) -> float:
@@ -51,7 +52,7 @@ def series_error(result, ref) -> float:
     Taking the reference at the same nodes (linear interpolation from its fine grid)
     removes the sampling error of a maximum over nodes (3e-3 at N = 201 for the sharp
     bump of (3.16) at t = 0), which is not an error of the solution.
-    `result` has snapshots at :func:`series_times` (see :func:`_compute`).
+    `result` has snapshots at :func:`series_times` (see :func:`case_run`).
     """
     z = result.z
     ref_w = np.array([np.interp(z, ref["z_series"], w) for w in ref["w_series"]])
@@ -101,12 +102,12 @@ def reference(case: str, recompute: bool = False) -> dict:
         data["meta"] = json.loads(meta_path.read_text())
         return data
     REFERENCE_DIR.mkdir(parents=True, exist_ok=True)
-    ref = _compute(case, **REF_SETTINGS)
+    ref = case_run(case, **REF_SETTINGS)
     if ref.blew_up:
         raise RuntimeError(f"reference run of {case} failed: {ref.reason}")
     arrays = _to_arrays(ref, CASES[case]["profile_times"])
-    half = _compute(case, REF_SETTINGS["N"] // 2, REF_SETTINGS["rtol"], REF_SETTINGS["atol"], REF_SETTINGS["method"])
-    looser = _compute(case, REF_SETTINGS["N"], 10 * REF_SETTINGS["rtol"], 10 * REF_SETTINGS["atol"], REF_SETTINGS["method"])
+    half = case_run(case, REF_SETTINGS["N"] // 2, REF_SETTINGS["rtol"], REF_SETTINGS["atol"], REF_SETTINGS["method"])
+    looser = case_run(case, REF_SETTINGS["N"], 10 * REF_SETTINGS["rtol"], 10 * REF_SETTINGS["atol"], REF_SETTINGS["method"])
     meta = dict(case=case, **CASES[case], **REF_SETTINGS, scene_params=ref.scene_params,
                 material=ref.material, wall_s=ref.wall_s, mass_drift=ref.mass_drift,
                 space_check=dict(N=half.N, series_error=series_error(half, arrays),
