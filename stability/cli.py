@@ -30,27 +30,99 @@ def add_verify_parser(subparsers):
     return p
 
 
-def _stability(args) -> int:
-    from .numeric import stability_numbers  # noqa: PLC0415
-    material = None
-    try:
-        sn = stability_numbers(args.rheology, args.phi, args.uz, args.wz, args.xi, material)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    data = sn.to_json()
-    keys = ("M", "chi", "trace_gamma", "det_gamma", "lambda_plus", "lambda_minus", "max_re_eig_over_xi2",
-            "lambda0_limit")
+ONE_D_KEYS = ("M", "chi", "trace_gamma", "det_gamma", "lambda_plus", "lambda_minus", "max_re_eig_over_xi2",
+              "lambda0_limit")
+
+
+def _print_one_d(sn, data):
     print(f"rheology={sn.rheology} phi={sn.phi:g} uz={sn.uz:g} wz={sn.wz:g} xi={sn.xi:g} (d = rho_* = 1)")
-    for k in keys:
+    for k in ONE_D_KEYS:
         print(f"  {k:<20} {data[k]}")
     verdict = "ILL-POSED (Lambda_+ > 0)" if sn.lambda_plus.real > 0 else "well-posed (Lambda_pm < 0)"
     print(f"  {'verdict':<20} {verdict}")
+
+
+def _one_d_json(sn):
+    data = sn.to_json()
+    return {k: data[k] for k in ONE_D_KEYS} | {"rheology": sn.rheology, "phi": sn.phi, "uz": sn.uz, "wz": sn.wz,
+                                               "xi": sn.xi}
+
+
+def _write_json(path, obj):
+    """Write JSON through a temporary file in the same directory, so no half-written file is left."""
+    import os  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    fd, tmp = tempfile.mkstemp(suffix=".json", dir=os.path.dirname(os.path.abspath(path)))
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(obj, fh, indent=2)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def _stability(args) -> int:
+    from .numeric import stability_numbers  # noqa: PLC0415
+    material = None
+    two_d = args.velocity_gradient is not None or args.angles is not None or args.plot is not None
+    try:
+        if args.velocity_gradient is not None:
+            if args.uz is not None or args.wz is not None:
+                raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
+            from .directional import check_gradient  # noqa: PLC0415
+            grad = check_gradient(args.velocity_gradient)
+        elif args.uz is None or args.wz is None:
+            raise ValueError("need `--velocity-gradient U_X U_Z W_X W_Z`, or both `--uz` and `--wz` (1-D); got "
+                             f"uz={args.uz}, wz={args.wz}")
+        else:
+            grad = (0.0, args.uz, 0.0, args.wz)
+        one_d = grad[0] == 0 and grad[2] == 0
+        sn = stability_numbers(args.rheology, args.phi, grad[1], grad[3], args.xi, material) if one_d else None
+        ds = None
+        if two_d:
+            from .directional import directional_stability, parse_angles  # noqa: PLC0415
+            angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
+            ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    out = {}
+    if sn is not None:
+        _print_one_d(sn, sn.to_json())
+        out = _one_d_json(sn)
+    if ds is not None:
+        _print_directional(ds, args.angles or "0:180:1")
+        out = ds.to_json() | out          # the 1-D keys (when grad u has the 1-D form) as today
+        if args.plot:
+            from .directional import save_polar  # noqa: PLC0415
+            save_polar([ds], args.plot, title=_title(ds))
+            print(f"  saved {args.plot}")
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump({k: data[k] for k in keys} | {"rheology": sn.rheology, "phi": sn.phi, "uz": sn.uz,
-                                                    "wz": sn.wz, "xi": sn.xi}, fh, indent=2)
+        _write_json(args.json, out)
     return 0
+
+
+def _title(ds):
+    ux, uz, wx, wz = ds.velocity_gradient
+    return (rf"{ds.rheology}: $\phi_0$ = {ds.phi:g}, $\nabla u$ = [[{ux:.4g}, {uz:.4g}], [{wx:.4g}, {wz:.4g}]]")
+
+
+def _print_directional(ds, angles_text):
+    ux, uz, wx, wz = ds.velocity_gradient
+    print(f"2-D plane waves n = (cos theta, sin theta): rheology={ds.rheology} phi={ds.phi:g} "
+          f"grad u = [[{ux:g}, {uz:g}], [{wx:g}, {wz:g}]] angles {angles_text} ({ds.angles_deg.size} samples)")
+    iv = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in ds.ill_posed_intervals_deg) or "none"
+    print(f"  {'max_lambda':<24} {ds.max_lambda!r}")
+    print(f"  {'worst_angle_deg':<24} {ds.worst_angle_deg!r}")
+    print(f"  {'ill_posed_intervals_deg':<24} {iv}")
+    print(f"  {'lambda_max at 90 deg':<24} {ds.at_90_deg['lambda_plus'].real!r} (the 1-D direction e_z)")
+    step = max(1, ds.angles_deg.size // 12)
+    print("  " + "  ".join(f"{t:g}:{v:.4g}" for t, v in zip(ds.angles_deg[::step], ds.lambda_max[::step])))
+    verdict = (f"ILL-POSED for plane waves at theta in {iv} deg" if ds.ill_posed_intervals_deg
+               else "well-posed in every sampled direction (lambda_max < 0)")
+    print(f"  {'verdict':<24} {verdict}")
 
 
 def _positive_float(text):
@@ -61,16 +133,24 @@ def _positive_float(text):
 
 
 def add_stability_parser(subparsers):
-    """Add ``stability --rheology {mui,icidr} --phi --uz --wz [--xi] [--json]``."""
-    p = subparsers.add_parser("stability", help="symbols of the linearised 1-D system at one base state",
-                              description="Print M, chi (A18), tr/det Gamma, Lambda_pm (A9), "
-                                          "max Re eig A(xi)/xi^2 and -C/B for a uniform base state.")
+    """Add ``stability --rheology {mui,icidr} --phi (--uz --wz | --velocity-gradient ...) [--angles] [--xi] [--json] [--plot]``."""
+    p = subparsers.add_parser("stability", help="symbols of the linearised 1-D system / 2-D plane waves at one state",
+                              description="1-D (--uz --wz): print M, chi (A18), tr/det Gamma, Lambda_pm (A9), "
+                                          "max Re eig A(xi)/xi^2 and -C/B for a uniform base state. 2-D "
+                                          "(--velocity-gradient U_X U_Z W_X W_Z): Lambda_max(theta) of plane waves "
+                                          "n = (cos theta, sin theta), ill-posed angle intervals, worst angle "
+                                          "(theta = 90 deg is the 1-D direction).")
     p.add_argument("--rheology", choices=("mui", "icidr"), required=True)
     p.add_argument("--phi", type=_positive_float, required=True, help="packing fraction, in (0, phi_c)")
-    p.add_argument("--uz", type=_positive_float, required=True, help="base shear rate d_z u")
-    p.add_argument("--wz", type=_positive_float, required=True, help="base dilation rate d_z w")
+    p.add_argument("--uz", type=_positive_float, default=None, help="1-D base shear rate d_z u")
+    p.add_argument("--wz", type=_positive_float, default=None, help="1-D base dilation rate d_z w")
+    p.add_argument("--velocity-gradient", type=_positive_float, nargs=4, metavar=("U_X", "U_Z", "W_X", "W_Z"),
+                   default=None, help="2-D base velocity gradient grad u = [[u_x, u_z], [w_x, w_z]]")
+    p.add_argument("--angles", default=None, metavar="START:STOP:STEP",
+                   help="plane-wave angles in degrees (default 0:180:1; theta and theta + 180 are one direction)")
     p.add_argument("--xi", type=_positive_float, default=1e4, help="wavenumber for eig A(xi) (default 1e4)")
     p.add_argument("--json", metavar="PATH", help="write the numbers as JSON to PATH")
+    p.add_argument("--plot", metavar="PNG", default=None, help="write the polar plot of Lambda_max(theta) to PNG")
     p.set_defaults(func=_stability)
     return p
 
@@ -93,6 +173,45 @@ def add_plot_growth_parser(subparsers):
     return p
 
 
+def _plot_plane(args) -> int:
+    from .directional import directional_stability, save_polar  # noqa: PLC0415
+    from .oblique_growth import plot_oblique_growth  # noqa: PLC0415
+    import matplotlib  # noqa: PLC0415
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+    from .directional import plot_polar  # noqa: PLC0415
+
+    states = [("steady shear", (0.0, 1 / 30, 0.0, 0.0)), ("fig. 2 state", (0.0, 1 / 30, 0.0, 0.05))]
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(11, 6.8))
+    for ax, (label, L) in zip(axes, states):
+        rs = [directional_stability(n, 0.78, L) for n in ("mui", "icidr")]
+        plot_polar(rs, ax, title=rf"{label}: $\phi_0$ = 0.78, $u_z$ = {L[1]:.4g}, $w_z$ = {L[3]:g}")
+        for r in rs:
+            iv = ", ".join(f"[{a:.4f}, {b:.4f}]" for a, b in r.ill_posed_intervals_deg) or "none"
+            print(f"{label:<13} {r.rheology:<6} max_lambda {r.max_lambda:.6g} at {r.worst_angle_deg:.4f} deg; "
+                  f"lambda_max(90) {r.at_90_deg['lambda_plus'].real:.6g}; ill-posed {iv}")
+    fig.tight_layout()
+    fig.savefig(args.polar, dpi=120)
+    plt.close(fig)
+    print(f"saved {args.polar}")
+    _, rows = plot_oblique_growth(args.growth)
+    print(f"{'rheology':<8} {'xi':>6} {'theta':>6} {'measured':>16} {'predicted':>16} {'rel. error':>10}")
+    for r in rows:
+        print(f"{r['rheology']:<8} {r['xi']:>6g} {r['angle_deg']:>6g} {r['measured']:>16.9g} {r['predicted']:>16.9g} "
+              f"{r['rel_error']:>10.1e}")
+    print(f"saved {args.growth}")
+    return 0
+
+
+def add_plot_plane_parser(subparsers):
+    """Add ``plot-plane [--polar docs/polar_stability.png] [--growth docs/oblique_growth.png]``."""
+    p = subparsers.add_parser("plot-plane", help="polar plot of Lambda_max(theta) and measured oblique growth (PNGs)")
+    p.add_argument("--polar", default="docs/polar_stability.png", help="polar plot PNG path")
+    p.add_argument("--growth", default="docs/oblique_growth.png", help="measured oblique growth PNG path")
+    p.set_defaults(func=_plot_plane)
+    return p
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Stand-alone parser used by ``python -m stability``."""
     parser = argparse.ArgumentParser(prog="python -m stability", description=__doc__.splitlines()[0])
@@ -100,6 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_verify_parser(sub)
     add_stability_parser(sub)
     add_plot_growth_parser(sub)
+    add_plot_plane_parser(sub)
     return parser
 
 
