@@ -14,15 +14,15 @@ and to rtol 1e-9 (time), both relative to max|w|.
 from __future__ import annotations
 
 import json
-import pathlib
 
 import numpy as np
 
 from .api import run
+from .datafiles import data_dir
 
 __all__ = ["CASES", "case_run", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
 
-REFERENCE_DIR = pathlib.Path(__file__).resolve().parent.parent / "data" / "reference"
+REFERENCE_DIR = data_dir() / "reference"
 
 CASES = {
     "icidr-shear": dict(rheology="icidr", scene="shear", t_end=10.0, profile_times=[0.5, 1, 2, 5, 10]),

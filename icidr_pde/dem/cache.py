@@ -9,7 +9,19 @@ from pathlib import Path
 
 import numpy as np
 
-DEFAULT_CACHE = Path("data/dem/cache")
+
+
+def default_cache_dir() -> Path:
+    """Per-user cache of DEM runs, outside any source tree: $ICIDR_PDE_CACHE, else
+    $XDG_CACHE_HOME/icidr-pde/dem, else ~/.cache/icidr-pde/dem."""
+    env = os.environ.get("ICIDR_PDE_CACHE")
+    if env:
+        return Path(env)
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root) / "icidr-pde" / "dem"
+
+
+DEFAULT_CACHE = default_cache_dir()
 
 
 def run_seed(base_seed: int, repeat: int, phi0: float) -> int:

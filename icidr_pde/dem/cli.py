@@ -1,77 +1,163 @@
-"""``icidr-pde dem steady|transient``: LAMMPS DEM validation (appendix C, figs 1 and 8).
+"""``icidr-pde dem steady|transient|audit``: the LAMMPS DEM validation (appendix C, figs 1 and 8).
 
-Wiring (lead): in icidr_pde/cli.py ``from icidr_pde.dem.cli import add_parser;
-add_parser(subparsers)``; each sub-subcommand sets ``func(args) -> int``.
-Standalone: ``python -m icidr_pde.dem steady ...``.
+Outputs go to ``--out`` (default: the current directory), never over the
+committed results; the per-run cache to the user cache (``--cache``).  The
+committed results (``data/dem``, shipped with the package) are read through
+the package from any directory.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
 from ..cli import positive_int as _pos_int
 
 
-def _common(p):
-    p.add_argument("--repeats", type=_pos_int, default=10, help="independent runs per phi0 (10)")
-    p.add_argument("--particles", type=_pos_int, default=1000, help="disks per cell, multiple of 5 (1000)")
-    p.add_argument("--seed", type=int, default=1, help="base seed (1)")
-    p.add_argument("--jobs", type=_pos_int, default=2, help="parallel LAMMPS processes (2)")
-    p.add_argument("--cache", default="data/dem/cache", help="per-run cache directory")
-    p.add_argument("--t-shear", type=float, default=30.0, help="shearing before averaging (30)")
-    p.add_argument("--t-avg", type=float, default=100.0, help="averaging window (100)")
-    p.add_argument("--dt-fraction", type=float, default=1 / 50,
-                   help="time step / shortest contact time (0.02)")
-    p.add_argument("--no-progress", action="store_true")
+def _fraction(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 0.2]; got {text!r}") from None
+    if not 0 < v <= 0.2:
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 0.2]; got {text!r}")
+    return v
+
+
+def _common(p, what):
+    p.add_argument("--repeats", type=_pos_int, default=10, help="independent runs per phi0")
+    p.add_argument("--particles", type=_pos_int, default=1000, help="disks per cell, multiple of 5")
+    p.add_argument("--H", type=float, default=30.0, help="cell height (Lees-Edwards direction), d")
+    p.add_argument("--k-n", type=float, default=1.0e4,
+                   help="normal stiffness; eta_n is scaled by sqrt(k_n/1e4) to keep e = 0.9")
+    p.add_argument("--seed", type=int, default=1, help="base seed")
+    p.add_argument("--cache", default=None,
+                   help="per-run cache directory (default: $ICIDR_PDE_CACHE or ~/.cache/icidr-pde/dem)")
+    p.add_argument("--t-shear", type=float, default=30.0, help="shearing before averaging / before the perturbation")
+    p.add_argument("--dt-fraction", type=_fraction, default=1 / 50, help="time step / shortest contact time")
+    p.add_argument("--out", default=".", help=f"directory for the {what} (created if missing)")
+    p.add_argument("--no-progress", action="store_true", help="no progress output")
 
 
 def add_parser(subparsers):
-    """Add ``dem`` with ``steady`` and ``transient`` to an argparse subparsers object."""
+    """Add ``dem`` with ``steady``, ``transient`` and ``audit`` to an argparse subparsers object."""
     dem = subparsers.add_parser("dem", help="LAMMPS DEM validation (appendix C, figs 1 and 8)",
-                                description=__doc__)
+                                description=__doc__,
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     sub = dem.add_subparsers(dest="dem_command", required=True)
-    st = sub.add_parser("steady", help="steady mu(I), Phi(I) sweep, fits of (2.10)-(2.11), fig 1")
-    st.add_argument("--phi0", type=float, nargs="+", default=[0.76, 0.77, 0.78, 0.79, 0.80])
-    _common(st)
-    st.add_argument("--json", default="data/dem/steady.json")
-    st.add_argument("--fig", default="docs/fig1_dem.png")
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    st = sub.add_parser("steady", help="steady mu(I), Phi(I) sweep, fits of (2.10)-(2.11), fig 1",
+                        description="Steady Lees-Edwards shear at each phi0; writes steady.json and fig1_dem.png.",
+                        formatter_class=fmt)
+    st.add_argument("--phi0", type=float, nargs="+", default=[0.76, 0.77, 0.78, 0.79, 0.80],
+                    help="mean packing fractions")
+    _common(st, "JSON summary and figure")
+    st.add_argument("--t-avg", type=float, default=100.0, help="averaging window")
+    st.add_argument("--jobs", type=_pos_int, default=1, help="parallel LAMMPS processes")
+    st.add_argument("--json", default=None, help="summary path (default: OUT/steady.json)")
+    st.add_argument("--fig", default=None, help="figure path (default: OUT/fig1_dem.png; '' for none)")
     st.set_defaults(func=cmd_steady)
-    tr = sub.add_parser("transient", help="(5.7) transient ensemble vs iCIDR, fig 8")
-    _common(tr)
-    tr.add_argument("--steady-json", default="data/dem/steady.json",
-                    help="steady study JSON holding our fitted parameters")
-    tr.add_argument("--N", type=_pos_int, default=201, help="continuum grid cells (201)")
-    tr.add_argument("--json", default="data/dem/transient.json")
-    tr.add_argument("--npz", default="data/dem/transient_ensemble.npz")
-    tr.add_argument("--fig", default="docs/fig8_dem.png")
-    tr.add_argument("--drop-fluctuations", action="store_true",
-                    help="replace particle velocities by (5.7) exactly (use a separate --cache)")
+
+    tr = sub.add_parser("transient", help="(5.7) transient ensemble vs iCIDR, fig 8",
+                        description="Ensemble of (5.7) transients from independent steady states, "
+                                    "compared with iCIDR (Table 1 and our fit); writes transient.json, "
+                                    "transient_ensemble.npz and fig8_dem.png.",
+                        formatter_class=fmt)
+    _common(tr, "JSON summary, ensemble npz and figure")
+    tr.add_argument("--steady-json", default=None,
+                    help="steady study JSON holding our fitted parameters (default: the committed one)")
+    tr.add_argument("--fluctuations", choices=("keep", "drop", "local"), default="keep",
+                    help="particle velocity fluctuations when imposing (5.7): keep them, drop them "
+                         "(zero granular temperature), or scale them to the local strain rate")
+    tr.add_argument("--drop-fluctuations", action="store_true", help="same as --fluctuations drop")
+    tr.add_argument("--preparation", choices=("minimize", "rescale"), default="minimize",
+                    help="overlap removal: FIRE minimisation or appendix C's kinetic-energy rescaling")
+    tr.add_argument("--transient-dt-fraction", type=_fraction, default=None,
+                    help="time step of the transient / contact time (default: --dt-fraction)")
+    tr.add_argument("--bin-height", type=float, default=2.0, help="coarse-graining bin height (divides H)")
+    tr.add_argument("--u-definition", choices=("slab_mass", "area_times_mass", "centre"), default="slab_mass",
+                    help="bin velocity: mass of the slab part of each disk, area x disk mass, or disk centres")
+    tr.add_argument("--u-frame", choices=("offset", "layers", "lab"), default="offset",
+                    help="frame of u: remove the streaming offset, the z = 0 layer's velocity, or none")
+    tr.add_argument("--t-end", type=float, default=20.0, help="duration of the transient")
+    tr.add_argument("--N", type=_pos_int, default=201, help="continuum grid cells")
+    tr.add_argument("--json", default=None, help="summary path (default: OUT/transient.json)")
+    tr.add_argument("--npz", default=None, help="ensemble path (default: OUT/transient_ensemble.npz; '' for none)")
+    tr.add_argument("--fig", default=None, help="figure path (default: OUT/fig8_dem.png; '' for none)")
     tr.set_defaults(func=cmd_transient)
+
+    au = sub.add_parser("audit", help="protocol audit of fig 8(d): run factor ensembles or write the report",
+                        description="Runs the factor ensembles of the protocol audit (resumable from the cache) "
+                                    "or summarises them (audit.json, audit.npz, fig8_audit.png).",
+                        formatter_class=fmt)
+    au.add_argument("action", choices=("run", "report"))
+    au.add_argument("factors", nargs="*", help="factors to run (run): baseline, drop_fluctuations, ...")
+    au.add_argument("--repeats", type=_pos_int, default=10, help="members per factor (run)")
+    au.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
+    au.add_argument("--out", default=".", help="directory for the report files")
+    au.set_defaults(func=cmd_audit)
     return dem
 
 
-def _setup(args):
+# ------------------------------------------------------------------ helpers
+def _writable_dir(path) -> Path:
+    """Create ``path`` if needed and check it can be written, before any run."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"`--out` must be a directory; got the file {str(p)!r}")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"`--out` {str(p)!r} cannot be created: {exc.strerror}") from None
+    if not os.access(p, os.W_OK):
+        raise ValueError(f"`--out` {str(p)!r} is not writable")
+    return p
+
+
+def _output(arg, out: Path, default_name):
+    """Explicit path, '' for none, or OUT/default_name; checks the parent is a writable directory."""
+    if arg == "":
+        return None
+    path = Path(arg) if arg is not None else out / default_name
+    if path.is_dir():
+        raise ValueError(f"output {str(path)!r} is a directory; give a file name")
+    _writable_dir(path.parent)
+    return path
+
+
+def _params(args):
     from .params import DEMParams
-    from .runs import Protocol
 
-    return DEMParams(n_particles=args.particles, dt_fraction=args.dt_fraction), \
-        Protocol(t_shear=args.t_shear, t_avg=args.t_avg)
+    eta = 4.2 * (args.k_n / 1.0e4) ** 0.5
+    return DEMParams(n_particles=args.particles, H=args.H, k_n=args.k_n, eta_n=eta,
+                     dt_fraction=args.dt_fraction)
 
 
+def _cache(args):
+    from .cache import default_cache_dir
+
+    return Path(args.cache) if args.cache else default_cache_dir()
+
+
+# ------------------------------------------------------------------ commands
 def cmd_steady(args) -> int:
     from . import plots
+    from .runs import Protocol
     from .steady import run_steady_study
 
-    params, protocol = _setup(args)
+    out = _writable_dir(args.out)
+    json_path = _output(args.json, out, "steady.json")
+    fig_path = _output(args.fig, out, "fig1_dem.png")
+    params = _params(args)
     s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs,
-                         cache_dir=args.cache, protocol=protocol, params=params,
-                         json_path=args.json, progress=not args.no_progress)
-    if "fit" in s and args.fig:
-        Path(args.fig).parent.mkdir(parents=True, exist_ok=True)
-        plots.fig1(s, args.fig)
+                         cache_dir=_cache(args), protocol=Protocol(t_shear=args.t_shear, t_avg=args.t_avg),
+                         params=params, json_path=json_path, progress=not args.no_progress,
+                         with_transient=False)
+    if "fit" in s and fig_path:
+        plots.fig1(s, fig_path)
     for pt in s["points"]:
         print(f"phi0={pt['phi0']:.3f}  I={pt['I']:.4f}+-{pt['I_std']:.4f}  "
               f"mu={pt['mu']:.4f}+-{pt['mu_std']:.4f}  ({pt['repeats']} runs)")
@@ -80,46 +166,87 @@ def cmd_steady(args) -> int:
             sd = s["fit_std"][k]
             sd = "undetermined" if sd is None else f"{sd:.4f}"
             print(f"{k:6s} = {v:.4f} +- {sd}   (Table 1: {s['table1'][k]})")
-    print(f"wrote {args.json}" + (f", {args.fig}" if args.fig and 'fit' in s else ""))
+    print("wrote " + ", ".join(str(p) for p in (json_path, fig_path if "fit" in s else None) if p))
     return 0
 
 
 def cmd_transient(args) -> int:
     from icidr_pde.rheology import Material
 
-    from . import plots, transient
+    from . import analysis, ensemble, plots, transient
+    from .paths import committed
 
-    params, protocol = _setup(args)
-    path = Path(args.steady_json)
-    if not path.exists():
-        raise SystemExit(f"--steady-json {path} not found: run `dem steady` first")
-    fit = json.loads(path.read_text())["fit"]
-    from .runs import SineIC
-
-    sine_ic = SineIC(keep_fluctuations=not args.drop_fluctuations)
-    if args.drop_fluctuations and Path(args.cache).resolve() == Path("data/dem/cache").resolve():
-        raise ValueError("`--cache` must differ from data/dem/cache with --drop-fluctuations")
-    results = transient.transient_results(args.repeats, args.particles, args.seed, args.jobs,
-                                          args.cache, protocol, params, not args.no_progress, sine_ic)
-    ens = transient.ensemble(results)
+    out = _writable_dir(args.out)
+    json_path = _output(args.json, out, "transient.json")
+    npz_path = _output(args.npz, out, "transient_ensemble.npz")
+    fig_path = _output(args.fig, out, "fig8_dem.png")
+    steady = Path(args.steady_json) if args.steady_json else committed("steady.json")
+    if not steady.is_file():
+        raise ValueError(f"`--steady-json` {str(steady)!r} not found: run `icidr-pde dem steady` first")
+    fit = json.loads(steady.read_text())["fit"]
+    fluct = "drop" if args.drop_fluctuations else args.fluctuations
+    params = _params(args)
+    base = ensemble.BaseState(phi0=0.78, params=params, preparation=args.preparation, t_shear=args.t_shear)
+    pert = ensemble.Perturbation(fluctuations=fluct, t_end=args.t_end,
+                                 dt_fraction=args.transient_dt_fraction)
+    if abs(args.H / args.bin_height - round(args.H / args.bin_height)) > 1e-9 or args.bin_height < 1:
+        raise ValueError(f"`--bin-height` must be a whole number of d dividing H = {args.H}; got {args.bin_height}")
+    results = []
+    for i, seed in enumerate(ensemble.seeds(args.repeats, args.seed, base.phi0)):
+        results.append(ensemble.run_ensemble_member(base, seed, [pert], _cache(args))[0])
+        if not args.no_progress:
+            print(f"DEM member {i + 1}/{args.repeats} done", flush=True)
+    S = analysis.stack(results, args.bin_height, args.u_definition, args.u_frame)
+    ens = {"times": S["times"], "z": S["z"], "repeats": len(results), "phi0": base.phi0, "H": args.H,
+           "a": pert.a, "b": pert.b}
+    for f in transient.FIELDS:
+        ens[f"{f}_mean"] = S[f].mean(0)
+        ens[f"{f}_std"] = S[f].std(0, ddof=1) if len(results) > 1 else 0 * S[f][0]
+    ens["max_w"] = abs(ens["w_mean"]).max(axis=1)
     edges = transient_edges(ens)
-    c1 = transient.continuum(ens["times"], Material(), N=args.N, edges=edges)
-    c2 = transient.continuum(ens["times"], Material(**fit), N=args.N, edges=edges)
+    c1 = transient.continuum(ens["times"], Material(), N=args.N, edges=edges, H=args.H)
+    c2 = transient.continuum(ens["times"], Material(**fit), N=args.N, edges=edges, H=args.H)
     summ = transient.summarize(ens, c1, c2, fit)
-    transient.write_json(summ, args.json)
-    if args.npz:
+    summ["protocol"] = {"fluctuations": fluct, "preparation": args.preparation, "t_shear": args.t_shear,
+                        "dt_fraction": args.dt_fraction, "transient_dt_fraction": args.transient_dt_fraction,
+                        "bin_height": args.bin_height, "u_definition": args.u_definition,
+                        "u_frame": args.u_frame, "n_particles": args.particles, "H": args.H, "k_n": args.k_n}
+    if json_path:
+        transient.write_json(summ, json_path)
+    if npz_path:
         transient.save_ensemble({**ens, **{f"icidr_table1_{f}": c1[f] for f in transient.FIELDS},
-                                 **{f"icidr_fitted_{f}": c2[f] for f in transient.FIELDS}}, args.npz)
+                                 **{f"icidr_fitted_{f}": c2[f] for f in transient.FIELDS}}, npz_path)
     e1, e2 = transient.errors(ens, c1), transient.errors(ens, c2)
-    if args.fig:
-        Path(args.fig).parent.mkdir(parents=True, exist_ok=True)
-        plots.fig8(ens, c1, c2, e1, e2, args.fig)
+    if fig_path:
+        plots.fig8(ens, c1, c2, e1, e2, fig_path)
     for name, key in (("Table 1", "rel_error_table1_summary"), ("fitted", "rel_error_fitted_summary")):
         b = summ[key]
         print(f"{name:8s}: E max {100 * b['max']:.2f} %  mean {100 * b['mean']:.2f} %  | "
-              + "  ".join(f"{f}: max {100 * b[f + '_max']:.2f} % mean {100 * b[f + '_mean']:.2f} %"
-                          f" (floor {100 * b[f + '_floor_mean']:.2f} %)" for f in transient.FIELDS))
-    print(f"wrote {args.json}, {args.npz}, {args.fig}")
+              + "  ".join(f"{f}: max {100 * b[f + '_max']:.2f} % (floor {100 * b[f + '_floor_mean']:.2f} %)"
+                          for f in transient.FIELDS))
+    pk = summ["secondary_max_w_peak"]
+    print(f"secondary max|w|: DEM {pk['dem']['max_w']:.4f} at t = {pk['dem']['t']:.1f}, "
+          f"iCIDR (Table 1) {pk['table1']['max_w']:.4f} at t = {pk['table1']['t']:.1f}")
+    print("wrote " + ", ".join(str(p) for p in (json_path, npz_path, fig_path) if p))
+    return 0
+
+
+def cmd_audit(args) -> int:
+    from . import audit
+
+    cache_dir = _cache(args)
+    if args.action == "run":
+        unknown = [f for f in args.factors if f not in audit.FACTORS]
+        if not args.factors or unknown:
+            raise ValueError(f"`factors` must be among {sorted(audit.FACTORS)}; got {args.factors}")
+        for f in args.factors:
+            audit.run_factor(f, args.repeats, cache_dir)
+        return 0
+    from .audit_report import make_report
+
+    out = _writable_dir(args.out)
+    make_report(cache_dir, out / "audit.json", out / "audit.npz", out / "fig8_audit.png")
+    print(f"wrote {out / 'audit.json'}, {out / 'audit.npz'}, {out / 'fig8_audit.png'}")
     return 0
 
 
@@ -139,5 +266,5 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except ValueError as exc:
-        parser.error(str(exc))
+        print(f"icidr-pde: error: {exc}", file=sys.stderr)
         return 2

@@ -5,7 +5,8 @@ Per bin b of height h and width L (the whole periodic cell):
 * packing fraction phi_b = (disk area inside the slab) / (h L), with the exact
   circle-slab intersection (periodic in z), so the bin mean of phi is exactly
   the total disk area / (H L) = phi0 of appendix C;
-* velocities u_b, w_b: mass-weighted means with the same slab weights;
+* velocities u_b, w_b: mass-weighted means of the material in the slab
+  (:func:`layer_moments` also gives the two other definitions studied);
 * stress by (C1): the pressure-like (compression positive) tensor
   P_ij = 1/(h L) sum_{alpha in b} [ 1/2 sum_beta r_i f_j + m dv_i dv_j ]
   where the first term is the per-particle pair virial (half of each contact
@@ -56,26 +57,84 @@ def bin_edges(H: float, bin_height: float) -> np.ndarray:
     return np.linspace(0.0, H, n + 1)
 
 
-def profiles(z, u, w, radius, mass, L, H, bin_height=2.0, V0=0.0):
-    """phi, u, w per bin (appendix C).  Returns (centres, phi, u, w).
+#: velocity definitions of :func:`layer_moments` (see there)
+VELOCITY_DEFINITIONS = ("slab_mass", "area_times_mass", "centre")
 
-    ``V0`` is the Lees-Edwards velocity jump: the part of a disk that sticks out
-    through z = H (image z - H... z + H) moves with u + V0 (u - V0 through z = 0).
+
+def layer_moments(z, u, w, radius, mass, L, H, bin_height=1.0, V0=0.0) -> dict:
+    """Additive per-bin sums from which phi, u, w follow for any coarser bin and
+    for each velocity definition (arrays of shape (n_bins,)).
+
+    * ``area``: disk area inside the slab (phi = area / (h L));
+    * ``slab_mass``: each disk contributes the mass of its part inside the slab,
+      rho_alpha A_alpha,b (rho_alpha = m_alpha / pi r_alpha^2), and that part's
+      momentum -- the mass-weighted velocity of the material in the slab;
+    * ``area_times_mass``: weights A_alpha,b m_alpha (the definition used before;
+      it over-weights large disks as r^4);
+    * ``centre``: each disk counted whole in the bin holding its centre, with
+      weight m_alpha (the usual particle-binning estimate).
+
+    ``V0`` is the Lees-Edwards jump: the part of a disk that sticks out through
+    z = H (z = 0) belongs to its image and moves at u + V0 (u - V0).
+    Keys: area, m_<def>, pu_<def>, pw_<def> for each definition.
     """
     if not L > 0:
         raise ValueError(f"`L` must be > 0; got {L}")
     edges = bin_edges(H, bin_height)
     A3 = slab_areas(z, radius, edges, H, per_image=True)
     A = A3.sum(axis=0)
-    phi = A.sum(axis=0) / (L * np.diff(edges))
-    m = np.asarray(mass, float)[:, None]
-    den = (A * m).sum(axis=0)
-    u = np.asarray(u, float)[:, None]
-    w = np.asarray(w, float)[:, None]
-    mom_u = sum((A3[k] * m * (u + shift * V0)).sum(axis=0) for k, shift in enumerate(IMAGE_SHIFTS))
+    m = np.asarray(mass, float)
+    R = np.asarray(radius, float)
+    u = np.asarray(u, float)
+    w = np.asarray(w, float)
+    rho = m / (np.pi * R * R)
+    out = {"area": A.sum(axis=0)}
+    for name, wt in (("slab_mass", rho), ("area_times_mass", m)):
+        W3 = A3 * wt[None, :, None]
+        out[f"m_{name}"] = W3.sum(axis=(0, 1))
+        out[f"pu_{name}"] = sum((W3[k] * (u + shift * V0)[:, None]).sum(axis=0)
+                                for k, shift in enumerate(IMAGE_SHIFTS))
+        out[f"pw_{name}"] = (W3.sum(axis=0) * w[:, None]).sum(axis=0)
+    nb = edges.size - 1
+    idx = np.clip(np.searchsorted(edges, np.mod(np.asarray(z, float), H), side="right") - 1, 0, nb - 1)
+    out["m_centre"] = np.bincount(idx, m, minlength=nb)
+    out["pu_centre"] = np.bincount(idx, m * u, minlength=nb)
+    out["pw_centre"] = np.bincount(idx, m * w, minlength=nb)
+    return out
+
+
+def fields_from_moments(mom: dict, L: float, bin_height: float, definition="slab_mass", merge=1):
+    """phi, u, w from :func:`layer_moments` sums (any leading axes, bins last),
+    after merging ``merge`` consecutive bins (the sums are additive, so merging
+    is exact).  Returns (phi, u, w)."""
+    if definition not in VELOCITY_DEFINITIONS:
+        raise ValueError(f"`definition` must be one of {VELOCITY_DEFINITIONS}; got {definition!r}")
+    nb = np.asarray(mom["area"]).shape[-1]
+    if not isinstance(merge, (int, np.integer)) or merge < 1 or nb % merge:
+        raise ValueError(f"`merge` must be a positive divisor of the {nb} bins; got {merge!r}")
+
+    def agg(a):
+        a = np.asarray(a, float)
+        return a.reshape(*a.shape[:-1], nb // merge, merge).sum(-1)
+
+    m = agg(mom[f"m_{definition}"])
     with np.errstate(invalid="ignore", divide="ignore"):
-        ub = mom_u / den
-        wb = (A * m * w).sum(axis=0) / den
+        u = agg(mom[f"pu_{definition}"]) / m
+        w = agg(mom[f"pw_{definition}"]) / m
+    return agg(mom["area"]) / (L * bin_height * merge), u, w
+
+
+def profiles(z, u, w, radius, mass, L, H, bin_height=2.0, V0=0.0, definition="slab_mass"):
+    """phi, u, w per bin (appendix C).  Returns (centres, phi, u, w).
+
+    Velocities are the mass-weighted means of the material in each slab (see
+    :func:`layer_moments` for the definitions).  ``V0`` is the Lees-Edwards
+    velocity jump: the part of a disk that sticks out through z = H moves with
+    u + V0 (u - V0 through z = 0).
+    """
+    mom = layer_moments(z, u, w, radius, mass, L, H, bin_height, V0)
+    phi, ub, wb = fields_from_moments(mom, L, bin_height, definition)
+    edges = bin_edges(H, bin_height)
     return 0.5 * (edges[1:] + edges[:-1]), phi, ub, wb
 
 

@@ -56,6 +56,13 @@ def pair_virial_from_stress_atom(s: np.ndarray) -> np.ndarray:
     return -s[:, [0, 1, 3]]
 
 
+PREPARATIONS = ("minimize", "rescale")
+#: kinetic temperature (per degree of freedom, m V0^2 units) and duration of the
+#: appendix-C "rescale" preparation; equipartition gives overlaps ~ sqrt(2 T / k_n)
+RESCALE_TEMPERATURE = 1.0e-3
+RESCALE_TIME = 20.0
+
+
 class ShearCell:
     """A LAMMPS Lees-Edwards shear cell of appendix C.
 
@@ -63,18 +70,32 @@ class ShearCell:
         phi0: requested mean packing fraction (sets L, appendix C)
         seed: random seed (placement); any positive int
         params: :class:`DEMParams`
+        preparation: overlap removal before shearing, 'minimize' (FIRE on the
+            equivalent elastic frictionless repulsion) or 'rescale' (appendix C:
+            elastic frictionless dynamics with the kinetic energy rescaled to a
+            small constant, see :data:`RESCALE_TEMPERATURE`, :data:`RESCALE_TIME`)
+        restart: a file written by :meth:`write_restart`; the cell continues from
+            it (positions, velocities, spins, contact history, box tilt) and
+            ``seed``/``preparation`` are ignored
     """
 
-    def __init__(self, phi0: float, seed: int, params: DEMParams | None = None):
+    def __init__(self, phi0: float, seed: int, params: DEMParams | None = None,
+                 preparation: str = "minimize", restart=None):
         self.params = params or DEMParams()
         self.phi0 = check_phi0(phi0)
         if not isinstance(seed, (int, np.integer)) or not 0 < seed < 900_000_000:
             raise ValueError(f"`seed` must be an integer in [1, 9e8); got {seed!r}")
+        if preparation not in PREPARATIONS:
+            raise ValueError(f"`preparation` must be one of {PREPARATIONS}; got {preparation!r}")
         self.seed = int(seed)
+        self.preparation = preparation
         self.L = self.params.box_length(self.phi0)
         self.t = 0.0
         self.lmp = new_lammps()
-        self._build()
+        if restart is None:
+            self._build()
+        else:
+            self._from_restart(str(restart))
 
     # ------------------------------------------------------------------ set-up
     def _cmd(self, text: str) -> None:
@@ -109,10 +130,53 @@ class ShearCell:
             "fix en all enforce2d",
         ]
         self._cmd("\n".join(lines))
-        self._relax()
-        self._cmd(f"pair_style granular\npair_coeff * * hooke {p.k_n!r} {p.eta_n!r} tangential "
-                  f"linear_history {p.kt_over_kn * p.k_n!r} 0.0 {p.mu_p!r} damping velocity")
+        if self.preparation == "minimize":
+            self._relax()
+        else:
+            self._relax_rescale()
+        self._cmd(self._contact_commands())
         self._start_shear()
+
+    def _contact_commands(self) -> str:
+        """The appendix-C frictional spring-dashpot contact (pair granular)."""
+        p = self.params
+        return (f"pair_style granular\npair_coeff * * hooke {p.k_n!r} {p.eta_n!r} tangential "
+                f"linear_history {p.kt_over_kn * p.k_n!r} 0.0 {p.mu_p!r} damping velocity")
+
+    def _from_restart(self, path: str) -> None:
+        """Continue a sheared cell from a restart file (pair style and contact
+        history are stored in it; the fixes are re-created with the same IDs)."""
+        p = self.params
+        self._cmd("\n".join([
+            f"read_restart {path}",
+            # the restored granular style finds no contacts (its radius-based
+            # cutoff is not restored: 0 neighbours); re-specifying the same style
+            # keeps its instance and the contact-history fix
+            self._contact_commands(),
+            "comm_modify vel yes",
+            "neighbor 0.3 bin",
+            "neigh_modify delay 0 every 1 check yes",
+            f"timestep {p.dt!r}",
+            "compute s all stress/atom NULL pair",
+            "compute p all reduce sum c_s[1] c_s[2] c_s[4]",
+            "thermo_style custom step c_p[1] c_p[2] c_p[3]",
+            "thermo 1000000000",
+            "fix en all enforce2d",
+            "fix nv all nve/sphere disc",
+            f"fix le all deform 1 xy erate {p.shear_rate!r} remap v flip yes",
+            "run 0",
+        ]))
+        self.t = 0.0
+
+    def write_restart(self, path) -> None:
+        """Write the full state (incl. contact history) for :class:`ShearCell` ``restart=``."""
+        self._cmd(f"write_restart {path}")
+
+    def set_timestep(self, dt: float) -> None:
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"`dt` must be > 0; got {dt}")
+        self._cmd(f"timestep {dt!r}")
+        self._dt = dt
 
     def _relax(self) -> None:
         """Remove the random-placement overlaps (appendix C: elastic, frictionless).
@@ -135,6 +199,39 @@ class ShearCell:
         ]
         self._cmd("\n".join(lines))
 
+    def _relax_rescale(self) -> None:
+        """Appendix C: elastic, frictionless disks whose total kinetic energy is
+        rescaled to a small constant every step, until the overlaps have relaxed."""
+        p = self.params
+        nsteps = int(round(RESCALE_TIME / p.dt))
+        T = RESCALE_TEMPERATURE
+        self._cmd("\n".join([
+            "pair_style granular",
+            f"pair_coeff * * hooke {p.k_n!r} 0.0 tangential linear_nohistory 0.0 0.0",
+            "fix nv0 all nve/sphere disc",
+            f"fix kr all temp/rescale 1 {T!r} {T!r} 0.0 1.0",
+            f"run {nsteps} post no",
+            "unfix kr",
+            "unfix nv0",
+            "velocity all set 0 0 0",
+            "reset_timestep 0",
+        ]))
+
+    def max_overlap(self) -> float:
+        """Largest overlap r_i + r_j - distance (units of d) by brute force; valid before shearing (zero tilt)."""
+        s = self.snapshot(with_stress=False)
+        x, z, r = s.x, np.mod(s.z, s.H), s.radius
+        worst = 0.0
+        for i in range(x.size - 1):
+            dx = x[i + 1:] - x[i]
+            dz = z[i + 1:] - z[i]
+            dz -= s.H * np.round(dz / s.H)
+            dx -= s.L * np.round(dx / s.L)   # tilt ignored: only called before shearing
+            ov = r[i] + r[i + 1:] - np.hypot(dx, dz)
+            if ov.size:
+                worst = max(worst, float(ov.max()))
+        return worst
+
     def _start_shear(self) -> None:
         p = self.params
         self._cmd(
@@ -152,9 +249,10 @@ class ShearCell:
     # --------------------------------------------------------------- dynamics
     def advance(self, duration: float) -> None:
         """Integrate for ``duration`` time units (rounded to whole steps)."""
-        nsteps = max(1, int(round(duration / self.params.dt)))
+        dt = getattr(self, "_dt", self.params.dt)
+        nsteps = max(1, int(round(duration / dt)))
         self._cmd(f"run {nsteps} post no")
-        self.t += nsteps * self.params.dt
+        self.t += nsteps * dt
 
     def snapshot(self, with_stress: bool = True) -> Snapshot:
         """Copy the particle state; ``with_stress`` needs a completed run step."""

@@ -92,6 +92,7 @@ def run_cell(phi0: float, seed: int, params: DEMParams | None = None,
     protocol = protocol or Protocol()
     hb = params.bin_height
     wall0 = time.perf_counter()
+    cpu0 = time.process_time()
     out: dict = {"phi0": phi0, "seed": seed, "params": str(asdict(params)),
                  "protocol": str(asdict(protocol)), "dt": params.dt}
     with ShearCell(phi0, seed, params) as cell:
@@ -132,6 +133,7 @@ def run_cell(phi0: float, seed: int, params: DEMParams | None = None,
         if sine is not None:
             out.update(_transient(cell, params, sine))
     out["wall_total"] = time.perf_counter() - wall0
+    out["cpu_total"] = time.process_time() - cpu0
     return out
 
 

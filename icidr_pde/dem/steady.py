@@ -6,10 +6,8 @@ runs at phi0 = 0.78 also carry the (5.7) transient used by figure 8.
 
 from __future__ import annotations
 
-import json
 import multiprocessing as mp
 from dataclasses import asdict
-from pathlib import Path
 
 import numpy as np
 
@@ -139,6 +137,7 @@ def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed
     summary["wall_total_s"] = float(sum(r["wall_total"] for r in results))
     summary.update(params=asdict(params), protocol=asdict(protocol), base_seed=base_seed)
     if json_path:
-        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        Path(json_path).write_text(json.dumps(summary, indent=1))
+        from .transient import write_json
+
+        write_json(summary, json_path)
     return summary

@@ -20,6 +20,7 @@ RMS_bins(std_DEM / sqrt(R)) / S_f is the resolution floor of that number.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -152,9 +153,17 @@ def transient_results(repeats=10, n_particles=1000, base_seed=1, jobs=2,
 
 
 def save_ensemble(ens, path):
-    np.savez_compressed(path, **{k: np.asarray(v) for k, v in ens.items()})
+    """Write the ensemble npz atomically (a temporary file moved into place)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
+    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in ens.items()})
+    os.replace(tmp, path)
 
 
 def write_json(summary, path):
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(json.dumps(summary, indent=1))
+    """Write a JSON summary atomically (never half-written)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(summary, indent=1))
+    os.replace(tmp, path)
