@@ -211,7 +211,8 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
     raw_fit = continuum_raw(Material(**fit), times, cache_dir)
     c_t1, c_fit = binned(raw_t1, H, 2.0), binned(raw_fit, H, 2.0)
     z = S0["z"]
-    summary = {"factors": {}, "paired_vs_baseline": {}, "phi0": phi0}
+    summary = {"factors": {}, "paired_vs_baseline": {}, "phi0": phi0, "table1": asdict(Material()),
+               "fitted": fit}
     curves = {"times": times.astype(np.float32), "z": z}
     for name, rs in res.items():
         S = A.stack(rs)
@@ -246,6 +247,8 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
         curves[f"icidr_{nm}_W1"] = A.mode_amplitude(c["w"], z, H, 2.0).astype(np.float32)
         summary[f"icidr_{nm}_peak"] = A.peak_stats(c["w"], times, z, H, 2.0)
     summary["ensemble_size"] = {"subsets_of_10": subsets(S0, 10)}
+    for k in range(S0["w"].shape[0] // 10):
+        curves[f"subset{k}_max_w"] = np.abs(S0["w"][10 * k:10 * (k + 1)].mean(0)).max(-1).astype(np.float32)
     summary["definitions"] = definitions(res[base_factor], raw_t1, phi0, H)
     dmap, first = departure_map(M0, SE0, c_t1)
     summary["departure_first_time_3se"] = first

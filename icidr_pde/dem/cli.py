@@ -154,8 +154,7 @@ def cmd_steady(args) -> int:
     params = _params(args)
     s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs,
                          cache_dir=_cache(args), protocol=Protocol(t_shear=args.t_shear, t_avg=args.t_avg),
-                         params=params, json_path=json_path, progress=not args.no_progress,
-                         with_transient=False)
+                         params=params, json_path=json_path, progress=not args.no_progress)
     if "fit" in s and fig_path:
         plots.fig1(s, fig_path)
     for pt in s["points"]:

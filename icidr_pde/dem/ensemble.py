@@ -15,7 +15,9 @@ do with each particle's fluctuation about its bin mean (``fluctuations``):
 * ``drop``  -- (5.7) exactly, zero granular temperature;
 * ``local`` -- the fluctuation scaled by 2||S||/(V0/H) of the (5.7) field at the
   particle: the temperature of steady flow at the local strain rate (in the
-  inertial regime velocity fluctuations scale as d ||S|| at fixed phi).
+  inertial regime velocity fluctuations scale as d ||S|| at fixed phi); the
+  scale varies inside a bin, so bin means move by a small fraction of the
+  fluctuation (~1e-3 V0 per member, zero on average).
 
 Profiles are recorded as additive sums on fine bins (:func:`coarse.layer_moments`
 plus second velocity moments and the contact virial per bin), so bin size,

@@ -9,7 +9,7 @@ k_t = 0.5 k_n, no tangential dashpot, Coulomb friction mu_p = 0.4.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

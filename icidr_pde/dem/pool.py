@@ -42,8 +42,7 @@ def run(cache_dir, names=None, progress=True):
     for name in names or CONFIGS:
         params, repeats = CONFIGS[name]
         out[name] = run_steady_study(DEFAULT_PHI0, repeats=repeats, params=params, jobs=1,
-                                     cache_dir=cache_dir, protocol=POOL_PROTOCOL, progress=progress,
-                                     with_transient=False)
+                                     cache_dir=cache_dir, protocol=POOL_PROTOCOL, progress=progress)
         if progress:
             print(f"pool {name}: done", flush=True)
     return out

@@ -14,31 +14,29 @@ import numpy as np
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams, check_phi0
-from .runs import Protocol, SineIC, run_cell
+from .runs import Protocol, run_cell
 
 TRANSIENT_PHI0 = 0.78
 DEFAULT_PHI0 = (0.76, 0.77, 0.78, 0.79, 0.80)
 
 
 def _task(args):
-    phi0, seed, params, protocol, sine, cache_dir = args
+    phi0, seed, params, protocol, cache_dir = args
     key = cache.run_key(phi0, seed, params, protocol)
     res = cache.load(cache_dir, key)
-    if res is not None and (sine is None or "tr_times" in res):
+    if res is not None:
         return key, res
-    res = run_cell(phi0, seed, params, protocol, sine)
+    res = run_cell(phi0, seed, params, protocol)
     cache.save(cache_dir, key, res)
     return key, res
 
 
-def plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient=True,
-         sine_ic=None):
+def plan(phi0s, repeats, base_seed, params, protocol, cache_dir):
     """Task list ordered repeat-major, so an interrupted study has whole repeats."""
     tasks = []
     for r in range(repeats):
         for phi0 in phi0s:
-            sine = (sine_ic or SineIC()) if (with_transient and abs(phi0 - TRANSIENT_PHI0) < 1e-9) else None
-            tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, sine, cache_dir))
+            tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, cache_dir))
     return tasks
 
 
@@ -116,13 +114,13 @@ def table1_dict():
     try:
         from icidr_pde.rheology import Material
         return asdict(Material())
-    except ImportError:  # lead's module missing: Table 1 literal values
+    except ImportError:  # core module missing: Table 1 literal values
         return {"mu_s": 0.248, "mu_d": 0.588, "I0": 0.145, "phi_c": 0.817, "a": 0.314}
 
 
 def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed=1,
                      jobs=2, cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None,
-                     json_path=None, progress=True, with_transient=True) -> dict:
+                     json_path=None, progress=True) -> dict:
     """The full figure-1 study; returns (and optionally writes) the JSON summary."""
     phi0s = [check_phi0(p) for p in phi0s]
     if len(phi0s) < 1:
@@ -131,7 +129,7 @@ def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed
         raise ValueError(f"`repeats` must be an integer >= 1; got {repeats!r}")
     params = params or DEMParams(n_particles=n_particles)
     protocol = protocol or Protocol()
-    tasks = plan(phi0s, repeats, base_seed, params, protocol, cache_dir, with_transient)
+    tasks = plan(phi0s, repeats, base_seed, params, protocol, cache_dir)
     results = execute(tasks, jobs=jobs, progress=progress)
     summary = summarize(results, table1_dict())
     summary["wall_total_s"] = float(sum(r["wall_total"] for r in results))

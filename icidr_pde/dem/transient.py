@@ -1,12 +1,10 @@
 """Section 6 / figure 8: DEM ensemble of the (5.7) transient vs iCIDR.
 
-Each repeat starts from an independent steady state at phi0 = 0.78 (the
-phi0 = 0.78 runs of the steady study), whose mean velocity field is replaced by
-(5.7) with a = 0.16, b = 0.1 while the particle fluctuations about the mean
-are kept.  Profiles of phi, u, w (bins of 2 d, appendix C) are recorded every
-0.1 time units for 20 time units; the ensemble mean and standard deviation
-are compared with the iCIDR continuum solution (lead's ``icidr_pde.run``,
-scene 'sine', N = 201) averaged over the same bins.
+The DEM members come from :mod:`icidr_pde.dem.ensemble` (independent steady
+states at phi0 = 0.78 whose mean velocity field is replaced by (5.7) with
+a = 0.16, b = 0.1); their ensemble mean and standard deviation are compared
+with the iCIDR continuum solution (``icidr_pde.run``, scene 'sine', N = 201)
+averaged over the same bins.
 
 Error (documented in docs/dem.md): for f in (phi, u, w)
 
@@ -25,10 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cache
-from .params import DEMParams
-from .runs import Protocol, SineIC
-from .steady import TRANSIENT_PHI0, execute, plan
+from .steady import TRANSIENT_PHI0
 
 FIELDS = ("phi", "u", "w")
 
@@ -61,12 +56,12 @@ def bin_average(z_fine, f_fine, edges, H):
 
 
 def continuum(times, material=None, N=201, phi0=TRANSIENT_PHI0, a=0.16, b=0.1, H=30.0, edges=None):
-    """iCIDR run of scene 'sine' (5.7) via the lead's API, averaged over DEM bins.
+    """iCIDR run of scene 'sine' (5.7) via the core API, averaged over DEM bins.
 
     Returns dict with 'phi', 'u', 'w' arrays shaped (len(times), n_bins), the
     raw result ``res`` and 'max_w' of the binned profiles.
     """
-    from icidr_pde import run  # lazy: core package by the lead
+    from icidr_pde import run  # lazy: the core solver
 
     times = np.asarray(times, float)
     t_end = float(times.max())
@@ -136,20 +131,6 @@ def summarize(ens, cont_t1, cont_fit, fit_params) -> dict:
         "fitted_parameters": fit_params,
         "phi0": ens["phi0"], "a": ens["a"], "b": ens["b"],
     }
-
-
-def transient_results(repeats=10, n_particles=1000, base_seed=1, jobs=2,
-                      cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None, progress=True,
-                      sine_ic=None):
-    """DEM transients (from cache, else run): the phi0 = 0.78 tasks of the steady study.
-
-    A non-default ``sine_ic`` must use its own ``cache_dir`` (the cache key
-    covers the cell and protocol, not the initial condition of the transient).
-    """
-    params = params or DEMParams(n_particles=n_particles)
-    protocol = protocol or Protocol()
-    tasks = plan([TRANSIENT_PHI0], repeats, base_seed, params, protocol, cache_dir, True, sine_ic)
-    return execute(tasks, jobs=jobs, progress=progress)
 
 
 def save_ensemble(ens, path):

@@ -17,7 +17,7 @@ from icidr_pde.dem import coarse  # noqa: E402
 from icidr_pde.dem._lammps import new_lammps  # noqa: E402
 from icidr_pde.dem.driver import ShearCell, pair_virial_from_stress_atom  # noqa: E402
 from icidr_pde.dem.params import DEMParams  # noqa: E402
-from icidr_pde.dem.runs import Protocol, SineIC, run_cell  # noqa: E402
+from icidr_pde.dem.runs import Protocol, run_cell  # noqa: E402
 
 PHI0 = 0.78
 PARAMS = DEMParams(n_particles=200, H=10.0)
@@ -129,16 +129,62 @@ def test_stress_positive_pressure_and_symmetric(sheared):
 
 
 def test_run_cell_pipeline_outputs():
-    r = run_cell(PHI0, 11, PARAMS, Protocol(t_shear=10.0, t_avg=20.0, sample_every=0.5),
-                 SineIC(t_end=1.0, record_every=0.5))
+    r = run_cell(PHI0, 11, PARAMS, Protocol(t_shear=10.0, t_avg=20.0, sample_every=0.5))
     assert r["phi_mean"] == pytest.approx(PHI0, rel=1e-10)
     assert r["p"] > 0 and 0 < r["mu"] < 1 and r["I"] > 0
     assert r["I"] == pytest.approx(PARAMS.shear_rate / np.sqrt(r["p"]))  # (2.9), d = rho = 1
-    assert r["tr_u"].shape == (3, PARAMS.n_bins)
-    # the transient starts from (5.7): bin means of w equal -b sin(2 pi z/H) averaged over the
-    # bin, up to the sampling of the sine at ~40 disk centres per bin (sin varies by ~0.06
-    # across a bin of the 10 d cell; disks overlapping neighbour bins) -> 0.02 = b/5
-    zc, h, H = r["z"], 2.0, PARAMS.H
-    w_exact = -0.1 * (np.cos(2 * np.pi * (zc - h / 2) / H) - np.cos(2 * np.pi * (zc + h / 2) / H)) \
-        * H / (2 * np.pi * h)
-    np.testing.assert_allclose(r["tr_w"][0], w_exact, atol=0.02)
+    assert r["u_profile"].shape == (PARAMS.n_bins,)
+
+
+def test_restart_continues_the_same_trajectory_with_contacts(tmp_path):
+    """A restart file keeps positions, velocities, spins and the tangential contact
+    history: continuing from it reproduces the direct continuation to round-off growth."""
+    from icidr_pde.dem.driver import ShearCell
+
+    path = tmp_path / "cell.restart"
+    with ShearCell(PHI0, 5, PARAMS) as cell:
+        cell.advance(5.0)
+        cell.write_restart(path)
+        cell.advance(0.2)
+        a = cell.snapshot()
+    with ShearCell(PHI0, 5, PARAMS, restart=path) as cell:
+        cell.advance(0.2)
+        b = cell.snapshot()
+        n_atoms = cell.lmp.get_natoms()
+    ia, ib = np.argsort(a.ids), np.argsort(b.ids)
+    assert n_atoms == PARAMS.n_particles
+    np.testing.assert_allclose(b.u[ib], a.u[ia], atol=1e-6)
+    np.testing.assert_allclose(b.w[ib], a.w[ia], atol=1e-6)
+    # contacts are live after the restart: the (C1) pair virial is the same and non-zero
+    assert np.abs(a.virial).max() > 0
+    np.testing.assert_allclose(b.virial[ib], a.virial[ia], atol=1e-6 * np.abs(a.virial).max())
+
+
+def test_rescale_preparation_leaves_small_overlaps():
+    """Appendix C's preparation: frictionless elastic dynamics with the kinetic energy
+    rescaled to a small constant relaxes the random-placement overlaps."""
+    from icidr_pde.dem.driver import ShearCell
+
+    with ShearCell(PHI0, 3, PARAMS, preparation="rescale") as cell:
+        s = cell.snapshot(with_stress=False)
+        assert np.sum(np.pi * s.radius**2) / (s.L * s.H) == pytest.approx(PHI0, rel=1e-12)
+        # equipartition: overlaps ~ sqrt(2 T / k_n) = 4.5e-4 d; random placement leaves ~0.5 d
+        assert cell.max_overlap() < 0.01
+
+
+def test_ensemble_members_share_a_base_state_and_resume_from_cache(tmp_path):
+    from icidr_pde.dem import ensemble as E
+
+    base = E.BaseState(params=PARAMS, t_shear=2.0)
+    perts = [E.Perturbation(fluctuations=f, t_end=0.3, record_every=0.1, record_bin=2.0)
+             for f in ("keep", "drop")]
+    keep, drop = E.run_ensemble_member(base, 9, perts, tmp_path)
+    assert keep["cpu_base_s"] > 0 and drop["cpu_base_s"] == 0      # one base state for both
+    # same microscopic state: identical packing-fraction profile at t = 0
+    np.testing.assert_allclose(keep["m_area"][0], drop["m_area"][0], rtol=1e-12)
+    t, z, phi, u, w = E.fields(drop, 2.0)
+    w57 = -0.1 * (np.cos(2 * np.pi * (z - 1) / PARAMS.H) - np.cos(2 * np.pi * (z + 1) / PARAMS.H)) \
+        * PARAMS.H / (2 * np.pi * 2.0)
+    np.testing.assert_allclose(w[0], w57, atol=0.02)   # (5.7) sampled at ~40 disk centres per bin
+    again = E.run_ensemble_member(base, 9, perts, tmp_path)
+    assert [r["cpu_s"] for r in again] == [keep["cpu_s"], drop["cpu_s"]]   # loaded, not rerun

@@ -26,7 +26,7 @@ def test_ensemble_mean_std():
     stack = np.stack([r["tr_u"] for r in runs])
     np.testing.assert_allclose(ens["u_mean"], stack.mean(0))
     np.testing.assert_allclose(ens["u_std"], stack.std(0, ddof=1))
-    np.testing.assert_allclose(ens["max_w"], np.abs(stack_w := np.stack([r["tr_w"] for r in runs]).mean(0)).max(1))
+    np.testing.assert_allclose(ens["max_w"], np.abs(np.stack([r["tr_w"] for r in runs]).mean(0)).max(1))
     assert ens["repeats"] == 4
     with pytest.raises(ValueError, match="results"):
         transient.ensemble([{"phi0": 0.78}])
@@ -66,6 +66,58 @@ def test_cli_wiring_and_bad_input():
         parser.parse_args(["dem", "steady", "--repeats", "0"])
 
 
+def _parse(argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    add_parser(sub)
+    return parser.parse_args(argv)
+
+
+def test_default_outputs_go_to_the_current_directory_not_the_committed_data(tmp_path, monkeypatch):
+    from icidr_pde.dem.cli import _output, _writable_dir
+    from icidr_pde.dem.paths import committed_dir
+
+    monkeypatch.chdir(tmp_path)
+    for argv, name in ((["dem", "steady"], "steady.json"), (["dem", "transient"], "transient.json")):
+        a = _parse(argv)
+        out = _writable_dir(a.out)
+        path = _output(a.json, out, name).resolve()
+        assert path == tmp_path / name
+        assert committed_dir().resolve() not in path.parents
+    assert _output("", tmp_path, "x.png") is None
+    with pytest.raises(ValueError, match="directory"):
+        _output(str(tmp_path), tmp_path, "x.json")          # an existing directory as a file name
+    (tmp_path / "afile").write_text("")
+    with pytest.raises(ValueError, match="--out"):
+        _writable_dir(tmp_path / "afile")
+
+
+def test_transient_reads_the_committed_fit_from_any_directory(tmp_path, monkeypatch):
+    import json
+
+    from icidr_pde.dem.paths import committed
+
+    monkeypatch.chdir(tmp_path)
+    fit = json.loads(committed("steady.json").read_text())["fit"]
+    assert set(fit) == {"mu_s", "mu_d", "I0", "phi_c", "a"}
+
+
+def test_transient_checks_inputs_before_any_run(tmp_path, capsys):
+    from icidr_pde.dem.cli import main
+
+    rc = main(["transient", "--steady-json", str(tmp_path / "missing.json"), "--out", str(tmp_path)])
+    assert rc == 2 and "--steady-json" in capsys.readouterr().err
+    (tmp_path / "f").write_text("")
+    rc = main(["transient", "--out", str(tmp_path / "f")])
+    assert rc == 2 and "--out" in capsys.readouterr().err
+    rc = main(["transient", "--bin-height", "4", "--out", str(tmp_path)])
+    assert rc == 2 and "--bin-height" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        _parse(["dem", "transient", "--fluctuations", "warm"])
+    with pytest.raises(SystemExit):
+        _parse(["dem", "transient", "--transient-dt-fraction", "0.5"])
+
+
 def test_steady_study_rejects_bad_phi0(tmp_path):
     from icidr_pde.dem.steady import run_steady_study
     with pytest.raises(ValueError, match="phi0"):
@@ -76,7 +128,7 @@ def test_steady_study_rejects_bad_phi0(tmp_path):
 
 @pytest.mark.slow
 def test_continuum_initial_profiles_are_57_bin_averages():
-    """The lead's iCIDR run, bin-averaged as the DEM, starts from (5.7)."""
+    """The core iCIDR run, bin-averaged as the DEM, starts from (5.7)."""
     pytest.importorskip("pde")
     edges = np.linspace(0, 30, 16)
     c = transient.continuum(np.array([0.0, 0.1]), None, N=201, edges=edges)
