@@ -176,7 +176,21 @@ def local_rheology(results, mean, bin_height=2.0, window=1.0, rho=1.0, d=1.0):
     def win(a):
         return a[1:1 + T * n].reshape(T, n, *a.shape[1:]).mean(1)
 
-    p, tau, mu = coarse.invariants(win(P))
+    Pw = win(P)
+    p, tau, mu = coarse.invariants(Pw)
     S2 = win(np.hypot(uz, wz))
+    # Cauchy deviatoric components (sigma = -P): tau_xz = -P_xz, tau_zz = (P_xx - P_zz)/2
     return {"t": win(t), "p": p, "mu": mu, "I": S2 * d / np.sqrt(np.maximum(p, 1e-300) / rho),
-            "phi": win(mean["phi"]), "uz": win(uz), "wz": win(wz)}
+            "phi": win(mean["phi"]), "uz": win(uz), "wz": win(wz),
+            "tau_xz": -Pw[..., 2], "tau_zz": 0.5 * (Pw[..., 0] - Pw[..., 1])}
+
+
+def constitutive_residual(lr, material=None):
+    """iCIDR's stress (4.12), (4.14) evaluated on the DEM's own local state (phi, u_z,
+    w_z) against the DEM's measured p and tau_xz: dict of (T', B) arrays."""
+    from icidr_pde.rheology import Material, get_rheology
+
+    material = material or Material()
+    phi = np.clip(lr["phi"], 1e-3, material.phi_c - 1e-4)
+    p, txz, _ = get_rheology("icidr", material).stress(phi, lr["uz"], lr["wz"])
+    return {"p_icidr": np.asarray(p), "tau_xz_icidr": np.asarray(txz)}

@@ -177,7 +177,34 @@ def definitions(results, cont_raw_t1, phi0, H=30.0):
     return out
 
 
-def departure_map(mean, se, cont):
+def constitutive_summary(lr, I_low=0.05):
+    """Medians of iCIDR-on-DEM-state over DEM for p and tau_xz, by time window and
+    for low-I bins (I < I_low) against the rest."""
+    rp = lr["p_icidr"] / lr["p"]
+    rt = lr["tau_xz_icidr"] / lr["tau_xz"]
+    low = lr["I"] < I_low
+    early = np.asarray(lr["t"]) < 2.0
+    dil = lr["wz"] > 0
+    out = {"early_dilating": {"median_ratio_p": float(np.median(rp[early][dil[early]])),
+                              "median_ratio_tau_xz": float(np.median(rt[early][dil[early]])),
+                              "median_DEM_p": float(np.median(lr["p"][early][dil[early]]))},
+           "early_compacting": {"median_ratio_p": float(np.median(rp[early][~dil[early]])),
+                                "median_ratio_tau_xz": float(np.median(rt[early][~dil[early]])),
+                                "median_DEM_p": float(np.median(lr["p"][early][~dil[early]]))},
+           "early_means": "t < 2 (first two 1-unit windows); dilating: DEM w_z > 0","definition": "ratio iCIDR(phi_DEM, u_z DEM, w_z DEM) / DEM measured, 1-unit windows, 2 d bins",
+           "I_low": I_low, "fraction_low_I": float(low.mean()),
+           "median_ratio_p": {"all": float(np.median(rp)), "low_I": float(np.median(rp[low])) if low.any() else None,
+                              "other": float(np.median(rp[~low]))},
+           "median_ratio_tau_xz": {"all": float(np.median(rt)),
+                                   "low_I": float(np.median(rt[low])) if low.any() else None,
+                                   "other": float(np.median(rt[~low]))},
+           "by_window": [{"t": float(t), "median_ratio_p": float(np.median(a)), "median_ratio_tau_xz": float(np.median(b)),
+                          "min_I": float(i.min())}
+                         for t, a, b, i in zip(lr["t"], rp, rt, lr["I"])]}
+    return out
+
+
+def departure_map(mean, se, cont, z):
     """(DEM - iCIDR)/standard error per bin and time for phi, u, w, and the first
     times at which the difference exceeds 3 standard errors in at least two bins."""
     out, first = {}, {}
@@ -187,7 +214,11 @@ def departure_map(mean, se, cont):
         zmap[~np.isfinite(zmap)] = 0.0
         out[f] = zmap
         hit = np.nonzero((np.abs(zmap[1:]) > 3).sum(axis=1) >= 2)[0]
-        first[f] = None if hit.size == 0 else float(mean["times"][1 + hit[0]])
+        if hit.size == 0:
+            first[f] = None
+        else:
+            k = 1 + hit[0]
+            first[f] = {"t": float(mean["times"][k]), "z_of_bins": z[np.abs(zmap[k]) > 3].tolist()}
     return out, first
 
 
@@ -250,13 +281,15 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
     for k in range(S0["w"].shape[0] // 10):
         curves[f"subset{k}_max_w"] = np.abs(S0["w"][10 * k:10 * (k + 1)].mean(0)).max(-1).astype(np.float32)
     summary["definitions"] = definitions(res[base_factor], raw_t1, phi0, H)
-    dmap, first = departure_map(M0, SE0, c_t1)
+    dmap, first = departure_map(M0, SE0, c_t1, z)
     summary["departure_first_time_3se"] = first
     for f in FIELDS:
         curves[f"departure_{f}"] = dmap[f].astype(np.float32)
     lr = A.local_rheology(res[base_factor], M0)
+    lr.update(A.constitutive_residual(lr))
     for k, v in lr.items():
         curves[f"local_{k}"] = np.asarray(v, np.float32)
+    summary["constitutive_check"] = constitutive_summary(lr)
     steps = {"mu_s": 0.009, "mu_d": 0.034, "I0": 0.041, "phi_c": 0.0018, "a": 0.015}
     summary["sensitivity"] = sensitivity(cache_dir, times, steps, H)
     summary["sensitivity"]["steps_are"] = "1 sigma of our fit of Table 1 (data/dem/steady.json)"
@@ -275,3 +308,50 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
         from .plots import fig8_audit
         fig8_audit(summary, curves, fig_path)
     return summary
+
+
+def markdown_tables(summary) -> str:
+    """The factor table and the definitions table of docs/dem.md, from the summary."""
+    def pm(d, k, fmt="{:.4f}"):
+        v = d["peak"][k]
+        return f"{fmt.format(v['value'])} ± {fmt.format(v['se'])}"
+
+    rows = ["| factor | members | secondary max\\|w\\| | its time | W1 peak | W1 peak time | W1 decay rate "
+            "| E max (Table 1) | R_w (Table 1) | R_u | R_phi |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, f in summary["factors"].items():
+        e = f["errors_table1"]
+        rows.append(f"| {name} | {f['repeats']} | {pm(f, 'max_w_peak')} | {pm(f, 't_peak', '{:.1f}')} | "
+                    f"{pm(f, 'W1_peak')} | {pm(f, 't_peak_W1', '{:.1f}')} | {pm(f, 'W1_decay_rate', '{:.3f}')} | "
+                    f"{100 * e['E_max']:.2f} % | {100 * e['R_w']:.0f} % | {100 * e['R_u']:.0f} % | "
+                    f"{100 * e['R_phi']:.0f} % |")
+    for nm in ("table1", "fitted"):
+        p = summary[f"icidr_{nm}_peak"]
+        rows.append(f"| iCIDR, {nm} | – | {p['max_w_peak']:.4f} | {p['t_peak']:.1f} | {p['W1_peak']:.4f} | "
+                    f"{p['t_peak_W1']:.1f} | {p['W1_decay_rate']:.3f} | | | | |")
+    rows += ["", "| paired with the baseline (same base states) | Δ secondary max\\|w\\| | Δ its time "
+             "| Δ W1 peak | Δ W1 decay rate |", "|---|---|---|---|---|"]
+    for name, d in summary["paired_vs_baseline"].items():
+        rows.append(f"| {name} − baseline | {d['max_w_peak']['value']:+.4f} ± {d['max_w_peak']['se']:.4f} | "
+                    f"{d['t_peak']['value']:+.1f} ± {d['t_peak']['se']:.1f} | "
+                    f"{d['W1_peak']['value']:+.4f} ± {d['W1_peak']['se']:.4f} | "
+                    f"{d['W1_decay_rate']['value']:+.3f} ± {d['W1_decay_rate']['se']:.3f} |")
+    rows += ["", "| 10-member subset of the baseline | secondary max\\|w\\| | its time | W1 peak |",
+             "|---|---|---|---|"]
+    for k, s in enumerate(summary["ensemble_size"]["subsets_of_10"]):
+        rows.append(f"| members {10 * k + 1}–{10 * k + 10} | {s['max_w_peak']:.4f} | {s['t_peak']:.1f} | "
+                    f"{s['W1_peak']:.4f} |")
+    rows += ["", "| baseline post-processing | E max | R_u | R_w | secondary max\\|w\\| | W1 peak |",
+             "|---|---|---|---|---|---|"]
+    for k, d in summary["definitions"].items():
+        rows.append(f"| {k} | {100 * d.get('E_max', d.get('E_u_max', float('nan'))):.2f} % | "
+                    f"{100 * d['R_u']:.0f} % | {100 * d['R_w']:.0f} % | {d['max_w_peak']:.4f} | "
+                    f"{d['W1_peak']:.4f} |")
+    s = summary["sensitivity"]
+    rows += ["", "| parameter | step (1 σ of our fit) | Δ secondary max\\|w\\| | Δ its time | Δ W1 peak "
+             "| Δ W1 peak time | Δ W1 decay rate |", "|---|---|---|---|---|---|---|"]
+    for n, h in s["steps"].items():
+        d = s["derivatives"][n]
+        rows.append(f"| {n} | {h} | {d['max_w_peak'] * h:+.4f} | {d['t_peak'] * h:+.2f} | "
+                    f"{d['W1_peak'] * h:+.4f} | {d['t_peak_W1'] * h:+.2f} | {d['W1_decay_rate'] * h:+.4f} |")
+    return "\n".join(rows)

@@ -30,8 +30,8 @@ from .steady import DEFAULT_PHI0, run_steady_study
 POOL_PROTOCOL = Protocol(t_shear=20.0, t_avg=50.0)
 #: name -> (parameters, repeats per phi0)
 CONFIGS = {
-    "H20_N665": (DEMParams(n_particles=665, H=20.0), 2),
-    "H40_N1335": (DEMParams(n_particles=1335, H=40.0), 2),
+    "H20_N665": (DEMParams(n_particles=665, H=20.0), 1),
+    "H40_N1335": (DEMParams(n_particles=1335, H=40.0), 1),
     "kn1e5": (DEMParams(k_n=1.0e5, eta_n=4.2 * math.sqrt(10.0)), 1),
 }
 
