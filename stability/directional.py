@@ -242,6 +242,37 @@ def numbers_at(a, B, phi0, angle_deg, xi=1e4) -> dict:
             "lambda0_limit": float(lam0)}
 
 
+def random_states(n=200, seed=0, phi_range=(0.5, 0.815), scale_range=(1e-3, 10.0)):
+    """`n` random uniform states (phi, (u_x, u_z, w_x, w_z)): phi uniform in `phi_range`, the gradient a normal
+    4-vector times a log-uniform scale (shear, dilation, compression and rotation in every mix)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.log10(scale_range)
+    return [(float(rng.uniform(*phi_range)), tuple(float(v) for v in rng.normal(size=4) * 10 ** rng.uniform(lo, hi)))
+            for _ in range(n)]
+
+
+def scan(rheology, states=None, angles_deg=None, material=None) -> dict:
+    """Directional verdict over many states (default :func:`random_states`): the sampled check of well-posedness
+    for a law where no closed form is known.
+
+    Returns {"n_states", "n_ill_posed", "max_lambda" (over all states and angles), "worst": {"phi",
+    "velocity_gradient", "angle_deg", "lambda_max"}, "ill_posed_states": [(phi, grad u), ...]}.
+    """
+    states = random_states() if states is None else states
+    out = {"n_states": 0, "n_ill_posed": 0, "max_lambda": -np.inf, "worst": None, "ill_posed_states": []}
+    for phi0, L in states:
+        r = directional_stability(rheology, phi0, L, angles_deg, material)
+        out["n_states"] += 1
+        if not r.well_posed:
+            out["n_ill_posed"] += 1
+            out["ill_posed_states"].append((phi0, tuple(L)))
+        if r.max_lambda > out["max_lambda"]:
+            out["max_lambda"] = r.max_lambda
+            out["worst"] = {"phi": phi0, "velocity_gradient": tuple(L), "angle_deg": r.worst_angle_deg,
+                            "lambda_max": r.max_lambda}
+    return out
+
+
 # --- angles, maximum, intervals -------------------------------------------------------------
 
 def parse_angles(text: str) -> np.ndarray:
@@ -269,12 +300,11 @@ def check_angles(angles_deg) -> np.ndarray:
 
 
 def _periodic(angles) -> bool:
-    """True if the samples are uniform and cover the whole period (next sample would be start + 180)."""
+    """True if the samples close the circle: the gap from the last to the first + 180 deg is no wider than the
+    widest step between samples (so no sign change can hide there beyond what the sampling resolves anyway)."""
     if angles.size < 3:
         return False
-    step = np.diff(angles)
-    return bool(np.allclose(step, step[0], rtol=1e-9, atol=1e-12) and abs(angles[-1] + step[0] - angles[0] - 180.0)
-                < 1e-6 * step[0])
+    return bool(angles[0] + 180.0 - angles[-1] <= np.diff(angles).max() * (1 + 1e-9))
 
 
 def _neighbours(angles, i):

@@ -161,6 +161,10 @@ def test_wrapping_interval_is_split_and_partial_ranges():
     assert a1 == pytest.approx(180.0 - half, abs=1e-8) and b1 == 180.0
     part = D.directional_stability("mui", 0.78, STEADY, angles_deg=D.parse_angles("30:60:1"))
     assert part.ill_posed_intervals_deg == [[30.0, 60.0]]
+    # a step that does not divide 180 still closes the circle: the interval through 0 = 180 deg is found
+    odd = D.directional_stability("mui", 0.78, L, angles_deg=D.parse_angles("0:180:7"))
+    assert odd.ill_posed_intervals_deg[0] == [0.0, pytest.approx(half, abs=1e-8)]
+    assert odd.ill_posed_intervals_deg[1] == [pytest.approx(180.0 - half, abs=1e-8), 180.0]
 
 
 def test_parse_angles():
@@ -190,3 +194,12 @@ def test_polar_plot(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["p.png"]
     assert D.one_d_lambda_plus(rs[0]) == pytest.approx(stability_numbers("mui", 0.78, 1 / 30, 0).lambda_plus.real)
     assert path.endswith("p.png")
+
+
+def test_scan_random_states():
+    """Sampled verdicts: iCIDR well-posed at every state, mu(I) ill-posed at every (shearing) state."""
+    states = D.random_states(40, seed=3)
+    ic = D.scan("icidr", states)
+    assert ic["n_states"] == 40 and ic["n_ill_posed"] == 0 and ic["max_lambda"] < 0
+    mu = D.scan("mui", states, angles_deg=D.parse_angles("0:180:2"))
+    assert mu["n_ill_posed"] == 40 and mu["worst"]["lambda_max"] == mu["max_lambda"] > 0
