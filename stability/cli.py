@@ -174,7 +174,7 @@ def add_plot_growth_parser(subparsers):
 
 
 def _plot_plane(args) -> int:
-    from .directional import directional_stability, save_polar  # noqa: PLC0415
+    from .directional import directional_stability  # noqa: PLC0415
     from .oblique_growth import plot_oblique_growth  # noqa: PLC0415
     import matplotlib  # noqa: PLC0415
     matplotlib.use("Agg")

@@ -53,7 +53,7 @@ import sympy as sp
 
 from . import cidr
 from .checks import EXACT, FAILS, Check, exact_zero
-from .symbols import M, Mf, Psi, Psif, Sn, d, delta, phi, rho, uz, wz
+from .symbols import M, Mf, Psi, Psif, d, delta, phi, rho, uz, wz
 
 SECTION = "2-D plane waves"
 
@@ -228,12 +228,6 @@ def icidr_gamma_closed_form(n, grad_u=VELOCITY_GRADIENT, M_=M, Psi_=Psi):
 
 
 # --- exact checks -----------------------------------------------------------------------
-
-def _rational_direction(name="t"):
-    """n = ((1 - t^2)/(1 + t^2), 2t/(1 + t^2)): every unit vector but -e_x, rational in t."""
-    t = sp.Symbol(name, real=True)
-    return sp.Matrix([(1 - t**2) / (1 + t**2), 2 * t / (1 + t**2)]), t
-
 
 def gradient_parametrisation():
     """grad u in terms of (div u, ||S||, vorticity, principal direction): rational, ||S|| a symbol.

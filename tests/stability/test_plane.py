@@ -4,7 +4,7 @@ import pytest
 import sympy as sp
 
 from stability import plane
-from stability.symbols import M, Psi, delta, phi, rho, uz, wz
+from stability.symbols import M, Psi, phi, rho
 
 
 @pytest.fixture(scope="module")
