@@ -59,6 +59,13 @@ def _compiled(law):
     return sp.lambdify((*_ARGS, *MATERIAL_SYMBOLS.values()), exprs, modules="numpy", cse=True)
 
 
+def _compiled_for(law):
+    try:
+        return _compiled(law)
+    except TypeError:                                # unhashable user law: compile without the cache
+        return _compiled.__wrapped__(law)
+
+
 def principal_part(rheology, phi0, velocity_gradient, material=None):
     """Numeric a (2, 2) and B (2, 2, 2, 2) of :func:`stability.plane.principal_part` at one state.
 
@@ -73,16 +80,47 @@ def principal_part(rheology, phi0, velocity_gradient, material=None):
     phi0 = float(check_phi(phi0, material))
     L = check_gradient(velocity_gradient)
     prm = material_params(material)
-    try:
-        f = _compiled(law)
-    except TypeError:                                # unhashable user law: compile without the cache
-        f = _compiled.__wrapped__(law)
+    f = _compiled_for(law)
     with np.errstate(all="ignore"):
         vals = np.array(f(phi0, *L, *prm.values()), dtype=float)
     if not np.all(np.isfinite(vals)):
         raise ValueError(f"`velocity_gradient` = {list(L)}: the stress of {plane.law_name(law)!r} is not "
                          f"differentiable there (||S|| = {strain_rate_norm(L):g}); choose a state where it is")
     return vals[:4].reshape(2, 2), vals[4:].reshape(2, 2, 2, 2)
+
+
+def lambda_max_field(rheology, phi_f, grad_u, angles_deg=None, material=None):
+    """max over angles of Lambda_max(theta) and the worst angle, point by point on fields (a 2-D tracker's view).
+
+    `phi_f` (...) and `grad_u` (2, 2, ...) with grad_u[i, j] = d_j u_i; angles default 0, 1, ..., 179 deg.
+    Points where the law is not differentiable (e.g. mu(I) at ||S|| = 0) or degenerate give nan.
+    Returns (lambda_max (...), worst_angle_deg (...)).
+    """
+    law = rheology if isinstance(rheology, str) else plane.resolve_law(rheology)
+    phi_f = check_phi(phi_f, material)
+    grad_u = np.asarray(grad_u, dtype=float)
+    if grad_u.shape[:2] != (2, 2) or not np.all(np.isfinite(grad_u)):
+        raise ValueError(f"`grad_u` must be finite with shape (2, 2, ...); got shape {grad_u.shape}")
+    angles = np.arange(0.0, 180.0, 1.0) if angles_deg is None else check_angles(angles_deg)
+    shape = np.broadcast(phi_f, grad_u[0, 0]).shape
+    prm = material_params(material)
+    f = _compiled_for(law)
+    with np.errstate(all="ignore"):
+        vals = [np.broadcast_to(np.asarray(v, dtype=float), shape).ravel()
+                for v in f(phi_f, grad_u[0, 0], grad_u[0, 1], grad_u[1, 0], grad_u[1, 1], *prm.values())]
+    B = np.stack(vals[4:], -1).reshape(-1, 2, 2, 2, 2)
+    n = directions(angles)
+    G = np.einsum("pijkl,aj,al->paik", B, n, n)
+    tr = G[..., 0, 0] + G[..., 1, 1]
+    det = G[..., 0, 0] * G[..., 1, 1] - G[..., 0, 1] * G[..., 1, 0]
+    with np.errstate(all="ignore"):
+        lam = ((-tr + np.sqrt((tr * tr - 4 * det).astype(complex))) / 2).real
+        bad = ~np.isfinite(lam).all(axis=1) | (np.abs(G).reshape(G.shape[0], -1).max(axis=1) == 0)
+    lam[bad] = np.nan
+    i = np.argmax(np.where(np.isnan(lam), -np.inf, lam), axis=1)
+    top = lam[np.arange(lam.shape[0]), i]
+    worst = np.where(bad, np.nan, angles[i] % 180.0)
+    return top.reshape(shape), worst.reshape(shape)
 
 
 def check_gradient(velocity_gradient) -> tuple:

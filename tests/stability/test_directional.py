@@ -203,3 +203,23 @@ def test_scan_random_states():
     assert ic["n_states"] == 40 and ic["n_ill_posed"] == 0 and ic["max_lambda"] < 0
     mu = D.scan("mui", states, angles_deg=D.parse_angles("0:180:2"))
     assert mu["n_ill_posed"] == 40 and mu["worst"]["lambda_max"] == mu["max_lambda"] > 0
+
+
+def test_lambda_max_field_matches_pointwise_analysis():
+    """On fields (the 2-D simulator's view): the same max over angles as directional_stability, nan where undefined."""
+    rng = np.random.default_rng(8)
+    grad = rng.normal(size=(2, 2, 3, 4)) * 0.1
+    phi = rng.uniform(0.6, 0.8, size=(3, 4))
+    grad[:, :, 0, 0] = [[-0.1, 0.0], [0.0, -0.1]]            # ||S|| = 0, div u < 0
+    for name in ("mui", "icidr"):
+        lam, worst = D.lambda_max_field(name, phi, grad)
+        assert lam.shape == worst.shape == (3, 4)
+        for idx in [(0, 1), (1, 2), (2, 3)]:
+            r = D.directional_stability(name, phi[idx], grad[:, :, idx[0], idx[1]].ravel())
+            assert lam[idx] == pytest.approx(float(r.lambda_max.max()), rel=1e-12)
+        if name == "mui":
+            assert np.isnan(lam[0, 0]) and np.all(lam[~np.isnan(lam)] > 0)
+        else:
+            assert np.all(lam < 0)
+    with pytest.raises(ValueError, match="grad_u"):
+        D.lambda_max_field("mui", phi, grad[0])
