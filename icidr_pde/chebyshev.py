@@ -217,18 +217,16 @@ class ChebyshevShearCellPDE(ShearCellBase):
         """Return rhs(state_data, t) for the `numpy` or `numba` backend."""
         self.check_grid(state.grid)
         backend = get_backend(backend)
-        key = (type(self.rheology), self.material.params, backend.name,
-               self._size(state.grid))
+        key = (self.rheology, backend.name, self._size(state.grid))
         if key in _RHS_CACHE:
             return _RHS_CACHE[key]
         _, D, _ = self.operators(state.grid)
         params = self.material.params
         compile_function = None if backend.name == "numpy" else backend.compile_function
-        rates_key = (type(self.rheology), backend.name)
+        rates_key = (type(self.rheology), self.material.law_key(), backend.name)
         if rates_key not in _RATES_CACHE:  # compiled once per rheology, for every N
-            stress = type(self.rheology).stress_kernel
-            if compile_function is not None:
-                stress = compile_function(stress)
+            kernels = self.rheology.kernels()
+            stress = kernels.stress_numpy if compile_function is None else kernels.stress_array
             _RATES_CACHE[rates_key] = make_cheb_rates(stress, compile_function)
         rates = _RATES_CACHE[rates_key]
         D = D.copy()
@@ -270,8 +268,8 @@ def _cheb_jacobian(rheology: Rheology, D: np.ndarray) -> Callable:
     interior = np.ones(n)
     interior[[0, -1]] = 0.0
 
-    stress = type(rheology).stress_kernel  # the same kernels as the right-hand side
-    stress_jacobian = type(rheology).jacobian_kernel
+    kernels = rheology.kernels()  # generated from the same definition as the right-hand side
+    stress, stress_jacobian = kernels.stress_numpy, kernels.stress_jacobian_numpy
     params = rheology.material.params
 
     def jacobian(t, y):

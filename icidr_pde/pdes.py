@@ -189,8 +189,7 @@ class ShearCellPDE(ShearCellBase):
         """Return rhs(state_data, t) for the `numpy` or `numba` backend."""
         self.check_grid(state.grid)
         backend = get_backend(backend)
-        key = (type(self.rheology), self.material.params, self.V0, self.advection,
-               backend.name, state.grid.state_serialized)
+        key = (self.rheology, self.V0, self.advection, backend.name, state.grid.state_serialized)
         if key in _RHS_CACHE:  # numba compiles in seconds; reuse across PDE instances
             return _RHS_CACHE[key]
         grid = state.grid
@@ -203,9 +202,8 @@ class ShearCellPDE(ShearCellBase):
         ]
         set_phi, set_u, set_w = setters
         compile_function = None if backend.name == "numpy" else backend.compile_function
-        stress = type(self.rheology).stress_kernel
-        if compile_function is not None:
-            stress = compile_function(stress)
+        kernels = self.rheology.kernels()
+        stress = kernels.stress_numpy if compile_function is None else kernels.stress_array
         rates = make_fd_rates(stress, compile_function, self.advection == "upwind")
 
         def pde_rhs(state_data, t=0.0):

@@ -176,17 +176,16 @@ def _psi_hessian_lambda():
 
 def convexity_sample(n=400, seed=5, material=None):
     """Eigenvalues of the Hessian of psi(D) at `n` random strain rates and phi in (0.6, phi_c)."""
-    from .mui import M_numeric  # noqa: PLC0415
-    from .material import material_params  # noqa: PLC0415
+    from .material import default_material  # noqa: PLC0415
 
-    prm = material_params(material)
+    material = default_material(material)
+    phi_max = material.phi_range[1]
     rng = np.random.default_rng(seed)
     H = _psi_hessian_lambda()
     worst = np.inf
     for _ in range(n):
-        ph = rng.uniform(0.6, prm["phi_c"] - 1e-3)
-        Mv = float(M_numeric(ph, material))
-        Pv = (prm["phi_c"] - ph) / prm["a"]
+        ph = rng.uniform(0.6, phi_max - 1e-3)
+        Mv, Pv = float(material.M(ph)), float(material.Psi(ph))
         A, B, C = rng.normal(size=3)
         h = np.asarray(H(A, B, C, Mv, Pv), dtype=float)
         ev = np.linalg.eigvalsh((h + h.T) / 2)

@@ -17,13 +17,11 @@ w0 d_z dropped (frozen coefficients), base strain rates (u_z, w_z) entering the 
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from . import rheologies
-from .material import check_phi, check_rate, check_rheology_name, check_xi, material_params
+from .material import check_phi, check_rate, check_rheology_name, check_xi, default_material
 from .numeric import A_matrix, coefficients, stability_numbers
 
 DEFAULT_STATE = {"phi": 0.78, "uz": 1.0 / 30.0, "wz": 0.05}   # the ill-posed state of fig. 2 / issue item 7
@@ -140,11 +138,6 @@ def measured_growth_rate(name, phi, uz, wz, xi, material=None, n_points=8, seed=
 
 # --- c. finite-difference operator of the nonlinear equations ----------------------------
 
-@lru_cache(maxsize=None)
-def _stress_fn(name):
-    return rheologies._compiled_stress(name)
-
-
 def fd_rhs(name, U, uz0, wz0, h, material=None):
     """Semi-discrete RHS of the nonlinear shear-cell equations on a periodic grid.
 
@@ -154,14 +147,13 @@ def fd_rhs(name, U, uz0, wz0, h, material=None):
     mass in conservative form d_t phi = -(G_{j+1/2} - G_{j-1/2})/h, G = phi_f w'_f, w'_f the face average
     (base convection/dilation frozen out as in (A2)).  Works for complex U (complex-step).
     """
-    prm = material_params(material)
     N = U.shape[0] // 3
     ph, u, w = U[:N], U[N:2 * N], U[2 * N:]
     nxt = lambda f: np.roll(f, -1)  # noqa: E731
     ph_f = 0.5 * (ph + nxt(ph))
     uz_f = uz0 + (nxt(u) - u) / h
     wz_f = wz0 + (nxt(w) - w) / h
-    p, txz, tzz = _stress_fn(name)(ph_f, uz_f, wz_f, *prm.values())
+    p, txz, tzz = rheologies.compiled_stress(name, material)(ph_f, uz_f, wz_f, *default_material(material).params)
     F1, F2 = txz, tzz - p
     prev = lambda f: np.roll(f, 1)  # noqa: E731
     G = ph_f * 0.5 * (w + nxt(w))

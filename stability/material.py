@@ -1,68 +1,43 @@
-"""Material parameters and input validation for the stability toolkit.
+"""Material and input validation for the stability toolkit.
 
-The default material is the simulator's ``icidr_pde.rheology.Material()`` when that
-package is importable, otherwise the paper's Table 1 values (mu_s = 0.248,
-mu_d = 0.588, I0 = 0.145, phi_c = 0.817, a = 0.314), used in (2.10)-(2.11).
+The material is the simulator's :class:`icidr_pde.rheology.Material` (laws (2.10)-(2.11)
+with Table 1 by default, or any other friction/dilatancy law); this module only adds the
+argument checks of the toolkit's public functions.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-TABLE1 = {"mu_s": 0.248, "mu_d": 0.588, "I0": 0.145, "phi_c": 0.817, "a": 0.314}
-PARAM_NAMES = ("mu_s", "mu_d", "I0", "phi_c", "a")
+from icidr_pde.rheology import RHEOLOGIES, TABLE1, Material
+
+__all__ = ["TABLE1", "default_material", "material_params", "check_phi", "check_rate", "check_xi",
+           "check_rheology_name"]
 
 
-@dataclass(frozen=True)
-class Table1Material:
-    """Fallback material (Table 1) used only when ``icidr_pde`` is not importable."""
-
-    mu_s: float = TABLE1["mu_s"]
-    mu_d: float = TABLE1["mu_d"]
-    I0: float = TABLE1["I0"]
-    phi_c: float = TABLE1["phi_c"]
-    a: float = TABLE1["a"]
-
-    def __post_init__(self):
-        for name in PARAM_NAMES:
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"`{name}` must be a finite number; got {v!r}")
-        if not 0 < self.mu_s < self.mu_d < 1:
-            raise ValueError(f"need 0 < mu_s < mu_d < 1; got mu_s={self.mu_s}, mu_d={self.mu_d}")
-        if self.I0 <= 0:
-            raise ValueError(f"`I0` must be > 0; got {self.I0}")
-        if not 0 < self.phi_c < 1:
-            raise ValueError(f"`phi_c` must lie in (0, 1); got {self.phi_c}")
-        if self.a <= 0:
-            raise ValueError(f"`a` must be > 0; got {self.a}")
-
-
-def default_material():
-    """``icidr_pde.rheology.Material()`` if importable, else :class:`Table1Material`."""
-    try:
-        from icidr_pde.rheology import Material  # noqa: PLC0415
-    except Exception:  # pragma: no cover - depends on the simulator being present
-        return Table1Material()
-    return Material()
+def default_material(material=None) -> Material:
+    """`material`, or the Table 1 :class:`~icidr_pde.rheology.Material` if None."""
+    if material is None:
+        return Material()
+    if not isinstance(material, Material):
+        raise TypeError(f"`material` must be an icidr_pde.rheology.Material; got {material!r}")
+    return material
 
 
 def material_params(material=None) -> dict:
-    """Return the five parameters of `material` (default: :func:`default_material`) as floats."""
-    material = default_material() if material is None else material
-    return {name: float(getattr(material, name)) for name in PARAM_NAMES}
+    """Parameters of `material` (default Table 1) by name, as floats."""
+    material = default_material(material)
+    return dict(zip(material.parameter_names(), material.params))
 
 
 def check_phi(phi, material=None, name: str = "phi") -> np.ndarray:
-    """Validate packing fractions: finite and in the inertial range (0, phi_c)."""
-    phi_c = material_params(material)["phi_c"]
+    """Validate packing fractions: finite and in the material's inertial range."""
     arr = np.asarray(phi, dtype=float)
-    if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr <= 0) or np.any(arr >= phi_c):
-        raise ValueError(f"`{name}` must lie in (0, phi_c) = (0, {phi_c}); got {phi!r}")
-    return arr
+    if arr.size == 0:
+        raise ValueError(f"`{name}` must not be empty")
+    return default_material(material).check_phi(arr, name)
 
 
 def check_rate(value, name: str) -> np.ndarray:
@@ -85,7 +60,7 @@ def check_xi(xi, name: str = "xi") -> float:
 
 
 def check_rheology_name(name: str) -> str:
-    """Validate a rheology name: 'mui' or 'icidr'."""
-    if name not in ("mui", "icidr"):
-        raise ValueError(f"`rheology` must be one of ['icidr', 'mui']; got {name!r}")
+    """Validate a rheology name against the simulator's registry."""
+    if name not in RHEOLOGIES:
+        raise ValueError(f"`rheology` must be one of {sorted(RHEOLOGIES)}; got {name!r}")
     return name

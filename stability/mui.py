@@ -14,7 +14,9 @@ import sympy as sp
 
 from . import linearize, rheologies
 from .checks import EXACT, FAILS, Check, compare, exact_zero
-from .material import check_phi, check_rate, material_params
+from icidr_pde.rheology import chi as core_chi
+
+from .material import check_phi, check_rate, default_material
 from .symbols import Mf, Psif, d, phi, rho, uz, wz
 
 SECTION = "A mu(I)"
@@ -125,26 +127,15 @@ def checks() -> list[Check]:
 def chi(phi_v, uz_v, wz_v, material=None):
     """chi of (A18) on arrays (simulator fields): > 0 ill-posed (A16), < 0 well-posed (A17).
 
-    u_z = 0 gives +inf (w_z > 0), -inf (w_z < 0) or nan (w_z = 0, where (A16)/(A17) are
-    undefined).  Raises ValueError for phi outside (0, phi_c) or non-finite rates.
+    The simulator's :func:`icidr_pde.rheology.chi`: u_z = 0 gives +inf (w_z > 0), -inf
+    (w_z < 0) or nan (w_z = 0, where Gamma = 0 and (A16)/(A17) are undefined). Raises
+    ValueError for phi outside the inertial range or non-finite rates.
     """
-    phi_v = check_phi(phi_v, material)
+    check_phi(phi_v, material)
     uz_v, wz_v = check_rate(uz_v, "uz"), check_rate(wz_v, "wz")
-    M = M_numeric(phi_v, material)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.asarray(wz_v, float) / np.abs(uz_v)
-    return ratio - M / np.sqrt(1.0 - M**2)
+    return core_chi(phi_v, uz_v, wz_v, default_material(material))
 
 
 def M_numeric(phi_v, material=None):
-    """M(phi) = mu(Psi(phi)) of (A11a) with (2.10), (2.13) (sympy-compiled)."""
-    prm = material_params(material)
-    f = _M_lambda()
-    return np.asarray(f(np.asarray(phi_v, float), *prm.values()), dtype=float)
-
-
-@lru_cache(maxsize=None)
-def _M_lambda():
-    from .symbols import MATERIAL_SYMBOLS  # noqa: PLC0415
-    expr = Mf(phi).subs(rheologies.concrete_functions())
-    return sp.lambdify((phi, *MATERIAL_SYMBOLS.values()), expr, modules="numpy")
+    """M(phi) = mu(Psi(phi)) of (A11a) for `material` (default (2.10), (2.13), Table 1)."""
+    return np.asarray(default_material(material).M(np.asarray(phi_v, float)), dtype=float)

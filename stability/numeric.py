@@ -1,8 +1,8 @@
 """Numerical evaluation of the symbols: coefficients (A2), A(xi), Gamma, Lambda, -C/B.
 
-Everything is compiled once (``sympy.lambdify``) from the symbolic derivation of
-:mod:`stability.linearize` applied to :mod:`stability.rheologies` with the concrete
-material functions (2.10), (2.13) and d = rho_* = 1.
+Everything is compiled once per pair of material laws (``sympy.lambdify``) from the
+symbolic derivation of :mod:`stability.linearize` applied to :mod:`stability.rheologies`
+with the material's functions M(phi), Psi(phi) (default (2.10), (2.13)) and d = rho_* = 1.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 import sympy as sp
 
 from . import linearize, rheologies
-from .material import check_phi, check_rate, check_rheology_name, check_xi, material_params
+from .material import check_phi, check_rate, check_rheology_name, check_xi, default_material
 from .mui import M_numeric, chi
 from . import symbols as S
 
@@ -22,12 +22,12 @@ NAMES = ("a1", "a2", "b11", "b12", "b21", "b22")
 
 
 @lru_cache(maxsize=None)
-def _coefficient_lambda(name: str):
+def _coefficient_lambda(name: str, laws):
     p, txz, tzz = rheologies.stress(name)
     c = linearize.principal_coefficients(p, txz, tzz)
-    subs = rheologies.concrete_functions()
+    subs = rheologies.concrete_functions(laws)
     exprs = [c[k].subs(subs).doit().subs({S.d: 1, S.rho: 1}) for k in NAMES]
-    return sp.lambdify((S.phi, S.uz, S.wz, *S.MATERIAL_SYMBOLS.values()), exprs, modules="numpy")
+    return sp.lambdify((S.phi, S.uz, S.wz, *rheologies.parameter_symbols(laws)), exprs, modules="numpy")
 
 
 def _validate_state(name, phi_v, uz_v, wz_v, material):
@@ -43,8 +43,9 @@ def _validate_state(name, phi_v, uz_v, wz_v, material):
 def coefficients(name, phi_v, uz_v, wz_v, material=None) -> dict:
     """a1, a2, b11, b12, b21, b22 of (A2) for rheology `name` at a base state (d = rho_* = 1)."""
     _validate_state(name, phi_v, uz_v, wz_v, material)
-    prm = material_params(material)
-    vals = _coefficient_lambda(name)(float(phi_v), float(uz_v), float(wz_v), *prm.values())
+    material = default_material(material)
+    f = _coefficient_lambda(name, rheologies._law_representative(material))
+    vals = f(float(phi_v), float(uz_v), float(wz_v), *material.params)
     return {k: float(v) for k, v in zip(NAMES, vals)}
 
 

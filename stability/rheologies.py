@@ -1,16 +1,21 @@
-"""Symbolic constitutive laws of the 1-D shear cell: mu(I),Phi(I) and iCIDR.
+"""Symbolic constitutive laws of the 1-D shear cell, from the simulator's one definition.
 
-One definition of each rheology, as sympy expressions p(phi, u_z, w_z),
-tau_xz(...), tau_zz(...), built from the tensor formulas rather than typed in:
+Each rheology is defined once, on invariants, in :mod:`icidr_pde.rheology`
+(:meth:`~icidr_pde.rheology.Rheology.law`: (phi, div u, ||S||) -> (p, c), tau = c S). This
+module evaluates that definition in the shear cell for the toolkit:
 
-* kinematics (3.4)-(3.5): velocity gradient of u = (u(z), w(z)), D (2.4), S (2.5),
-  ||T|| = sqrt(tr(T^2)/2);
-* mu(I),Phi(I): (2.14) for p and the alignment (2.6) with (2.7) for tau, i.e. (3.6), (3.8);
-* iCIDR: (4.12) for p and (4.14) for tau, both derived and verified in
-  :mod:`stability.cidr` from the yield function (4.7) and dilatancy (4.8).
+* kinematics (3.4)-(3.5) from the velocity gradient of u = (u(z), w(z)), with the
+  simulator's (2.4)-(2.5) (:func:`icidr_pde.rheology.kinematics.strain_rate`);
+* the laws with *generic* M(phi), Psi(phi) (so that identities hold for any material
+  functions) and dimensional d, rho_*: every law is non-dimensional with (3.12) and carries
+  the Bagnold scaling, so the dimensional stresses are rho_* d^2 times the simulator's;
+* :func:`concrete_functions`: M and Psi of a :class:`~icidr_pde.rheology.Material`
+  (default (2.10), (2.13), Table 1), with its parameters as symbols.
 
-:func:`numeric_stress` compiles them with ``sympy.lambdify`` (d = rho_* = 1); the
-simulator's hand-written kernels are cross-checked against these in the tests.
+The checks of :mod:`stability.mui`, :mod:`stability.icidr` and :func:`checks` compare these
+expressions with the printed (2.14), (3.6), (3.8), (4.12), (5.1)-(5.6), derived from the
+general laws; :func:`numeric_stress` (``sympy.lambdify``) cross-checks the simulator's
+generated kernels.
 """
 
 from __future__ import annotations
@@ -20,19 +25,22 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
+from icidr_pde.rheology import get_rheology
+from icidr_pde.rheology.kinematics import strain_rate
+
 from . import cidr
-from .material import check_phi, check_rate, check_rheology_name, material_params
-from .symbols import MATERIAL_SYMBOLS, I, I0, Mf, Psif, a, d, mu_d, mu_s, phi, phi_c, rho, uz, wz
+from .material import check_phi, check_rate, check_rheology_name, default_material
+from .symbols import I, Mf, Psif, a, d, phi, phi_c, rho, uz, wz
 
 
-def mu_of_I(Ival):
-    """Friction law (2.10): mu(I) = mu_s + (mu_d - mu_s)/(I0/I + 1)."""
-    return mu_s + (mu_d - mu_s) / (I0 / Ival + 1)
+def mu_of_I(Ival, material=None):
+    """Friction law of `material` (default (2.10)) with symbolic parameters."""
+    return default_material(material).symbolic_mu(Ival, symbolic=True)
 
 
-def Phi_of_I(Ival):
-    """Steady packing law (2.11): Phi(I) = phi_c - a I."""
-    return phi_c - a * Ival
+def Phi_of_I(Ival, material=None):
+    """Steady packing law of `material` (default (2.11)) with symbolic parameters."""
+    return default_material(material).symbolic_Phi(Ival, symbolic=True)
 
 
 @lru_cache(maxsize=None)
@@ -42,10 +50,10 @@ def Psi_of_phi_derived():
     return sol
 
 
-def concrete_functions():
-    """Substitution {M(phi): mu(Psi(phi)), Psi(phi): Psi(phi)} with (2.10), (2.13) and symbolic parameters."""
-    psi = Psi_of_phi_derived()
-    return {Mf(phi): mu_of_I(psi), Psif(phi): psi}
+def concrete_functions(material=None):
+    """Substitution {M(phi): mu(Psi(phi)), Psi(phi): Psi(phi)} of `material`, symbolic parameters."""
+    material = default_material(material)
+    return {Mf(phi): material.symbolic_M(phi, symbolic=True), Psif(phi): material.symbolic_Psi(phi, symbolic=True)}
 
 
 @lru_cache(maxsize=None)
@@ -55,49 +63,38 @@ def shear_cell_kinematics():
     Coordinates (x, z); grad_u[i, j] = d_j u_i, so only the z column is non-zero.
     """
     grad_u = sp.Matrix([[0, uz], [0, wz]])
-    D = (grad_u + grad_u.T) / 2
-    div = D.trace()
-    S = D - div / 2 * sp.eye(2)
-    normS = sp.sqrt(sp.simplify((S * S).trace() / 2))
-    return {"grad_u": grad_u, "D": D, "div": div, "S": S, "normS": normS}
+    div, S, normS = strain_rate(grad_u)
+    return {"grad_u": grad_u, "D": (grad_u + grad_u.T) / 2, "div": div, "S": S, "normS": normS}
 
 
 def _material(M=None, Psi=None):
     return (Mf(phi) if M is None else M), (Psif(phi) if Psi is None else Psi)
 
 
-def mui_stress(M=None, Psi=None):
-    """(p, tau_xz, tau_zz) of mu(I),Phi(I) in the shear cell, from (2.14), (2.6), (2.7).
+def stress(name: str, M=None, Psi=None):
+    """(p, tau_xz, tau_zz) of rheology `name` in the shear cell, dimensional (d, rho_*).
 
-    M, Psi default to the generic functions M(phi), Psi(phi); pass expressions to specialise.
+    The simulator's definition with M, Psi defaulting to the generic functions M(phi),
+    Psi(phi); pass expressions (or plain symbols) to specialise.
     """
+    check_rheology_name(name)
+    rheology = get_rheology(name)
     M, Psi = _material(M, Psi)
     k = shear_cell_kinematics()
-    S, normS = k["S"], k["normS"]
-    p = rho * (2 * d * normS / Psi) ** 2                       # (2.14)
-    tau = M * p * S / normS                                     # (2.6) with ||tau|| = mu p (2.7)
-    return sp.simplify(p), sp.simplify(tau[0, 1]), sp.simplify(tau[1, 1])
+    p, c = rheology.law(phi, k["div"], k["normS"], M, Psi, rheology.material.values(symbolic=True))
+    scale = rho * d**2
+    tau = scale * c * k["S"]
+    return sp.simplify(scale * p), sp.simplify(tau[0, 1]), sp.simplify(tau[1, 1])
+
+
+def mui_stress(M=None, Psi=None):
+    """(p, tau_xz, tau_zz) of mu(I),Phi(I): (2.14) and the alignment (2.6) with (2.7)."""
+    return stress("mui", M, Psi)
 
 
 def icidr_stress(M=None, Psi=None):
-    """(p, tau_xz, tau_zz) of iCIDR in the shear cell, from (4.12) and (4.14).
-
-    (4.12) and (4.14) are the general-deformation formulas verified in
-    :mod:`stability.cidr`; here div u and ||S|| come from the shear-cell kinematics.
-    sqrt(p) is taken as the non-negative root (4.12) is the square of (verified in cidr).
-    """
-    M, Psi = _material(M, Psi)
-    k = shear_cell_kinematics()
-    sqrt_p = cidr.icidr_sqrt_pressure(k["div"], k["normS"], M, Psi)
-    p = sqrt_p ** 2
-    tau = cidr.icidr_deviatoric_stress(k["S"], sqrt_p, M, Psi)
-    return p, sp.simplify(tau[0, 1]), sp.simplify(tau[1, 1])
-
-
-def stress(name: str, M=None, Psi=None):
-    """Dispatch to :func:`mui_stress` ('mui') or :func:`icidr_stress` ('icidr')."""
-    check_rheology_name(name)
-    return mui_stress(M, Psi) if name == "mui" else icidr_stress(M, Psi)
+    """(p, tau_xz, tau_zz) of iCIDR: (4.12) and (4.14) (verified against :mod:`stability.cidr`)."""
+    return stress("icidr", M, Psi)
 
 
 def momentum_fluxes(name: str, M=None, Psi=None):
@@ -107,32 +104,47 @@ def momentum_fluxes(name: str, M=None, Psi=None):
 
 
 @lru_cache(maxsize=None)
-def concrete_stress(name: str):
-    """Stress with M = mu(Psi(phi)), Psi from (2.10), (2.13), symbolic parameters, d = rho_* = 1."""
-    subs = concrete_functions()
-    out = []
-    for e in stress(name):
-        out.append(e.subs(subs).subs({d: 1, rho: 1}))
-    return tuple(out)
+def concrete_stress(name: str, material=None):
+    """Stress with M, Psi of `material` (default (2.10), (2.13)), symbolic parameters, d = rho_* = 1."""
+    subs = concrete_functions(material)
+    return tuple(e.subs(subs).subs({d: 1, rho: 1}) for e in stress(name))
+
+
+def parameter_symbols(material=None) -> tuple:
+    """Symbols of `material`'s parameters, in the order of ``material.params``."""
+    material = default_material(material)
+    values = material.values(symbolic=True)
+    return tuple(values[k] for k in material.parameter_names())
 
 
 @lru_cache(maxsize=None)
-def _compiled_stress(name: str):
-    args = (phi, uz, wz, *MATERIAL_SYMBOLS.values())
-    return sp.lambdify(args, concrete_stress(name), modules="numpy")
+def _compiled_stress(name: str, laws=None):
+    material = default_material() if laws is None else laws
+    args = (phi, uz, wz, *parameter_symbols(material))
+    return sp.lambdify(args, concrete_stress(name, material), modules="numpy")
+
+
+def _law_representative(material):
+    """A material with the same laws (the compiled form depends on the laws, not the values)."""
+    material = default_material(material)
+    return type(material)(friction=type(material.friction)(), dilatancy=type(material.dilatancy)())
+
+
+def compiled_stress(name: str, material=None):
+    """lambdify'd (p, tau_xz, tau_zz)(phi, u_z, w_z, *material.params) (works for complex input)."""
+    return _compiled_stress(name, _law_representative(material))
 
 
 def numeric_stress(name: str, phi_v, uz_v, wz_v, material=None):
     """Evaluate (p, tau_xz, tau_zz) of rheology `name` on numpy arrays (d = rho_* = 1).
 
-    Raises ValueError for phi outside (0, phi_c) or non-finite strain rates.
+    Raises ValueError for phi outside the inertial range or non-finite strain rates.
     """
     check_rheology_name(name)
-    prm = material_params(material)
+    material = default_material(material)
     phi_v = check_phi(phi_v, material)
     uz_v, wz_v = check_rate(uz_v, "uz"), check_rate(wz_v, "wz")
-    f = _compiled_stress(name)
-    res = f(phi_v, uz_v, wz_v, *(prm[k] for k in MATERIAL_SYMBOLS))
+    res = compiled_stress(name, material)(phi_v, uz_v, wz_v, *material.params)
     shape = np.broadcast(phi_v, uz_v, wz_v).shape
     return tuple(np.broadcast_to(np.asarray(r, dtype=float), shape) for r in res)
 
@@ -161,6 +173,48 @@ def checks():
     ok = exact_zero(txz - M / Psi * sqrt_p * uz) and exact_zero(tzz - p - (-p + M / Psi * sqrt_p * wz))
     out.append(Check("(5.4)-(5.5)", "non-dimensional iCIDR fluxes (M/Psi) sqrt(p~) u_z and -p~ + (M/Psi) sqrt(p~) w_z",
                      EXACT if ok else FAILS, "with the corrected p~ of (5.6)", section="5 iCIDR"))
+    return out + simulator_checks()
+
+
+def simulator_checks():
+    """The simulator's laws on general invariants (div u, ||S||) against their derivations.
+
+    mu(I),Phi(I): p from (2.9) at I = Psi(phi), i.e. (2.14), and ||tau|| = c ||S|| = mu p (2.7).
+    iCIDR: p equals (4.11) at the root (4.10) of the flow rule (derived from (4.7)-(4.8) in
+    :mod:`stability.cidr`), ||tau|| = c ||S|| equals the yield function (4.7) with I from
+    (2.9), and the cancellation-free form the kernels evaluate is the same function.
+    """
+    from .checks import EXACT, FAILS, NUMERIC, Check, compare, exact_zero  # noqa: PLC0415
+    from .symbols import Sn, delta  # noqa: PLC0415
+    from .symbols import p as p_sym  # noqa: PLC0415
+
+    M, Psi = Mf(phi), Psif(phi)
+    scale = rho * d**2
+    (p_of_I,) = sp.solve(sp.Eq(I, cidr.inertial_number_definition()), p_sym)
+    out = []
+    p_mui, c_mui = get_rheology("mui").law(phi, delta, Sn, M, Psi, {})
+    ok = exact_zero(scale * p_mui - p_of_I.subs(I, Psi)) and exact_zero(scale * c_mui * Sn - M * scale * p_mui)
+    out.append(Check("(2.14) simulator", "the simulator's mu(I) law: p = rho (2 d ||S||/Psi)^2 from (2.9) at "
+                     "I = Psi(phi), ||tau|| = c ||S|| = mu(Psi) p (2.6)-(2.7), for every div u",
+                     EXACT if ok else FAILS, "icidr_pde.rheology.MuIPhiI.law on (div u, ||S||), times rho_* d^2",
+                     section="simulator"))
+    icidr = get_rheology("icidr")
+    p_i, c_i = icidr.law(phi, delta, Sn, M, Psi, {})
+    p_route = p_of_I.subs(I, cidr.icidr_inertial_number())
+    c = compare("(4.12) simulator", "the simulator's iCIDR pressure equals (4.11) at the root (4.10) of the "
+                "flow rule (4.2) with (4.8)", scale * p_i, p_route, section="simulator")
+    out.append(c)
+    Y = cidr.yield_icidr().subs(I, cidr.inertial_number_definition()).subs(p_sym, scale * p_i)
+    c = compare("(4.14) simulator", "the simulator's iCIDR ||tau|| = c ||S|| equals the yield function (4.7) "
+                "with I from (2.9)", scale * c_i * Sn, Y, section="simulator", try_exact=False)
+    out.append(c)
+    p_s, c_s = icidr.law(phi, delta, Sn, M, Psi, {}, stable=True)
+    signs = (sp.Symbol("dpos", positive=True), sp.Symbol("dneg", negative=True), 0)
+    ok = all(exact_zero(stable.subs(delta, v) - plain.subs(delta, v))
+             for stable, plain in ((p_s, p_i), (c_s, c_i)) for v in signs)
+    out.append(Check("(4.12) stable form", "the kernels' cancellation-free form M^2||S||^2/(R + div u) for div u > 0 "
+                     "is the same function as R - div u", EXACT if ok else FAILS,
+                     "(R - div)(R + div) = M^2 ||S||^2, R = sqrt(div^2 + M^2 ||S||^2)", section="simulator"))
     return out
 
 

@@ -68,11 +68,11 @@ def exact_rates(rheology):
     phi = sp.Rational(78, 100) + sp.cos(3 * z / H) / 100
     u = z / H + sp.Rational(16, 100) * sp.sin(2 * sp.pi * z / H)
     w = -sp.sin(2 * sp.pi * z / H + sp.Rational(1, 10)) / 10
-    from .test_rheology import symbolic_stress, phi as s_phi, uz as s_uz, wz as s_wz
+    from .test_rheology import shear_cell_stress, phi as s_phi, uz as s_uz, wz as s_wz
     from icidr_pde import Material
 
     p, txz, tzz = (e.subs({s_phi: phi, s_uz: sp.diff(u, z), s_wz: sp.diff(w, z)})
-                   for e in symbolic_stress(rheology, Material()))
+                   for e in shear_cell_stress(rheology, Material()))
     rates = [-sp.diff(phi * w, z),
              sp.diff(txz, z) / phi - w * sp.diff(u, z),
              sp.diff(tzz - p, z) / phi - w * sp.diff(w, z)]

@@ -32,7 +32,7 @@ def continuum_raw(material, times, cache_dir, H=30.0, phi0=0.78, a=0.16, b=0.1, 
 
     material = material or Material()
     times = np.round(np.asarray(times, float), 10)
-    key = hashlib.sha1(repr((asdict(material), times.tolist(), H, phi0, a, b, N)).encode()).hexdigest()[:10]
+    key = hashlib.sha1(repr((material.to_dict(), times.tolist(), H, phi0, a, b, N)).encode()).hexdigest()[:10]
     path = Path(cache_dir) / f"continuum_{key}.npz"
     if path.exists():
         with np.load(path) as f:
@@ -130,8 +130,8 @@ def sensitivity(cache_dir, times, steps, H=30.0, bin_height=2.0):
 
     out = {"table1": stats(base), "steps": steps, "derivatives": {}, "runs": {}}
     for name, h in steps.items():
-        lo = stats(Material(**{**asdict(base), name: getattr(base, name) - h}))
-        hi = stats(Material(**{**asdict(base), name: getattr(base, name) + h}))
+        lo = stats(Material(**{**base.to_dict(), name: getattr(base, name) - h}))
+        hi = stats(Material(**{**base.to_dict(), name: getattr(base, name) + h}))
         out["runs"][name] = {"minus": lo, "plus": hi}
         out["derivatives"][name] = {k: (hi[k] - lo[k]) / (2 * h)
                                     for k in ("t_peak", "max_w_peak", "t_peak_W1", "W1_peak", "W1_decay_rate")}
@@ -242,7 +242,7 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
     raw_fit = continuum_raw(Material(**fit), times, cache_dir)
     c_t1, c_fit = binned(raw_t1, H, 2.0), binned(raw_fit, H, 2.0)
     z = S0["z"]
-    summary = {"factors": {}, "paired_vs_baseline": {}, "phi0": phi0, "table1": asdict(Material()),
+    summary = {"factors": {}, "paired_vs_baseline": {}, "phi0": phi0, "table1": Material().to_dict(),
                "fitted": fit}
     curves = {"times": times.astype(np.float32), "z": z}
     for name, rs in res.items():

@@ -17,11 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import curve_fit
 
-
-def mu_of_I(I, mu_s, mu_d, I0):
-    """(2.10)."""
-    I = np.asarray(I, float)
-    return mu_s + (mu_d - mu_s) / (I0 / I + 1.0)
+from ..rheology import mu_of_I
 
 
 def _sigma(std, n):

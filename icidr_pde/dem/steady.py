@@ -11,6 +11,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from ..rheology import TABLE1
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams, check_phi0
@@ -111,11 +112,7 @@ def summarize(results, table1=None) -> dict:
 
 
 def table1_dict():
-    try:
-        from icidr_pde.rheology import Material
-        return asdict(Material())
-    except ImportError:  # core module missing: Table 1 literal values
-        return {"mu_s": 0.248, "mu_d": 0.588, "I0": 0.145, "phi_c": 0.817, "a": 0.314}
+    return dict(TABLE1)
 
 
 def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed=1,

@@ -16,9 +16,9 @@ def test_appendix_B_statuses(all_checks):
 
 
 def test_convexity_sample_independent_material():
-    from stability.material import Table1Material
+    from icidr_pde.rheology import Material
 
-    res = dissipation.convexity_sample(n=100, seed=11, material=Table1Material(mu_s=0.3, mu_d=0.9))
+    res = dissipation.convexity_sample(n=100, seed=11, material=Material(mu_s=0.3, mu_d=0.9))
     assert res["ok"] and res["min_ratio"] > 0
 
 

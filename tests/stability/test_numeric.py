@@ -9,7 +9,7 @@ from stability.numeric import A_matrix, coefficients, gamma, stability_numbers
 
 def _sim_coefficients(name, ph, u, w, h=1e-6):
     """a_i, b_ij from central differences of the simulator's stress (independent of sympy)."""
-    rheo = pytest.importorskip("icidr_pde.rheology")
+    import icidr_pde.rheology as rheo
     sim = rheo.get_rheology(name)
 
     def F(a, b, c):

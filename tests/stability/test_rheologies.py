@@ -25,7 +25,7 @@ def test_printed_momentum_index_form_is_wrong(checks_by_eq):
 @pytest.mark.parametrize("name", ["mui", "icidr"])
 def test_symbolic_stress_equals_simulator_stress(name):
     """The simulator's hand-written kernels agree with the one symbolic definition to 1e-12."""
-    rheo = pytest.importorskip("icidr_pde.rheology")
+    import icidr_pde.rheology as rheo
     sim = rheo.get_rheology(name)
     rng = np.random.default_rng(42)
     n = 2000
@@ -69,3 +69,12 @@ def test_icidr_pressure_zero_set_4_13():
 
     f = sp.lambdify((delta, Sn, M, Psi), cidr.icidr_pressure(delta, Sn, M, Psi).subs({d: 1, rho: 1}), "numpy")
     assert f(0.5, 0.0, 0.4, 0.1) == 0 and f(0.0, 0.0, 0.4, 0.1) == 0 and f(-0.5, 0.0, 0.4, 0.1) > 0
+
+
+def test_simulator_laws_match_their_derivations(checks_by_eq):
+    """The simulator's one definition of each law, on general (div u, ||S||), against (2.9)/(2.14),
+    (4.7)-(4.11) derived in stability.cidr, and its cancellation-free form against the plain one."""
+    assert checks_by_eq["(2.14) simulator"][0].status == "exact"
+    assert checks_by_eq["(4.12) simulator"][0].status == "exact"
+    assert checks_by_eq["(4.14) simulator"][0].status in ("exact", "numeric")
+    assert checks_by_eq["(4.12) stable form"][0].status == "exact"

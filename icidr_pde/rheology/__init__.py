@@ -1,0 +1,27 @@
+"""Constitutive laws of dense granular flow, written once on invariants (see :mod:`.base`).
+
+* :mod:`.laws` -- friction mu(I) and dilatancy Phi(I)/Psi(phi) laws (2.10), (2.11), the
+  saturating law of section 2; :mod:`.material` -- :class:`Material` (Table 1 by default);
+* :mod:`.base` -- :class:`Rheology`: (phi, div u, ||S||) -> (p, c) with tau = c S, the
+  registry, :func:`define_rheology`, chi (A18);
+* :mod:`.mui`, :mod:`.icidr` -- the two rheologies of the paper, one class per file;
+* :mod:`.kinematics` -- adapters from a geometry's strain rates to the invariants;
+* :mod:`.codegen` -- numeric kernels and Jacobians generated from the sympy definitions,
+  compiled by numba once per installation.
+
+Everything is non-dimensional with the scalings (3.12): d = rho_* = V0 = 1.
+"""
+
+from .base import RHEOLOGIES, Rheology, chi, define_rheology, get_rheology
+from .icidr import ICIDR
+from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
+from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, FrictionLaw, LinearDilatancy,
+                   MuOfI, SaturatingDilatancy)
+from .material import Material, mu_of_I
+from .mui import MuIPhiI
+
+__all__ = [
+    "Material", "mu_of_I", "Rheology", "MuIPhiI", "ICIDR", "RHEOLOGIES", "get_rheology", "define_rheology", "chi",
+    "TABLE1", "FrictionLaw", "DilatancyLaw", "MuOfI", "LinearDilatancy", "SaturatingDilatancy",
+    "FRICTION_LAWS", "DILATANCY_LAWS", "Kinematics", "INVARIANTS", "SHEAR_CELL",
+]

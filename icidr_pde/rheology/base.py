@@ -1,0 +1,196 @@
+"""Rheologies on invariants: (phi, div u, ||S||) -> (p, c) with tau = c S, written once.
+
+Both rheologies of the paper obey the alignment law (2.6), tau = (||tau||/||S||) S, so a
+rheology is two scalar functions of the invariants: the pressure p and the coefficient
+c = ||tau||/||S||. A subclass writes them once, as sympy, in :meth:`Rheology.law` in terms
+of M = M(phi) = mu(Psi(phi)) and Psi = Psi(phi) of its :class:`Material`; everything numeric
+(kernels for any geometry, their Jacobians) is generated from that definition
+(:mod:`icidr_pde.rheology.codegen`). Non-dimensional with the scalings (3.12), d = rho_* = 1;
+every law here carries the Bagnold scaling, dimensional stresses are rho_* d^2 times these.
+
+A subclass with a ``name`` registers itself in :data:`RHEOLOGIES` (one class in one file);
+:func:`define_rheology` builds and registers one at run time from sympy expressions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
+from .material import Material
+
+__all__ = ["Rheology", "RHEOLOGIES", "get_rheology", "define_rheology", "chi"]
+
+#: name -> Rheology subclass; filled by the subclasses themselves
+RHEOLOGIES: dict[str, type] = {}
+
+
+class Rheology:
+    """A constitutive law on invariants, plus the kernels generated from it.
+
+    Subclasses set ``name`` and ``label`` and implement :meth:`law`.
+
+    Args:
+        material: laws and parameters (default :class:`Material`\\ (): Table 1)
+    """
+
+    name: str = ""
+    label: str = ""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("name"):
+            RHEOLOGIES[cls.name] = cls
+
+    def __init__(self, material: Material | None = None):
+        self.material = Material() if material is None else material
+        if not isinstance(self.material, Material):
+            raise TypeError("`material` must be an icidr_pde.rheology.Material")
+
+    def __repr__(self) -> str:
+        return f"{self.__class__.__name__}({self.material!r})"
+
+    def __eq__(self, other):
+        return type(other) is type(self) and other.material == self.material
+
+    def __hash__(self):
+        return hash((type(self), self.material))
+
+    # --- the definition ---------------------------------------------------------------
+
+    def law(self, phi, div_u, norm_S, M, Psi, prm, stable: bool = False):
+        """(p, c) as sympy expressions; M, Psi are M(phi) and Psi(phi).
+
+        `prm` maps the material parameter names to their values or symbols (for laws that
+        use a parameter directly, e.g. phi_c). `stable` asks for a form that is free of cancellation in floating point (it must
+        be the same function); the default form is the one to analyse symbolically.
+        """
+        raise NotImplementedError
+
+    def symbolic_stress(self, phi, div_u, norm_S, *, symbolic: bool = False, stable: bool = False):
+        """(p, c) with tau = c S, as sympy expressions of the given arguments.
+
+        Material parameters are exact numbers, or their symbols with ``symbolic=True``
+        (:data:`~icidr_pde.rheology.symbols.MATERIAL_SYMBOLS`); `stable` as for :meth:`law`.
+        """
+        M = self.material.symbolic_M(phi, symbolic)
+        Psi = self.material.symbolic_Psi(phi, symbolic)
+        return self.law(phi, div_u, norm_S, M, Psi, self.material.values(symbolic), stable=stable)
+
+    @classmethod
+    def definition_key(cls) -> str:
+        """Text the generated kernels depend on (the source of the defining module)."""
+        from .codegen import _module_source
+
+        return _module_source(cls.__module__)
+
+    # --- generated kernels ------------------------------------------------------------
+
+    def kernels(self, kinematics: Kinematics = SHEAR_CELL):
+        """The generated kernel module of this law for `kinematics` (see :mod:`.codegen`).
+
+        It has ``stress(phi, *rates, params)`` and ``stress_jacobian`` (scalar, numba,
+        cached on disk), ``stress_array``/``stress_jacobian_array`` (numba loops over 1-D
+        arrays) and ``stress_numpy``/``stress_jacobian_numpy`` (plain numpy, no compilation);
+        ``params`` is ``material.params``. The Jacobian lists d(output k)/d(phi, rates...)
+        output by output.
+        """
+        from .codegen import law_kernels
+
+        return law_kernels(self, kinematics)
+
+    def _inputs(self, phi, uz, wz):
+        phi, uz, wz = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (phi, uz, wz)))
+        self.material.check_phi(phi)
+        for name, value in (("uz", uz), ("wz", wz)):
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"`{name}` must be finite")
+        return phi, uz, wz
+
+    def stress(self, phi, uz, wz):
+        """Shear-cell (p, tau_xz, tau_zz) for arrays of phi in the inertial range, u_z, w_z."""
+        phi, uz, wz = self._inputs(phi, uz, wz)
+        return self.kernels().stress_numpy(phi, uz, wz, self.material.params)
+
+    def stress_jacobian(self, phi, uz, wz):
+        """The nine partial derivatives of (p, tau_xz, tau_zz) by (phi, u_z, w_z)."""
+        phi, uz, wz = self._inputs(phi, uz, wz)
+        return self.kernels().stress_jacobian_numpy(phi, uz, wz, self.material.params)
+
+    def invariant_stress(self, phi, div_u, norm_S):
+        """(p, c) of the law for arrays of phi, div u and ||S|| >= 0."""
+        phi = self.material.check_phi(phi)
+        return self.kernels(INVARIANTS).stress_numpy(phi, np.asarray(div_u, float),
+                                                     np.asarray(norm_S, float), self.material.params)
+
+    def momentum_flux(self, phi, uz, wz):
+        """Fluxes of the shear-cell momentum equations: (tau_xz, tau_zz - p)."""
+        p, txz, tzz = self.stress(phi, uz, wz)
+        return txz, tzz - p
+
+    def chi(self, phi, uz, wz):
+        """chi of (A18) at these states (the ill-posedness indicator of mu(I), see :func:`chi`)."""
+        return chi(phi, uz, wz, self.material)
+
+
+def chi(phi, uz, wz, material: Material | None = None) -> np.ndarray:
+    """Ill-posedness indicator chi = w_z/|u_z| - M/sqrt(1 - M^2) of (A18) (> 0: ill-posed).
+
+    Where u_z = 0 the ratio is +inf for w_z > 0 (there (A16) holds: ill-posed, as the paper
+    says) and -inf for w_z < 0. At u_z = w_z = 0 chi is nan: Gamma = 0 there, the symbol is
+    degenerate and neither (A16) nor (A17) holds. `material` defaults to Table 1.
+    """
+    material = Material() if material is None else material
+    phi = material.check_phi(phi)
+    uz, wz = np.asarray(uz, float), np.asarray(wz, float)
+    for name, value in (("uz", uz), ("wz", wz)):
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"`{name}` must be finite (any real number); got {value!r}")
+    M = material.M(phi)
+    au = np.abs(uz)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(au > 0, wz / np.where(au > 0, au, 1.0), np.sign(wz) * np.inf)
+    return ratio - M / np.sqrt(1.0 - M * M)
+
+
+def get_rheology(name, material: Material | None = None) -> Rheology:
+    """The rheology registered as `name` (see :data:`RHEOLOGIES`), or `name` if it is one."""
+    if isinstance(name, Rheology):
+        return name
+    try:
+        cls = RHEOLOGIES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"`rheology` must be one of {sorted(RHEOLOGIES)}; got {name!r}") from None
+    return cls(material)
+
+
+def define_rheology(name: str, p, c, *, label: str | None = None, register: bool = True) -> type:
+    """Build (and register) a Rheology class from sympy expressions of the invariants.
+
+    `p` and `c` (tau = c S) are expressions in the symbols of
+    :mod:`icidr_pde.rheology.symbols`: ``phi``, ``div_u``, ``norm_S``, the placeholders
+    ``M`` = M(phi) and ``Psi`` = Psi(phi), and material parameters
+    (``MATERIAL_SYMBOLS``). Kernels are generated and cached like those of the built-in
+    rheologies. Returns the class; ``get_rheology(name, material)`` then works.
+    """
+    import sympy as sp
+
+    from . import symbols as s
+
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"`name` must be an identifier-like string; got {name!r}")
+    p, c = sp.sympify(p), sp.sympify(c)
+    key = f"{sp.srepr(p)}\n{sp.srepr(c)}"
+
+    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
+        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
+        subs.update({s.MATERIAL_SYMBOLS[k]: v for k, v in prm.items()})
+        return p.xreplace(subs), c.xreplace(subs)
+
+    cls = type(f"Rheology_{name}", (Rheology,),
+               {"law": law, "label": label or name, "definition_key": classmethod(lambda cls: key),
+                "__doc__": f"Rheology {name!r}: p = {p}, c = {c} (tau = c S)."})
+    cls.name = name
+    if register:
+        RHEOLOGIES[name] = cls
+    return cls
