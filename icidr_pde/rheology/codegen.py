@@ -55,7 +55,8 @@ import threading
 
 __all__ = ["kernel_dir", "law_kernels", "material_functions", "compose", "generated_source"]
 
-_MODULES: dict[str, object] = {}
+_MODULES: dict[str, object] = {}  # module name -> module
+_BY_DEFINITION: dict[tuple, object] = {}  # (classes the module is generated from) -> module
 _LOCK = threading.Lock()
 _PREFIX = "icidr_pde_kernels_"
 
@@ -284,6 +285,13 @@ def generated_source(rheology, kinematics) -> str:
 
 def law_kernels(rheology, kinematics):
     """The generated (and imported) law module of `rheology` for `kinematics`."""
+    memo = (type(rheology), rheology.material.law_key(), type(kinematics))
+    if memo not in _BY_DEFINITION:
+        _BY_DEFINITION[memo] = _law_kernels(rheology, kinematics)
+    return _BY_DEFINITION[memo]
+
+
+def _law_kernels(rheology, kinematics):
     friction, dilatancy = rheology.material.law_key()
     key = "\n".join([_generator_key(), rheology.definition_key(), type(rheology).__qualname__,
                      friction.__qualname__, dilatancy.__qualname__, type(kinematics).__qualname__,
@@ -311,9 +319,11 @@ def _material_source(material) -> str:
 
 def material_functions(material):
     """Generated numpy module with mu(I, params), Phi(I, params), Psi(phi, params), M(phi, params)."""
-    friction, dilatancy = material.law_key()
-    key = "\n".join([_generator_key(), friction.__qualname__, dilatancy.__qualname__])
-    return _load("material", key, lambda: _material_source(material))
+    friction, dilatancy = memo = material.law_key()
+    if memo not in _BY_DEFINITION:
+        key = "\n".join([_generator_key(), friction.__qualname__, dilatancy.__qualname__])
+        _BY_DEFINITION[memo] = _load("material", key, lambda: _material_source(material))
+    return _BY_DEFINITION[memo]
 
 
 def compose(template: str, law_module, name: str = "loops"):
