@@ -14,8 +14,7 @@ import numpy as np
 from pde.solvers import Controller, ScipySolver
 from pde.trackers.trackers import CallbackTracker
 
-from icidr_pde import StiffSolver, make_pde
-from icidr_pde.scenes import get_scene
+from icidr_pde import StiffSolver, build_case
 
 
 def integrate(solver, state, t_end, every):
@@ -33,12 +32,11 @@ def main():
     parser.add_argument("--every", type=float, default=0.1)
     parser.add_argument("--rtol", type=float, default=1e-6)
     args = parser.parse_args()
-    pde = make_pde("icidr")
-    scene = get_scene(args.scene)
-    grid = pde.make_grid(args.N, scene.H)
+    case = build_case("icidr", args.scene, "fd", args.N)
+    pde = case.pde
 
     def fresh():
-        return pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+        return case.state.copy()
 
     atol = args.rtol * 1e-3
     pde.make_pde_rhs(fresh(), backend="numba")  # compile once, outside the timings

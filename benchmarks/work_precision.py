@@ -27,10 +27,9 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from icidr_pde import make_pde, run  # noqa: E402
+from icidr_pde import build_case, run  # noqa: E402
 from icidr_pde.reference import (  # noqa: E402
     CASES, case_run, profile_error, reference, series_error, series_times)
-from icidr_pde.scenes import get_scene  # noqa: E402
 
 
 class _Outcome:
@@ -44,10 +43,8 @@ class _Outcome:
 
 def _state(case, N):
     spec = CASES[case]
-    pde = make_pde(spec["rheology"])
-    scene = get_scene(spec["scene"])
-    grid = pde.make_grid(N, scene.H)
-    return pde, scene, grid, pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    built = build_case(spec["rheology"], spec["scene"], "fd", N)
+    return built.pde, built.scene, built.grid, built.state
 
 
 def run_pypde(case, N, rtol, solver_name, tracker_every=None):

@@ -3,15 +3,17 @@
 Schaeffer, Barker, Tsuji, Gremaud, Shearer & Gray (2019), J. Fluid Mech. 874, 926-951.
 """
 
-from .api import make_pde, run
+from .api import run
+from .case import build_case, make_pde
+from .discretizations import DISCRETIZATIONS, ChebyshevShearCellPDE, ShearCellPDE
 from .integrator import SimulationFailed, StiffSolver
-from .pdes import ShearCellPDE
 from .result import Result
-from .rheology import ICIDR, Material, MuIPhiI, get_rheology
+from .rheology import ICIDR, RHEOLOGIES, Material, MuIPhiI, define_rheology, get_rheology
 from .scenes import SCENES, get_scene
 
 __all__ = [
-    "run", "make_pde", "Result", "Material", "MuIPhiI", "ICIDR", "get_rheology",
-    "ShearCellPDE", "StiffSolver", "SimulationFailed", "SCENES", "get_scene",
+    "run", "build_case", "make_pde", "Result", "Material", "MuIPhiI", "ICIDR", "get_rheology",
+    "define_rheology", "RHEOLOGIES", "ShearCellPDE", "ChebyshevShearCellPDE", "DISCRETIZATIONS",
+    "StiffSolver", "SimulationFailed", "SCENES", "get_scene",
 ]
 __version__ = "0.1.0"

@@ -1,37 +1,31 @@
-"""One function to run a scene: build the discretized PDE, integrate, collect a Result."""
+"""One run path: build the case, attach the trackers, integrate, collect a Result.
+
+:func:`run` is :func:`~icidr_pde.case.build_case`, :func:`make_trackers`,
+:func:`integrate` and :func:`collect`; the failure-time study and the benchmarks use
+the same functions.
+"""
 
 from __future__ import annotations
 
 import time as _time
+from dataclasses import dataclass, field
 
 import numpy as np
 from pde import FileStorage, MemoryStorage
 from pde.solvers import Controller
-from pde.trackers.trackers import PlotTracker, ProgressTracker
+from pde.trackers.base import FinishedSimulation
+from pde.trackers.trackers import CallbackTracker, PlotTracker, ProgressTracker
 
-from .chebyshev import ChebyshevShearCellPDE
+from .case import Case, build_case, make_pde
+from .discretizations import DISCRETIZATIONS, get_discretization
 from .integrator import SimulationFailed, StiffSolver
-from .pdes import ShearCellPDE
 from .presets import resolve
 from .result import Result
-from .rheology import Material, get_rheology
-from .scenes import get_scene
+from .rheology import Material
 from .trackers import ChiTracker, MaxWTracker, dense_times
 
-__all__ = ["run", "make_pde", "DISCRETIZATIONS"]
-
-
-DISCRETIZATIONS = {"fd": ShearCellPDE, "cheb": ChebyshevShearCellPDE}
-
-
-def make_pde(rheology="icidr", discretization="fd", material=None, **kwargs):
-    """The shear-cell PDE for `rheology` discretized by `discretization` ('fd' or 'cheb')."""
-    try:
-        cls = DISCRETIZATIONS[discretization]
-    except KeyError:
-        raise ValueError(f"`discretization` must be one of {sorted(DISCRETIZATIONS)}; "
-                         f"got {discretization!r}") from None
-    return cls(get_rheology(rheology, material), **kwargs)
+__all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
+           "Outcome"]
 
 
 def _time_labels(times, t_end):
@@ -44,6 +38,139 @@ def _time_labels(times, t_end):
         values.append(value)
     order = np.argsort(values, kind="stable")
     return [labels[i] for i in order], np.array(values)[order]
+
+
+@dataclass
+class Recorders:
+    """The trackers of a run and what they record."""
+
+    labels: list
+    snapshot_times: np.ndarray
+    storage: MemoryStorage
+    max_w: MaxWTracker | None
+    chi: ChiTracker | None
+    trackers: list = field(default_factory=list)
+
+
+def make_trackers(case: Case, t_end: float, times=None, *, series_times=None, chi: bool | None = None,
+                  save: str | None = None, progress: bool = False, live_plot: bool = False,
+                  max_wall: float | None = None) -> Recorders:
+    """Snapshots at `times` (default: the scene's), max|w| at `series_times` (default dense;
+    empty: none), chi of (A18) if the scene asks for it (or `chi`), optional HDF5 file,
+    progress bar, live plot and a wall-clock limit `max_wall` (seconds)."""
+    if times is None:
+        times = [t for t in case.scene.default_times if t <= t_end] + [t_end]
+    labels, snap_times = _time_labels(times, t_end)
+    storage = MemoryStorage()
+    trackers = [storage.tracker(interrupts=list(snap_times))]
+    series = dense_times(t_end) if series_times is None else np.asarray(series_times, float)
+    max_w = MaxWTracker(interrupts=list(series)) if series.size else None
+    if max_w is not None:
+        trackers.append(max_w)
+    chi_tracker = None
+    if chi or (chi is None and "chi" in case.scene.outputs):
+        chi_times = np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
+        chi_tracker = ChiTracker(case.pde, interrupts=list(chi_times))  # a few samples: a diagnostic
+        trackers.append(chi_tracker)
+    if save:
+        trackers.append(FileStorage(save, write_mode="truncate").tracker(interrupts=list(snap_times)))
+    if progress:
+        trackers.append(ProgressTracker(interrupts=max(t_end / 200, 1e-6)))
+    if live_plot:
+        trackers.append(PlotTracker(interrupts=t_end / 50, show=True))
+    if max_wall is not None:
+        trackers.append(_wall_clock_limit(max_wall, t_end))
+    return Recorders(labels, snap_times, storage, max_w, chi_tracker, trackers)
+
+
+class _Timeout(FinishedSimulation):
+    pass
+
+
+def _wall_clock_limit(max_wall: float, t_end: float) -> CallbackTracker:
+    """A tracker that ends the run once it has taken `max_wall` seconds (checked at 200 times)."""
+    start = _time.perf_counter()
+
+    def check(state, t):
+        if _time.perf_counter() - start > max_wall:
+            raise _Timeout(f"timeout after {max_wall} s wall at t = {t:.6g}")
+
+    windows = np.geomspace(min(1e-4, t_end / 10), t_end, 200)
+    return CallbackTracker(check, interrupts=list(windows))
+
+
+@dataclass
+class Outcome:
+    """How an integration ended."""
+
+    final: np.ndarray
+    blew_up: bool
+    t_star: float | None
+    reason: str
+    t_final: float
+    wall_s: float
+    compile_s: float
+
+
+def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> Outcome:
+    """Integrate `case` to `t_end` with `solver`, calling `trackers` at their interrupts.
+
+    A failure is not an exception: the Outcome says blew_up, t* (last accepted time) and why,
+    with the state at t*. wall_s excludes the kernels' set-up time (compile_s).
+    """
+    controller = Controller(solver, t_range=(0.0, t_end), tracker=trackers)
+    start = _time.perf_counter()
+    try:
+        final = controller.run(case.state).data.copy()  # run() works on a copy of the state
+        blew_up, t_star, t_final = False, None, t_end
+        reason = "reached t_end"
+        stop = controller.info.get("stop_reason", "Reached final time")
+        if stop != "Reached final time":  # a tracker ended the run (e.g. the wall-clock limit)
+            reason, t_final = stop, float(controller.info.get("t_final", t_end))
+    except SimulationFailed as failure:
+        blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
+        final = failure.state_data
+        for tracker in trackers:  # close files and progress bars
+            tracker.finalize()
+    compile_s = solver.info.get("compile_s", 0.0)
+    wall = _time.perf_counter() - start - compile_s
+    return Outcome(final, blew_up, t_star, reason, float(t_final), wall, compile_s)
+
+
+def collect(case: Case, settings: dict, solver: StiffSolver, recorders: Recorders, outcome: Outcome,
+            accuracy: str | None = None) -> Result:
+    """The Result of a run from what the trackers recorded and how it ended."""
+    z = case.nodes()
+    storage = recorders.storage
+    data = np.array(storage.data) if len(storage) else np.empty((0, *case.state.data.shape))
+    n_snap = data.shape[0]
+    max_w_t, max_w = [], []
+    if recorders.max_w is not None:
+        max_w_t, max_w = list(recorders.max_w.times), list(recorders.max_w.values)
+        if outcome.blew_up:
+            max_w_t.append(outcome.t_star)
+            max_w.append(float(np.max(np.abs(outcome.final[2]))))
+    chi_kwargs = {}
+    if recorders.chi is not None and recorders.chi.values:
+        chi_kwargs = dict(chi_t=np.array(recorders.chi.times), chi_z=recorders.chi.z,
+                          chi=np.array(recorders.chi.values))
+    stats = solver.stats
+    mass0 = case.mass()
+    return Result(
+        rheology=case.pde.rheology.name, scene=case.scene.name, discretization=case.pde.name,
+        N=case.N, t_end=float(settings["t_end"]), rtol=solver.rtol, atol=solver.atol,
+        method=solver.method, jacobian=solver.jacobian, blew_up=outcome.blew_up, t_star=outcome.t_star,
+        reason=outcome.reason, t_final=outcome.t_final, z=z, times=np.array(storage.times[:n_snap]),
+        time_labels=recorders.labels[:n_snap], requested_times=recorders.labels,
+        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(outcome.final),
+        max_w_t=np.array(max_w_t), max_w=np.array(max_w),
+        mass_drift=(case.mass(outcome.final) - mass0) / mass0,
+        wall_s=outcome.wall_s, compile_s=outcome.compile_s, n_steps=stats.n_steps, n_rhs=stats.n_rhs,
+        n_jac=stats.n_jac, n_lu=stats.n_lu, scene_params=case.scene.parameters(),
+        material=case.pde.material.to_dict(),
+        settings=dict(accuracy=accuracy, **case.pde.option_values()),
+        **chi_kwargs,
+    )
 
 
 def run(
@@ -60,108 +187,57 @@ def run(
     atol: float | None = None,
     jacobian: str | None = None,
     material: Material | None = None,
-    advection: str = "upwind",
+    advection: str | None = None,
     progress: bool = False,
     live_plot: bool = False,
     save: str | None = None,
     series_times=None,
+    backend: str = "numba",
+    max_wall: float | None = None,
     **scene_params,
 ) -> Result:
     """Run `scene` with `rheology` and return a :class:`~icidr_pde.result.Result`.
 
     Args:
-        rheology: 'mui' ((3.13)-(3.15)) or 'icidr' ((5.3)-(5.5) with the pressure (4.12))
-        scene: 'shear' (IC (3.16)) or 'sine' (IC (5.7)); scene parameters (phi0, eps,
-            a, b, H) are keyword arguments
+        rheology: a registered rheology: 'mui' ((3.13)-(3.15)) or 'icidr' ((5.3)-(5.5)
+            with the pressure (4.12))
+        scene: a registered scene: 'shear' (IC (3.16)) or 'sine' (IC (5.7)); scene
+            parameters (phi0, eps, a, b, H) are keyword arguments
         N: number of grid cells ('fd') or collocation points with walls ('cheb')
         t_end: final time
         times: snapshot times (strings keep their spelling as labels)
         accuracy: preset 'draft', 'standard' or 'publication' (see :mod:`icidr_pde.presets`);
             it fills in discretization, N, method, rtol and atol where they are None
-        discretization: 'fd' (finite volumes on py-pde's grid) or 'cheb' (Chebyshev)
+        discretization: a registered scheme: 'fd' (finite volumes on py-pde's grid) or
+            'cheb' (Chebyshev)
         method: 'BDF', 'Radau', 'LSODA' (scipy) or 'CVODE' (SUNDIALS, the fast path)
         rtol, atol: integrator tolerances
-        jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's best)
-        material: parameters (default Table 1)
-        advection: 'upwind' or 'central' (finite differences only)
+        jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's default)
+        material: laws and parameters (default Table 1)
+        advection: 'upwind' or 'central' (an option of 'fd'; None: the scheme's default)
         progress: show a progress bar
         live_plot: show the fields while they evolve (py-pde PlotTracker, e.g. in Jupyter)
         save: optional HDF5 file for the snapshots (py-pde FileStorage)
-        series_times: times of the max|w| and chi series (default: dense log+linear)
+        series_times: times of the max|w| series (default: dense log+linear; empty: none)
+        backend: 'numba' (compiled kernels, cached on disk) or 'numpy'
+        max_wall: abandon the run after this many seconds (reason 'timeout ...')
 
-    A failed run (step-size underflow, non-finite state, phi leaving (0, phi_c)) is not
-    an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
+    A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is
+    not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
     """
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"`t_end` must be > 0; got {t_end}")
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
-    discretization, N, method = settings["discretization"], settings["N"], settings["method"]
-    rtol, atol = settings["rtol"], settings["atol"]
-    scene_obj = get_scene(scene, **scene_params)
-    pde_kwargs = {"advection": advection} if discretization == "fd" else {}
-    if discretization != "fd" and advection != "upwind":
-        raise ValueError("`advection` applies to discretization='fd' only")
-    pde = make_pde(rheology, discretization, material, **pde_kwargs)
-    pde.material.check_phi(scene_obj.phi0, "phi0")
-    grid = pde.make_grid(N, scene_obj.H)
-    z = pde.nodes(grid)
-    state = pde.make_state(grid, *scene_obj.initial_condition(z))
-    mass0 = pde.integral(state.data[0], grid)
-
-    if times is None:
-        times = [t for t in scene_obj.default_times if t <= t_end] + [t_end]
-    labels, snap_times = _time_labels(times, t_end)
-    storage = MemoryStorage()
-    series = dense_times(t_end) if series_times is None else np.asarray(series_times, float)
-    max_w = MaxWTracker(interrupts=list(series))
-    trackers = [storage.tracker(interrupts=list(snap_times)), max_w]
-    chi_tracker = None
-    if "chi" in scene_obj.outputs:
-        chi_times = np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
-        chi_tracker = ChiTracker(pde, interrupts=list(chi_times))  # a few samples: chi is a diagnostic
-        trackers.append(chi_tracker)
-    if save:
-        trackers.append(FileStorage(save, write_mode="truncate").tracker(interrupts=list(snap_times)))
-    if progress:
-        trackers.append(ProgressTracker(interrupts=max(t_end / 200, 1e-6)))
-    if live_plot:
-        trackers.append(PlotTracker(interrupts=t_end / 50, show=True))
-
-    solver = StiffSolver(pde, method=method, rtol=rtol, atol=atol, jacobian=jacobian)
-    controller = Controller(solver, t_range=(0.0, t_end), tracker=trackers)
-    start = _time.perf_counter()
-    try:
-        final = controller.run(state).data.copy()  # run() works on a copy of `state`
-        blew_up, t_star, reason, t_final = False, None, "reached t_end", t_end
-    except SimulationFailed as failure:
-        blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
-        final = failure.state_data
-        max_w.times.append(t_star)
-        max_w.values.append(float(np.max(np.abs(final[2]))))
-        for tracker in trackers:  # close files and progress bars
-            tracker.finalize()
-    compile_s = solver.info.get("compile_s", 0.0)
-    wall = _time.perf_counter() - start - compile_s  # numba compile time is reported apart
-
-    data = np.array(storage.data) if len(storage) else np.empty((0, 3, len(z)))
-    n_snap = data.shape[0]
-    chi_kwargs = {}
-    if chi_tracker is not None and chi_tracker.values:
-        chi_kwargs = dict(chi_t=np.array(chi_tracker.times), chi_z=chi_tracker.z,
-                          chi=np.array(chi_tracker.values))
-    stats = solver.stats
-    return Result(
-        rheology=pde.rheology.name, scene=scene_obj.name, discretization=discretization,
-        N=int(N), t_end=float(t_end), rtol=float(rtol), atol=float(atol), method=method,
-        jacobian=solver.jacobian, blew_up=blew_up, t_star=t_star, reason=reason,
-        t_final=float(t_final), z=z, times=np.array(storage.times[:n_snap]),
-        time_labels=labels[:n_snap], requested_times=labels,
-        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(final),
-        max_w_t=np.array(max_w.times), max_w=np.array(max_w.values),
-        mass_drift=(pde.integral(final[0], grid) - mass0) / mass0,
-        wall_s=wall, compile_s=compile_s, n_steps=stats.n_steps, n_rhs=stats.n_rhs,
-        n_jac=stats.n_jac, scene_params=scene_obj.parameters(),
-        material=pde.material.to_dict(),
-        settings=dict(accuracy=accuracy, **pde_kwargs),
-        **chi_kwargs,
-    )
+    options = {}
+    if advection is not None:
+        if "advection" not in get_discretization(settings["discretization"]).options:
+            raise ValueError(f"`advection` is not an option of discretization {settings['discretization']!r}")
+        options["advection"] = advection
+    case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
+                      options=options, scene_params=scene_params)
+    recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
+                              live_plot=live_plot, max_wall=max_wall)
+    solver = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
+                         jacobian=jacobian, backend=backend)
+    outcome = integrate(case, solver, t_end, recorders.trackers)
+    return collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)

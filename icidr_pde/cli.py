@@ -8,18 +8,28 @@ import json
 import sys
 import time
 
-from .api import DISCRETIZATIONS
+from .discretizations import DISCRETIZATIONS
 from .integrator import JACOBIAN_MODES, METHODS
 from .presets import PRESETS
 from .rheology import RHEOLOGIES
+from .scenes import SCENES, scene_parameters
 
-# optional subcommands, each provided by its own module: (module, function)
+# subcommands provided by their own modules: (module, function)
 _PLUGINS = [
-    ("icidr_pde.tstar", "add_parser"),
+    ("icidr_pde.studies.cli", "add_parser"),
     ("stability.cli", "add_verify_parser"),
     ("stability.cli", "add_stability_parser"),
     ("icidr_pde.dem.cli", "add_parser"),
 ]
+
+
+def discretization_options() -> dict[str, tuple]:
+    """Every option of every registered discretization -> the union of its valid values."""
+    out: dict[str, tuple] = {}
+    for cls in DISCRETIZATIONS.values():
+        for key, valid in cls.options.items():
+            out[key] = tuple(dict.fromkeys(out.get(key, ()) + tuple(valid)))
+    return out
 
 
 def positive_int(text):
@@ -33,7 +43,7 @@ def positive_int(text):
 def add_run_parser(subparsers):
     p = subparsers.add_parser("run", help="run one scene with one rheology")
     p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="icidr")
-    p.add_argument("--scene", choices=["shear", "sine"], default="shear")
+    p.add_argument("--scene", choices=sorted(SCENES), default="shear")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
                    help="preset for discretization, N, method and tolerances (measured: see README)")
     p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
@@ -47,10 +57,11 @@ def add_run_parser(subparsers):
     p.add_argument("--method", choices=METHODS, default=None, help="default: from --accuracy")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="default: the method's best (analytic for BDF/Radau, banded-fd for LSODA/CVODE)")
-    p.add_argument("--advection", choices=["upwind", "central"], default="upwind")
-    for name, help_text in [("phi0", "mean packing fraction"), ("eps", "amplitude of (3.16)"),
-                            ("a", "u amplitude of (5.7)"), ("b", "w amplitude of (5.7)"),
-                            ("H", "cell height")]:
+    for key, valid in discretization_options().items():
+        p.add_argument(f"--{key}", choices=valid, default=None,
+                       help=f"option of {', '.join(n for n, c in DISCRETIZATIONS.items() if key in c.options)} "
+                            f"(default {valid[0]})")
+    for name, help_text in scene_parameters().items():
         p.add_argument(f"--{name}", type=float, default=None, help=f"scene parameter: {help_text}")
     p.add_argument("--json", default=None, help="write the result summary here")
     p.add_argument("--plot", default=None, help="write a PNG of profiles and max|w|(t)")
@@ -62,8 +73,7 @@ def add_run_parser(subparsers):
 def cmd_run(args) -> int:
     from .api import run
 
-    scene_params = {k: getattr(args, k) for k in ("phi0", "eps", "a", "b", "H")
-                    if getattr(args, k) is not None}
+    scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
     result = run(
         args.rheology, args.scene, args.N, args.t_end, args.times,
         accuracy=args.accuracy, discretization=args.discretization, method=args.method, rtol=args.rtol,
@@ -130,13 +140,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_demo_parser(subparsers)
     add_run_parser(subparsers)
     for module_name, function in _PLUGINS:
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as err:
-            if err.name and module_name.startswith(err.name):
-                continue  # that part of the product is not installed (yet)
-            raise
-        getattr(module, function)(subparsers)
+        getattr(importlib.import_module(module_name), function)(subparsers)
     return parser
 
 

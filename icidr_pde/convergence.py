@@ -12,6 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .api import run
+from .discretizations import get_discretization
 
 __all__ = ["convergence_study"]
 
@@ -35,7 +36,7 @@ def convergence_study(rheology="icidr", scene="sine", t=5.0, Ns=(51, 101, 201, 4
                       advection="upwind", rtol=1e-10, atol=1e-12, discretization="fd"):
     """Errors against an N_ref run at time t and the orders log2(e_N / e_2N)."""
     kwargs = dict(rtol=rtol, atol=atol, discretization=discretization)
-    if discretization == "fd":
+    if "advection" in get_discretization(discretization).options:
         kwargs["advection"] = advection
     ref = run(rheology, scene, N_ref, t, [t], **kwargs)
     errors = {}

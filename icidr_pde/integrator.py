@@ -22,17 +22,8 @@ import numpy as np
 from pde.solvers.base import SolverBase
 import scipy.integrate
 
-__all__ = ["StiffSolver", "SimulationFailed", "METHODS", "JACOBIAN_MODES"]
-
-METHODS = ("BDF", "Radau", "LSODA", "CVODE")
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "none")
-DEFAULT_JACOBIAN = {"BDF": "analytic", "Radau": "analytic", "LSODA": "banded-fd", "CVODE": "banded-fd"}
-_VALID_JACOBIANS = {
-    "BDF": ("analytic", "sparse-fd", "none"),
-    "Radau": ("analytic", "sparse-fd", "none"),
-    "LSODA": ("analytic", "banded-fd", "none"),
-    "CVODE": ("analytic", "banded-fd", "none"),
-}
+__all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
+           "ENGINES", "METHODS", "JACOBIAN_MODES", "check_tolerances"]
 
 
 class SimulationFailed(RuntimeError):
@@ -68,15 +59,83 @@ def check_tolerances(rtol: float, atol: float) -> None:
         raise ValueError(f"`atol` must be > 0; got {atol}")
 
 
-class _ScipyEngine:
+@dataclass
+class JacobianSpec:
+    """How the engine gets the Jacobian: `mode` and what that mode needs.
+
+    jac: analytic jac(t, y) (mode 'analytic'); sparsity: pattern for colored finite
+    differences ('sparse-fd'); band: (lower, upper) bandwidths of the engine's ordering
+    ('banded-fd'); nothing for 'none' (dense finite differences).
+    """
+
+    mode: str
+    jac: object = None
+    sparsity: object = None
+    band: tuple[int, int] | None = None
+
+
+class Engine:
+    """Protocol of an integration engine, in the style of scipy's ``OdeSolver``.
+
+    Class attributes:
+        methods: the method names the engine implements
+        jacobian_modes: {method: valid Jacobian modes}; the first is the method's default
+
+    ``Engine(method, fun, t0, y0, *, rtol, atol, max_step, first_step, jacobian, margins)``
+    starts an integration of y' = fun(t, y) at (t0, y0); `jacobian` is a
+    :class:`JacobianSpec`, `margins(y)` (optional) returns numbers that are all positive
+    while the state is valid. Then:
+
+    * ``advance(t_end, check)`` takes accepted steps until the engine has passed t_end;
+      `check(y)` returns a failure reason or None for every accepted state. Returns None,
+      or (t_good, y_good, reason): the last valid accepted state and why it stopped;
+    * ``value_at(t)`` is the state at a t inside the last step (dense output);
+    * ``counts()`` is (steps or None, Jacobian evaluations, LU decompositions).
+    """
+
+    methods: tuple[str, ...] = ()
+    jacobian_modes: dict[str, tuple[str, ...]] = {}
+
+    def advance(self, t_end, check):
+        raise NotImplementedError
+
+    def value_at(self, t):
+        raise NotImplementedError
+
+    def counts(self):
+        raise NotImplementedError
+
+
+def _dense(jac):
+    def dense_jac(t, y):
+        J = jac(t, y)
+        return J.toarray() if hasattr(J, "toarray") else J
+
+    return dense_jac
+
+
+class ScipyEngine(Engine):
     """One scipy OdeSolver (BDF, Radau, LSODA), checked after every accepted step."""
 
-    def __init__(self, method, fun, t0, y0, options, margins=None):
+    methods = ("BDF", "Radau", "LSODA")
+    jacobian_modes = {"BDF": ("analytic", "sparse-fd", "none"), "Radau": ("analytic", "sparse-fd", "none"),
+                      "LSODA": ("banded-fd", "analytic", "none")}
+
+    def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
+                 jacobian: JacobianSpec, margins=None):
+        options = dict(rtol=rtol, atol=atol, max_step=max_step)
+        if first_step is not None:
+            options["first_step"] = first_step
+        if jacobian.mode == "analytic":
+            options["jac"] = _dense(jacobian.jac) if method == "LSODA" else jacobian.jac  # Fortran: dense
+        elif jacobian.mode == "sparse-fd":
+            options["jac_sparsity"] = jacobian.sparsity
+        elif jacobian.mode == "banded-fd":
+            options.update(lband=jacobian.band[0], uband=jacobian.band[1])
         self.solver = getattr(scipy.integrate, method)(fun, t0, y0, np.inf, **options)
         self.t, self.y, self.n_steps = t0, np.array(y0), 0
 
     def advance(self, t_end, check):
-        """Step past t_end; return (t_good, y_good, reason) on failure, else None."""
         solver = self.solver
         while solver.t < t_end:
             message = solver.step()
@@ -94,33 +153,36 @@ class _ScipyEngine:
         return self.n_steps, self.solver.njev, self.solver.nlu
 
 
-class _CvodeEngine:
+class CvodeEngine(Engine):
     """SUNDIALS CVODE (BDF, orders 1-5) via scikit-sundae: the compiled fast path.
 
     CVODE runs in compiled code from one interrupt to the next; leaving the valid state
-    space is caught exactly by CVODE's root finding on the PDE's `validity_margins`
-    (terminal events), other checks run at the interrupts. With the banded linear solver
-    the Jacobian comes from CVODE's banded difference quotients (2 * band + 1 RHS calls).
+    space is caught exactly by CVODE's root finding on the `margins` (terminal events),
+    other checks run at the interrupts. With the banded linear solver the Jacobian comes
+    from CVODE's banded difference quotients (2 * band + 1 RHS calls); an analytic
+    Jacobian is factored by LAPACK's dense solver.
     """
 
-    def __init__(self, fun, t0, y0, options, margins=None):
+    methods = ("CVODE",)
+    jacobian_modes = {"CVODE": ("banded-fd", "analytic", "none")}
+
+    def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
+                 jacobian: JacobianSpec, margins=None):
         from sksundae.cvode import CVODE
 
-        jac = options.pop("jac", None)
         # min_step: like scipy's "step size below the spacing of numbers" test; without it
         # CVODE halves h down to 1e-165 before giving up on a blow-up (seconds of work)
-        kwargs = dict(method="BDF", rtol=options["rtol"], atol=options["atol"],
-                      max_num_steps=1_000_000, min_step=1e-14)
-        max_step = options.get("max_step", np.inf)
-        kwargs["max_step"] = max_step if np.isfinite(max_step) else 1e300  # 0 ("none") < min_step
-        if "first_step" in options:
-            kwargs["first_step"] = options["first_step"]
-        if "band" in options:
-            kwargs.update(linsolver="band", lband=options["band"][0], uband=options["band"][1])
-        elif jac is not None:
-            def jacfn(t, y, yp, JJ):
-                J = jac(t, y)
-                JJ[:, :] = J.toarray() if hasattr(J, "toarray") else J
+        kwargs = dict(method="BDF", rtol=rtol, atol=atol, max_num_steps=1_000_000, min_step=1e-14,
+                      max_step=max_step if np.isfinite(max_step) else 1e300)  # 0 ("none") < min_step
+        if first_step is not None:
+            kwargs["first_step"] = first_step
+        if jacobian.mode == "banded-fd":
+            kwargs.update(linsolver="band", lband=jacobian.band[0], uband=jacobian.band[1])
+        elif jacobian.mode == "analytic":
+            dense_jac = _dense(jacobian.jac)
+
+            def jacfn(t, y, yp, JJ):  # scikit-sundae reads this signature: no extra arguments
+                JJ[:, :] = dense_jac(t, y)
 
             kwargs.update(linsolver="lapackdense", jacfn=jacfn)
         if margins is not None:
@@ -161,24 +223,32 @@ class _CvodeEngine:
         return None, self.njev, 0
 
 
+#: method name -> engine class
+ENGINES = {method: engine for engine in (ScipyEngine, CvodeEngine) for method in engine.methods}
+METHODS = tuple(ENGINES)
+JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "none")
+
+
 class StiffSolver(SolverBase):
     """py-pde solver wrapping stiff implicit methods with one persistent integrator.
 
     Use as ``eq.solve(state, t_range, solver="stiff", method="BDF", rtol=1e-6)``.
 
     Args:
-        pde: the PDE; it offers ``make_jacobian(state)`` (analytic), ``jacobian_sparsity``
-            (for colored finite differences), optionally ``interleaving(state)``
-            (permutation and bandwidths of a banded ordering) and ``check_state(data)``
-            (a failure reason or None)
-        method: 'BDF' (scipy, default, like ode15s), 'Radau', 'LSODA' (scipy) or 'CVODE'
-            (SUNDIALS via scikit-sundae)
+        pde: the PDE; a discretization of :mod:`icidr_pde.discretizations` (its contract:
+            ``make_rates``, ``make_jacobian``, ``jacobian_sparsity``, ``interleaving``,
+            ``check_state``, ``validity_margins``) or any py-pde PDE (then only the
+            right-hand side is used, through py-pde's backend)
+        method: a key of :data:`ENGINES`: 'BDF' (scipy, default, like ode15s), 'Radau',
+            'LSODA' (scipy) or 'CVODE' (SUNDIALS via scikit-sundae)
         rtol, atol: tolerances of the integrator
-        jacobian: 'analytic', 'sparse-fd' (scipy's colored differences, BDF/Radau),
-            'banded-fd' (LSODA/CVODE banded differences on the interleaved ordering) or
-            'none' (dense differences, for comparison only); None picks the method's best
+        jacobian: one of the engine's ``jacobian_modes[method]``: 'analytic',
+            'sparse-fd' (scipy's colored differences, BDF/Radau), 'banded-fd'
+            (LSODA/CVODE banded differences on the interleaved ordering) or 'none' (dense
+            differences, for comparison only); None picks the engine's default for the method
         max_step: largest step the integrator may take
-        backend: py-pde backend for the right-hand side ('numba' by default)
+        backend: 'numba' (default: the discretization's compiled kernels, cached on disk) or
+            'numpy' (its numpy implementation, no compilation)
     """
 
     name = "stiff"
@@ -195,14 +265,15 @@ class StiffSolver(SolverBase):
         backend: str = "numba",
     ):
         super().__init__(pde, backend=backend)
-        if method not in METHODS:
+        if method not in ENGINES:
             raise ValueError(f"`method` must be one of {METHODS}; got {method!r}")
+        self.engine = ENGINES[method]
+        valid = self.engine.jacobian_modes[method]
         self._default_jacobian = jacobian is None
         if jacobian is None:
-            jacobian = DEFAULT_JACOBIAN[method]
-        if jacobian not in _VALID_JACOBIANS[method]:
-            raise ValueError(f"`jacobian` must be one of {_VALID_JACOBIANS[method]} for "
-                             f"method {method!r}; got {jacobian!r}")
+            jacobian = valid[0]
+        if jacobian not in valid:
+            raise ValueError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
         check_tolerances(rtol, atol)
         if not max_step > 0:
             raise ValueError(f"`max_step` must be > 0; got {max_step}")
@@ -214,36 +285,46 @@ class StiffSolver(SolverBase):
         self.stats = StepStatistics()
         self.last_good: tuple[float, np.ndarray] | None = None
 
-    def _ordering(self, state, size: int):
-        """Permutation into the integrator's ordering and the band, if banded."""
-        if self.jacobian != "banded-fd":
-            return None, None
-        interleaving = getattr(self.pde, "interleaving", None)
-        if interleaving is None or interleaving(state) is None:
-            if self._default_jacobian:  # no banded ordering (e.g. Chebyshev): dense analytic
-                self.jacobian = "analytic"
-                return None, None
-            raise ValueError("`jacobian`='banded-fd' needs a discretization with a banded "
-                             "ordering (finite differences); use 'analytic' or 'none'")
-        perm, lband, uband = interleaving(state)
-        return perm, (lband, uband)
+    def _jacobian_spec(self, state):
+        """The JacobianSpec of the chosen mode and the permutation into the engine's ordering."""
+        mode, pde = self.jacobian, self.pde
+        if mode == "banded-fd":
+            ordering = getattr(pde, "interleaving", lambda state: None)(state)
+            if ordering is not None:
+                perm, lband, uband = ordering
+                return JacobianSpec(mode, band=(lband, uband)), perm
+            if not self._default_jacobian:
+                raise ValueError("`jacobian`='banded-fd' needs a discretization with a banded "
+                                 "ordering (finite differences); use 'analytic' or 'none'")
+            mode = self.jacobian = "analytic"  # no banded ordering (e.g. Chebyshev): dense analytic
+        if mode == "analytic":
+            return JacobianSpec(mode, jac=pde.make_jacobian(state)), None
+        if mode == "sparse-fd":
+            return JacobianSpec(mode, sparsity=pde.jacobian_sparsity(state)), None
+        return JacobianSpec(mode), None
+
+    def _rates(self, state):
+        """The right-hand side: the discretization's cached kernels, else py-pde's backend."""
+        if getattr(self._backend, "name", self._backend) == "numba" and hasattr(self.pde, "make_rates"):
+            self.info["backend"] = "compiled kernels (icidr_pde.rheology.codegen)"
+            return self.pde.make_rates(state)
+        self._select_backend(state)
+        return self.backend.make_pde_rhs(self.pde, state)
 
     def make_stepper(self, state, dt: float | None = None):
         """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
         start = time.perf_counter()
-        self._select_backend(state)
-        rhs = self.backend.make_pde_rhs(self.pde, state)
-        shape = state.data.shape
-        rhs(np.array(state.data), 0.0)  # compile now, so that it counts as set-up time
+        rhs = self._rates(state)
+        rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
         self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
-        stats = self.stats
+        shape, stats = state.data.shape, self.stats
         check_state = getattr(self.pde, "check_state", lambda data: None)
-        perm, band = self._ordering(state, state.data.size)
+        pde_margins = getattr(self.pde, "validity_margins", None)
+        spec, perm = self._jacobian_spec(state)
         inverse = None if perm is None else np.argsort(perm)
 
-        def to_native(y):  # integrator ordering -> (3, N) state data
-            # always a fresh writable C array: a read-only or strided view (as CVODE passes)
-            # would make numba compile a second specialisation in the middle of the run
+        def to_native(y):  # integrator ordering -> state data
+            # always a fresh writable C array (CVODE passes read-only views)
             return (np.array(y, dtype=float) if perm is None else y[inverse]).reshape(shape)
 
         def fun(t, y):
@@ -251,36 +332,13 @@ class StiffSolver(SolverBase):
             rate = rhs(to_native(y), t).ravel()
             return rate if perm is None else rate[perm]
 
-        options = dict(rtol=self.rtol, atol=self.atol, max_step=self.max_step)
-        if dt is not None:
-            options["first_step"] = dt
-        if self.jacobian == "analytic":
-            options["jac"] = self.pde.make_jacobian(state)
-        elif self.jacobian == "sparse-fd":
-            options["jac_sparsity"] = self.pde.jacobian_sparsity(state)
-        if self.jacobian == "analytic" and self.method == "LSODA":  # Fortran wants dense
-            any_jac = options["jac"]
-
-            def dense_jac(t, y):
-                J = any_jac(t, y)
-                return J.toarray() if hasattr(J, "toarray") else J
-
-            options["jac"] = dense_jac
-        elif band is not None and self.method == "LSODA":
-            options.update(lband=band[0], uband=band[1])
-        elif band is not None:
-            options["band"] = band
-        self.info.update(method=self.method, rtol=self.rtol, atol=self.atol,
-                         jacobian=self.jacobian, dt=None, steps=0)
-        engines: list = []  # created lazily at the first call, at its t_start
-
         def check(y):
-            if not np.all(np.isfinite(y)):
-                return "state became non-finite"
-            return check_state(to_native(y))
+            return "state became non-finite" if not np.all(np.isfinite(y)) else check_state(to_native(y))
 
-        pde_margins = getattr(self.pde, "validity_margins", None)
         margins = None if pde_margins is None else (lambda y: pde_margins(to_native(y)))
+        self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
+                         dt=None, steps=0)
+        engines: list = []  # created at the first call, at its t_start
 
         def fail(reason: str):
             if engines:
@@ -296,10 +354,9 @@ class StiffSolver(SolverBase):
                 reason = check(y0)
                 if reason:
                     fail(f"initial state invalid: {reason}")
-                if self.method == "CVODE":
-                    engines.append(_CvodeEngine(fun, t_start, y0, dict(options), margins))
-                else:
-                    engines.append(_ScipyEngine(self.method, fun, t_start, y0, options))
+                engines.append(self.engine(self.method, fun, t_start, y0, rtol=self.rtol, atol=self.atol,
+                                           max_step=self.max_step, first_step=dt, jacobian=spec,
+                                           margins=margins))
             engine = engines[0]
             failure = engine.advance(t_end, check)
             if failure is not None:

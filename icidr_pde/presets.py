@@ -40,8 +40,10 @@ def resolve(accuracy: str = "standard", **overrides) -> dict:
     preset = PRESETS[accuracy]
     settings = {k: v for k, v in overrides.items() if v is not None}
     settings.setdefault("discretization", preset["discretization"])
-    N = preset["N"]
-    settings.setdefault("N", N.get(settings["discretization"], N["fd"]))
+    from .discretizations import get_discretization
+
+    N = preset["N"].get(settings["discretization"])
+    settings.setdefault("N", get_discretization(settings["discretization"]).default_N if N is None else N)
     for key in ("method", "rtol", "atol"):
         settings.setdefault(key, preset[key])
     return settings

@@ -56,6 +56,7 @@ class Result:
     n_steps: int
     n_rhs: int
     n_jac: int
+    n_lu: int | None = None
     requested_times: list[str] = field(default_factory=list)
     chi_t: np.ndarray | None = None
     chi_z: np.ndarray | None = None

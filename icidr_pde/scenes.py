@@ -1,7 +1,9 @@
 """Scenes: what geometry, initial condition and outputs a study of the shear cell needs.
 
 A scene is the 1-D cell 0 < z < H (3.9) with an initial condition; nothing else is
-modelled. The two scenes of the paper:
+modelled. A subclass with a ``name`` registers itself in :data:`SCENES`; its dataclass
+fields are its parameters (the CLI offers one flag per parameter, help from the field's
+``metadata``). The two scenes of the paper:
 
 * ``shear``: steady linear shear plus a small smooth w bump, (3.16):
   phi = phi0, u = z/H, w = eps (z - H/2) exp(-(z - H/2)^2);
@@ -11,11 +13,15 @@ modelled. The two scenes of the paper:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
-__all__ = ["Scene", "ShearScene", "SineScene", "SCENES", "get_scene"]
+__all__ = ["Scene", "ShearScene", "SineScene", "SCENES", "get_scene", "scene_parameters"]
+
+#: name -> Scene subclass; filled by the subclasses themselves
+SCENES: dict[str, type] = {}
+_NOT_PARAMETERS = ("outputs", "default_times")
 
 
 @dataclass(frozen=True)
@@ -23,10 +29,15 @@ class Scene:
     """Base scene: cell height `H`, mean packing fraction `phi0`, requested outputs."""
 
     name = ""
-    H: float = 30.0
-    phi0: float = 0.78
+    H: float = field(default=30.0, metadata={"help": "cell height"})
+    phi0: float = field(default=0.78, metadata={"help": "mean packing fraction"})
     outputs: tuple = field(default=("max_w", "snapshots"), compare=False)
     default_times: tuple = field(default=(0.0, 0.5, 1.0, 2.0, 5.0, 10.0), compare=False)
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("name"):
+            SCENES[cls.name] = cls
 
     def __post_init__(self):
         if not (np.isfinite(self.H) and self.H > 0):
@@ -38,7 +49,7 @@ class Scene:
         raise NotImplementedError
 
     def parameters(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if k not in ("outputs", "default_times")}
+        return {k: v for k, v in asdict(self).items() if k not in _NOT_PARAMETERS}
 
 
 @dataclass(frozen=True)
@@ -46,7 +57,7 @@ class ShearScene(Scene):
     """Initial condition (3.16): steady shear with a Gaussian-derivative w bump of size `eps`."""
 
     name = "shear"
-    eps: float = 0.05
+    eps: float = field(default=0.05, metadata={"help": "amplitude of the w bump of (3.16)"})
     outputs: tuple = field(default=("max_w", "snapshots", "chi"), compare=False)
 
     def __post_init__(self):
@@ -64,8 +75,8 @@ class SineScene(Scene):
     """Initial condition (5.7): sinusoidal u and w perturbations of amplitudes `a`, `b`."""
 
     name = "sine"
-    a: float = 0.16
-    b: float = 0.1
+    a: float = field(default=0.16, metadata={"help": "u amplitude of (5.7)"})
+    b: float = field(default=0.1, metadata={"help": "w amplitude of (5.7)"})
     outputs: tuple = field(default=("max_w", "snapshots", "chi"), compare=False)
     default_times: tuple = field(default=(0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0), compare=False)
 
@@ -80,18 +91,25 @@ class SineScene(Scene):
         return (np.full_like(z, self.phi0), z / self.H + self.a * s, -self.b * s)
 
 
-SCENES = {cls.name: cls for cls in (ShearScene, SineScene)}
+def scene_parameters() -> dict[str, str]:
+    """Every parameter of every registered scene -> its help text (for the command line)."""
+    out = {}
+    for cls in SCENES.values():
+        for f in fields(cls):
+            if f.name not in _NOT_PARAMETERS:
+                out.setdefault(f.name, f.metadata.get("help", f.name))
+    return out
 
 
 def get_scene(name: str | Scene, **params) -> Scene:
-    """Scene `name` ('shear' or 'sine') with any parameter overridden by keyword."""
+    """Scene `name` (a key of :data:`SCENES`) with any parameter overridden by keyword."""
     if isinstance(name, Scene):
         return name
     try:
         cls = SCENES[name]
     except KeyError:
         raise ValueError(f"`scene` must be one of {sorted(SCENES)}; got {name!r}") from None
-    known = {f for f in cls.__dataclass_fields__ if f not in ("outputs", "default_times")}
+    known = {f for f in cls.__dataclass_fields__ if f not in _NOT_PARAMETERS}
     unknown = set(params) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)} for scene {name!r}; "

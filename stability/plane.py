@@ -39,8 +39,9 @@ Closed forms (proved in :func:`checks`; m = S n, s = ||S||, delta = div u):
   Lambda_max(theta) = -K q/(2 rho phi) = -2 d^2 (R - delta)/(phi Psi^2) for every theta.
 
 The law enters through one object with ``symbolic_stress(phi, div_u, norm_S) -> (p, c)``
-(the interface of the core's rheology registry); :func:`toolkit_law` provides it for
-'mui' and 'icidr' from the formulas of :mod:`stability.rheologies` / :mod:`stability.cidr`.
+(the interface of the core's rheology registry); :func:`toolkit_law` provides it for any
+registered rheology from the core's definition (:meth:`icidr_pde.rheology.Rheology.law`) with
+generic M(phi), Psi(phi) and dimensional d, rho_*.
 """
 
 from __future__ import annotations
@@ -51,7 +52,8 @@ from typing import Callable
 
 import sympy as sp
 
-from . import cidr
+from icidr_pde.rheology import get_rheology
+
 from .checks import EXACT, FAILS, Check, exact_zero
 from .symbols import M, Mf, Psi, Psif, d, delta, phi, rho, uz, wz
 
@@ -80,20 +82,6 @@ class InvariantLaw:
         return self.stress(phi_, div_u, norm_S)
 
 
-def _mui_stress(M_, Psi_):
-    def law(phi_, div_u, norm_S):
-        p = rho * (2 * d * norm_S / Psi_) ** 2                  # (2.14)
-        return p, M_ * p / norm_S                              # ||tau|| = mu p (2.7), tau = c S (2.6)
-    return law
-
-
-def _icidr_stress(M_, Psi_):
-    def law(phi_, div_u, norm_S):
-        sqrt_p = cidr.icidr_sqrt_pressure(div_u, norm_S, M_, Psi_)          # (4.12)
-        return sqrt_p**2, cidr.icidr_deviatoric_stress(1, sqrt_p, M_, Psi_)  # (4.14): tau = c S
-    return law
-
-
 def toolkit_law(name: str, M_=None, Psi_=None) -> InvariantLaw:
     """'mui' ((2.14), (2.6)-(2.7)) or 'icidr' ((4.12), (4.14)) as an :class:`InvariantLaw`.
 
@@ -102,10 +90,14 @@ def toolkit_law(name: str, M_=None, Psi_=None) -> InvariantLaw:
     """
     M_ = Mf(phi) if M_ is None else M_
     Psi_ = Psif(phi) if Psi_ is None else Psi_
-    makers = {"mui": _mui_stress, "icidr": _icidr_stress}
-    if name not in makers:
-        raise ValueError(f"`rheology` must be one of {sorted(makers)}; got {name!r}")
-    return InvariantLaw(name, makers[name](M_, Psi_))
+    rheology = get_rheology(name)  # the core's one definition (raises for an unknown name)
+    scale = rho * d**2  # the laws are non-dimensional with (3.12); dimensional stresses scale so
+
+    def law(phi_, div_u, norm_S):
+        p, c = rheology.law(phi_, div_u, norm_S, M_, Psi_, rheology.material.values(symbolic=True))
+        return scale * p, scale * c
+
+    return InvariantLaw(name, law)
 
 
 def resolve_law(law, M_=None, Psi_=None):

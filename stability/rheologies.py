@@ -184,7 +184,7 @@ def simulator_checks():
     :mod:`stability.cidr`), ||tau|| = c ||S|| equals the yield function (4.7) with I from
     (2.9), and the cancellation-free form the kernels evaluate is the same function.
     """
-    from .checks import EXACT, FAILS, NUMERIC, Check, compare, exact_zero  # noqa: PLC0415
+    from .checks import EXACT, FAILS, Check, compare, exact_zero  # noqa: PLC0415
     from .symbols import Sn, delta  # noqa: PLC0415
     from .symbols import p as p_sym  # noqa: PLC0415
 

@@ -1,9 +1,8 @@
-"""The finite-volume shear-cell PDE: fixed points, conservation, backends, Jacobian, order."""
+"""The finite-volume scheme: truncation order and input errors (the contract: test_discretization_contract.py)."""
 
 import numpy as np
 import pytest
 import sympy as sp
-from scipy.optimize._numdiff import approx_derivative
 
 from icidr_pde import ShearCellPDE
 
@@ -18,48 +17,6 @@ def sine_state(eq, N, a=0.16):
         lambda z: z / H + a * np.sin(2 * np.pi * z / H),
         lambda z: -0.1 * np.sin(2 * np.pi * z / H + 0.1),  # no face with w = 0 exactly
     )
-
-
-@pytest.mark.parametrize("rheology", ["mui", "icidr"])
-def test_steady_linear_shear_is_fixed_point(rheology):
-    """(3.10): phi = phi0, u = z/H, w = 0 solves the equations; the scheme keeps it exactly."""
-    eq = ShearCellPDE(rheology)
-    g = eq.make_grid(47, H)
-    state = eq.make_state(g, 0.78, lambda z: z / H, 0.0)
-    rate = eq.evolution_rate(state).data
-    assert np.max(np.abs(rate)) < 1e-13
-
-
-@pytest.mark.parametrize("rheology", ["mui", "icidr"])
-def test_numba_and_numpy_backends_agree(rheology):
-    eq = ShearCellPDE(rheology)
-    state = sine_state(eq, 47)
-    numpy_rate = eq.evolution_rate(state).data
-    numba_rate = eq.make_pde_rhs(state, backend="numba")(state.data, 0.0)
-    np.testing.assert_allclose(numba_rate, numpy_rate, rtol=1e-12, atol=1e-14)
-
-
-@pytest.mark.parametrize("rheology", ["mui", "icidr"])
-def test_mass_is_conserved_by_the_flux_form(rheology):
-    """d/dt int phi dz = -[phi w]_0^H = 0 because w = 0 at the walls."""
-    eq = ShearCellPDE(rheology)
-    state = sine_state(eq, 64)
-    rate = eq.evolution_rate(state).data
-    assert abs(np.sum(rate[0])) * state.grid.discretization[0] < 1e-15
-
-
-@pytest.mark.parametrize("rheology", ["mui", "icidr"])
-@pytest.mark.parametrize("advection", ["upwind", "central"])
-def test_analytic_jacobian_matches_finite_differences(rheology, advection):
-    eq = ShearCellPDE(rheology, advection=advection)
-    state = sine_state(eq, 24, a=0.1)  # u_z > 0: mu(I) stresses are smooth there
-    rhs = eq.make_pde_rhs(state, backend="numpy")
-    y = state.data.ravel().copy()
-    J_fd = approx_derivative(lambda v: rhs(v.reshape(3, -1), 0.0).ravel(), y, method="3-point")
-    J = eq.make_jacobian(state)(0.0, y)
-    assert np.max(np.abs(J.toarray() - J_fd)) < 1e-6 * np.max(np.abs(J_fd))
-    pattern = eq.jacobian_sparsity(state).toarray() != 0
-    assert not np.any(J.toarray()[~pattern])  # the sparsity pattern covers the Jacobian
 
 
 def exact_rates(rheology):

@@ -40,7 +40,9 @@ The mechanism:
    is looked up before any sympy work, so a second process imports the cached module and
    loads numba's cached machine code without importing sympy. Files are written once, by
    hard-linking a finished temporary file (never half-written, never rewritten: numba keys
-   its cache on the file's modification time).
+   its cache on the file's modification time). While the first call compiles,
+   :func:`first_call` says so on stderr ("compiling kernels ... (once per installation)");
+   a marker file beside the module records that it has been compiled.
 """
 
 from __future__ import annotations
@@ -52,8 +54,9 @@ import os
 import pathlib
 import sys
 import threading
+import time
 
-__all__ = ["kernel_dir", "law_kernels", "material_functions", "compose", "generated_source"]
+__all__ = ["kernel_dir", "law_kernels", "material_functions", "compose", "generated_source", "first_call"]
 
 _MODULES: dict[str, object] = {}  # module name -> module
 _BY_DEFINITION: dict[tuple, object] = {}  # (classes the module is generated from) -> module
@@ -151,23 +154,20 @@ def _printers():
 
         def _print_Piecewise(self, expr):
             # an if/else expression evaluates only the branch taken
-            *pairs, (last, cond) = expr.args
-            if cond != sp.true:
-                raise ValueError("a Piecewise needs a final (expr, True) branch")
-            out = self._print(last)
-            for e, c in reversed(pairs):
-                out = f"(({self._print(e)}) if ({self._print(c)}) else ({out}))"
-            return out
+            return _nested(self, expr, "(({e}) if ({c}) else ({rest}))")
 
     class Array(NumPyPrinter):
         def _print_Piecewise(self, expr):
-            *pairs, (last, cond) = expr.args
-            if cond != sp.true:
-                raise ValueError("a Piecewise needs a final (expr, True) branch")
-            out = self._print(last)
-            for e, c in reversed(pairs):
-                out = f"numpy.where({self._print(c)}, {self._print(e)}, {out})"
-            return out
+            return _nested(self, expr, "numpy.where({c}, {e}, {rest})")
+
+    def _nested(printer, expr, form):
+        *pairs, (last, cond) = expr.args
+        if cond != sp.true:
+            raise ValueError("a Piecewise needs a final (expr, True) branch")
+        out = printer._print(last)
+        for e, c in reversed(pairs):
+            out = form.format(e=printer._print(e), c=printer._print(c), rest=out)
+        return out
 
     return (Scalar(dict(fully_qualified_modules=True, user_functions={"rsqrt0": "_rsqrt0"})),
             Array(dict(fully_qualified_modules=True, user_functions={"rsqrt0": "_rsqrt0_np"})))
@@ -300,8 +300,6 @@ def _law_kernels(rheology, kinematics):
 
 
 def _material_source(material) -> str:
-    import sympy as sp
-
     from .symbols import I, phi
 
     prm = material.values(symbolic=True)
@@ -338,3 +336,19 @@ def compose(template: str, law_module, name: str = "loops"):
         raise ValueError(f"`name` must be an identifier; got {name!r}")
     text = template.replace("import __law__ as law", f"import {law_module.__name__} as law")
     return _load(name, text, lambda: text)
+
+
+def first_call(module, call, what: str):
+    """Return call(); if `module`'s kernels were never compiled in this installation, say so
+    on stderr while numba compiles them (a marker file beside the module records it)."""
+    marker = pathlib.Path(module.__file__).with_suffix(".compiled")
+    if marker.exists():
+        return call()
+    sys.stderr.write(f"icidr-pde: compiling kernels for {what} (once per installation) ...\n")
+    sys.stderr.flush()
+    start = time.perf_counter()
+    out = call()
+    marker.write_text(f"{time.perf_counter() - start:.3f} s\n")
+    sys.stderr.write(f"icidr-pde: kernels compiled in {time.perf_counter() - start:.1f} s\n")
+    sys.stderr.flush()
+    return out

@@ -5,7 +5,7 @@ import warnings
 
 import pytest
 
-from icidr_pde.tstar import limit_blas_threads
+from icidr_pde.studies import limit_blas_threads
 
 limit_blas_threads(1)
 

@@ -6,7 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from icidr_pde.tstar import PAPER_TSTAR, failure_time, main, parse_range
+from icidr_pde.studies import PAPER_TSTAR, failure_time, parse_range
+from icidr_pde.studies.cli import main
 
 PAPER_T_STAR = 0.01052  # fig 4(a) caption: Chebyshev N_z = 201 becomes non-convergent
 

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 from pde.pdes.base import PDEBase
 
-from icidr_pde.api import DISCRETIZATIONS, make_pde
-from icidr_pde.chebyshev import ChebyshevShearCellPDE, cc_weights, cgl_nodes
-from icidr_pde.rheology import ICIDR, MuIPhiI
+from icidr_pde.case import make_pde
+from icidr_pde.discretizations import DISCRETIZATIONS
+from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE, cc_weights, cgl_nodes
+from icidr_pde.rheology import MuIPhiI
 from icidr_pde.scenes import get_scene
 
 H = 30.0
@@ -63,16 +64,6 @@ def test_make_state_sets_dirichlet_walls():
 
 
 @pytest.mark.parametrize("rheology", ["mui", "icidr"])
-def test_linear_shear_is_an_exact_steady_state(rheology):
-    # (3.10): phi = phi0, u = z/H, w = 0 is steady; D is exact on it
-    pde = ChebyshevShearCellPDE(rheology)
-    grid = pde.make_grid(25, H)
-    state = pde.make_state(grid, 0.78, lambda z: z / H, 0.0)
-    rate = pde.evolution_rate(state).data
-    assert np.max(np.abs(rate)) < 1e-12  # round-off of D (entries up to ~N^2/H)
-
-
-@pytest.mark.parametrize("rheology", ["mui", "icidr"])
 def test_walls_and_mass(rheology):
     pde = ChebyshevShearCellPDE(rheology)
     grid, state = _perturbed_state(pde, 23)
@@ -104,7 +95,7 @@ def test_rhs_against_independent_formula():
     phiw_z = (0.01 * (1 - 2 * s) / H) * w + phi * wz
     np.testing.assert_allclose(rate[0], -phiw_z, atol=1e-14)
     z_f = cgl_nodes(121, H)
-    from icidr_pde.chebyshev import diff_matrix
+    from icidr_pde.discretizations.cheb import diff_matrix
 
     def fine(f):
         sf = z_f / H
@@ -122,34 +113,15 @@ def test_rhs_against_independent_formula():
 
 
 @pytest.mark.parametrize("rheology", ["mui", "icidr"])
-def test_analytic_jacobian_matches_finite_differences(rheology):
+def test_jacobian_dirichlet_rows_vanish(rheology):
+    # u and w are fixed at the walls (3.9); the Jacobian against finite differences is in
+    # tests/test_discretization_contract.py
     pde = ChebyshevShearCellPDE(rheology)
     N = 13
     grid, state = _perturbed_state(pde, N, seed=1)
-    y = state.data.ravel().copy()
-    J = pde.make_jacobian(state)(0.0, y)
-    rhs = pde.make_evolution_rate(state, "numpy")
-    Jfd = np.empty_like(J)
-    for k in range(y.size):
-        h = 1e-6 * max(1.0, abs(y[k]))
-        yp, ym = y.copy(), y.copy()
-        yp[k] += h
-        ym[k] -= h
-        Jfd[:, k] = (rhs(yp.reshape(3, N), 0).ravel() - rhs(ym.reshape(3, N), 0).ravel()) / (2 * h)
-    scale = np.max(np.abs(J))
-    assert np.max(np.abs(J - Jfd)) < 1e-7 * scale
-    # Dirichlet rows of u and w are zero
+    J = pde.make_jacobian(state)(0.0, state.data.ravel().copy())
     for row in (N, 2 * N - 1, 2 * N, 3 * N - 1):
         assert not np.any(J[row])
-
-
-def test_numba_backend_agrees_with_numpy():
-    pde = ChebyshevShearCellPDE("icidr")
-    grid, state = _perturbed_state(pde, 17, seed=2)
-    f_np = pde.make_evolution_rate(state, "numpy")
-    f_nb = pde.make_evolution_rate(state, "numba")
-    a, b = f_np(state.data, 0.0), f_nb(state.data, 0.0)
-    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15)
 
 
 def test_strain_rates_at_collocation_points():

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from icidr_pde.tstar import compare_discretizations, spectral_convergence, sweep, tstar_mapping, threshold
+from icidr_pde.studies import compare_discretizations, spectral_convergence, sweep, tstar_mapping, threshold
 
 pytestmark = pytest.mark.slow
 

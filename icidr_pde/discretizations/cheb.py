@@ -1,9 +1,9 @@
-"""Chebyshev spectral collocation of the shear cell, behind the same interface as py-pde.
+"""Chebyshev spectral collocation of the shear cell (``cheb``), behind the same interface as py-pde.
 
 The paper computes every case twice, with first-order differences and with a Chebyshev
 spectral scheme (Trefethen 2000, *Spectral Methods in MATLAB*, program ``cheb``).
 This module is that second discretization. It solves the same equations as
-:mod:`icidr_pde.pdes` with the same stress kernels of :mod:`icidr_pde.rheology`:
+:mod:`icidr_pde.discretizations.fd` with the same generated kernels of :mod:`icidr_pde.rheology`:
 
 .. math::
     \\partial_t \\phi = -D(\\phi w), \\qquad
@@ -22,6 +22,9 @@ included; D is Trefethen's differentiation matrix mapped to [0, H].
   -(phi w)(H) + (phi w)(0) = 0: mass is conserved to round-off.
 * the Jacobian of the right-hand side is dense; :meth:`make_jacobian` builds it
   analytically by the chain rule, D diag(dF/d.) D, from ``Rheology.stress_jacobian``.
+* the compiled right-hand side is ``templates/cheb.py`` combined with the law
+  (:func:`icidr_pde.rheology.codegen.compose`): D is an argument, so one compilation per
+  rheology serves every N, and it is cached on disk.
 
 py-pde grids are uniform, so the state lives on a *carrier* ``CartesianGrid([[0, H]], N)``
 of N cells, which is used for storage only; :meth:`nodes` gives the true positions.
@@ -29,20 +32,22 @@ of N cells, which is used for storage only; :meth:`nodes` gives the true positio
 
 from __future__ import annotations
 
+import importlib.resources
 from typing import Callable
 
 import numpy as np
 from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 
-from .pdes import ShearCellBase
-from .rheology import Material, Rheology
+from ..rheology import Material, Rheology
+from ..rheology.codegen import compose, first_call
+from .base import ShearCellBase
 
 __all__ = ["ChebyshevShearCellPDE", "cheb", "clencurt", "cgl_nodes", "diff_matrix", "cc_weights",
-           "interpolate"]
+           "interpolate", "make_cheb_rates"]
 
+_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cheb.py").read_text()
 _RHS_CACHE: dict = {}
-_RATES_CACHE: dict = {}
 
 
 def cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -127,8 +132,8 @@ def interpolate(values: np.ndarray, z_eval, H: float) -> np.ndarray:
     return (values @ kernel.T) / kernel.sum(axis=1)
 
 
-def make_cheb_rates(stress: Callable, compile_function: Callable | None) -> Callable:
-    """Build ``rates(phi, u, w, D, params) -> (3, N) array`` at the collocation points."""
+def make_cheb_rates(stress: Callable) -> Callable:
+    """Numpy ``rates(phi, u, w, D, params) -> (3, N) array`` at the collocation points."""
 
     def rates(phi, u, w, D, params):
         uz = D @ u
@@ -139,33 +144,29 @@ def make_cheb_rates(stress: Callable, compile_function: Callable | None) -> Call
         out[0] = -(D @ (phi * w))
         out[1] = (D @ txz) / phi - w * uz
         out[2] = (D @ fw) / phi - w * wz
-        out[1, 0] = 0.0
-        out[1, -1] = 0.0
-        out[2, 0] = 0.0
-        out[2, -1] = 0.0
+        out[1:, [0, -1]] = 0.0
         return out
 
-    if compile_function is None:
-        return rates
-    return compile_function(rates)
+    return rates
 
 
 class ChebyshevShearCellPDE(ShearCellBase):
     """Gravity-free 1-D shear cell (3.1)-(3.3), Chebyshev collocation (Trefethen's ``cheb``).
 
     Args:
-        rheology: 'mui' (mu(I),Phi(I), (3.6), (3.8)) or 'icidr' ((4.12), (4.14)), or a
-            :class:`~icidr_pde.rheology.Rheology` instance
-        material: parameters of (2.10)-(2.11) (default: Table 1)
-        V0: velocity of the top wall (1 in the scalings (3.12))
+        rheology, material, V0: as for :class:`~icidr_pde.discretizations.base.ShearCellBase`
 
     The state is stored on the carrier grid of :meth:`make_grid` (N cells used only as
     storage); data[k, j] is field k at the collocation point :meth:`nodes` [j].
     """
 
+    name = "cheb"
+    label = "Chebyshev"
+    default_N = 65
+
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
-                 *, V0: float = 1.0):
-        super().__init__(rheology, material, V0=V0)
+                 *, V0: float = 1.0, **options):
+        super().__init__(rheology, material, V0=V0, **options)
         self._ops: dict = {}
 
     @property
@@ -213,32 +214,46 @@ class ChebyshevShearCellPDE(ShearCellBase):
 
     # --- right-hand side -------------------------------------------------------------
 
+    def make_rates(self, state: FieldCollection) -> Callable:
+        """rhs(data, t) from the compiled collocation kernel (cached on disk, D an argument)."""
+        self.check_grid(state.grid)
+        D = self.operators(state.grid)[1]
+        loops = compose(_TEMPLATE, self.rheology.kernels(self.kinematics), name="cheb")
+        kernel = loops.rates
+        params = self.material.params
+
+        def rhs(data, t=0.0):
+            out = np.empty(data.shape)
+            kernel(np.ascontiguousarray(data, dtype=float), D, params, out)
+            return out
+
+        first_call(loops, lambda: rhs(state.data), f"{self.rheology.name} on {self.name}")
+        return rhs
+
     def make_evolution_rate(self, state: FieldCollection, backend="numpy") -> Callable:
-        """Return rhs(state_data, t) for the `numpy` or `numba` backend."""
+        """rhs(state_data, t) for py-pde's `numpy` (independent numpy code) or `numba` backend."""
         self.check_grid(state.grid)
         backend = get_backend(backend)
-        key = (self.rheology, backend.name, self._size(state.grid))
-        if key in _RHS_CACHE:
-            return _RHS_CACHE[key]
-        _, D, _ = self.operators(state.grid)
+        D = self.operators(state.grid)[1]
         params = self.material.params
-        compile_function = None if backend.name == "numpy" else backend.compile_function
-        rates_key = (type(self.rheology), self.material.law_key(), backend.name)
-        if rates_key not in _RATES_CACHE:  # compiled once per rheology, for every N
-            kernels = self.rheology.kernels()
-            stress = kernels.stress_numpy if compile_function is None else kernels.stress_array
-            _RATES_CACHE[rates_key] = make_cheb_rates(stress, compile_function)
-        rates = _RATES_CACHE[rates_key]
-        D = D.copy()
+        if backend.name != "numpy":
+            key = (self.rheology, self._size(state.grid))
+            if key not in _RHS_CACHE:
+                kernel = compose(_TEMPLATE, self.rheology.kernels(self.kinematics), name="cheb").rates
 
-        def pde_rhs(state_data, t=0.0):
+                def pde_rhs(state_data, t=0.0):
+                    out = np.empty(state_data.shape)
+                    kernel(state_data, D, params, out)
+                    return out
+
+                _RHS_CACHE[key] = pde_rhs  # py-pde compiles this thin wrapper
+            return _RHS_CACHE[key]
+        rates = make_cheb_rates(self.rheology.kernels(self.kinematics).stress_numpy)
+
+        def numpy_rhs(state_data, t=0.0):
             return rates(state_data[0], state_data[1], state_data[2], D, params)
 
-        if compile_function is not None:
-            # only this thin wrapper is compiled per N (numba freezes D into it as a constant)
-            pde_rhs = compile_function(pde_rhs)
-        _RHS_CACHE[key] = pde_rhs
-        return pde_rhs
+        return numpy_rhs
 
     # --- what the stiff integrator asks of a discretization ---------------------------
 

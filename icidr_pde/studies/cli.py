@@ -1,0 +1,124 @@
+"""``icidr-pde tstar``: the failure-time sweep of fig 4(b) on the command line::
+
+    icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
+        --t-end 20 --json cheb.json --plot fig4b.png
+
+(also ``python -m icidr_pde.studies ...``). The JSON maps N (as a string) to t* (null where
+the run reached t-end without failing). Several discretizations at once
+(``--discretization fd cheb``) give one such mapping per discretization, keyed by its
+name; ``--load label=file.json`` adds saved sweeps to the plot.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import numpy as np
+
+from ..discretizations import DISCRETIZATIONS
+from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from ..rheology import RHEOLOGIES
+from ..scenes import SCENES
+from .failure_time import parse_range, sweep, threshold, tstar_mapping
+from .plots import plot_tstar
+
+__all__ = ["add_parser", "cmd_tstar", "main"]
+
+
+def _load_spec(text: str) -> tuple[str, str]:
+    if "=" in text:
+        label, path = text.split("=", 1)
+    else:
+        path = text
+        label = os.path.splitext(os.path.basename(path))[0]
+    return label, path
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``tstar`` subcommand to an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "tstar", help="failure time t*(N) sweep (fig 4b)",
+        description="Sweep N and record the failure time t* (null: no failure by --t-end).")
+    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="mui")
+    p.add_argument("--scene", choices=sorted(SCENES), default="shear")
+    p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=["fd"],
+                   help="one or both of fd (default) and cheb")
+    p.add_argument("--N", default=None,
+                   help="start:stop:step with stop included, e.g. 21:201:2 (default), "
+                        "or a comma-separated list")
+    p.add_argument("--t-end", type=float, default=20.0)
+    p.add_argument("--method", choices=sorted(METHODS), default="BDF")
+    p.add_argument("--rtol", type=float, default=1e-6)
+    p.add_argument("--atol", type=float, default=1e-9)
+    p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
+                   help="default: the method's own (analytic for BDF and Radau)")
+    p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
+                   help="right-hand side backend (numpy: no compile time, default)")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--json", default=None, help="write {N: t*} here")
+    p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
+    p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
+                   help="add a saved {N: t*} JSON to the plot (repeatable); "
+                        "without --N nothing is run")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_tstar)
+    return p
+
+
+def cmd_tstar(args) -> int:
+    if args.jobs < 1:
+        raise ValueError(f"`--jobs` must be >= 1; got {args.jobs}")
+    curves: dict[str, dict] = {}
+    for spec in args.load:
+        label, path = _load_spec(spec)
+        with open(path) as fh:
+            curves[label] = json.load(fh)
+    if args.N is None and args.load:
+        results = {}
+    else:
+        Ns = parse_range(args.N or "21:201:2")
+        check_tolerances(args.rtol, args.atol)
+        if not (np.isfinite(args.t_end) and args.t_end > 0):
+            raise ValueError(f"`--t-end` must be > 0; got {args.t_end}")
+        results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
+                        progress=not args.no_progress, rheology=args.rheology,
+                        scene=args.scene, t_end=args.t_end, method=args.method,
+                        rtol=args.rtol, atol=args.atol, jacobian=args.jacobian,
+                        backend=args.backend)
+    mappings = {d: tstar_mapping(r) for d, r in results.items()}
+    for disc, mapping in mappings.items():
+        curves[disc] = mapping
+        failed = [(int(n), t) for n, t in mapping.items() if t is not None]
+        thr = threshold(mapping)
+        print(f"{disc}: {len(failed)}/{len(mapping)} runs failed; "
+              f"every N >= {thr} fails" if thr is not None else
+              f"{disc}: {len(failed)}/{len(mapping)} runs failed; the largest N did not fail")
+        for n, t in sorted((int(n), t) for n, t in mapping.items()):
+            print(f"  N={n:4d}  t*={'null' if t is None else f'{t:.6g}'}")
+    if args.json and mappings:
+        payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
+        with open(args.json, "w") as fh:
+            json.dump(payload, fh, indent=1)
+        print(f"t*(N) written to {args.json}")
+    if args.plot:
+        if not curves:
+            raise ValueError("nothing to plot: give --N or --load")
+        plot_tstar(curves, args.plot, t_end=args.t_end,
+                   paper=args.rheology == "mui" and args.scene == "shear")
+        print(f"plot written to {args.plot}")
+    return 0
+
+
+def main(argv=None) -> int:
+    """`python -m icidr_pde.studies ...`: the same as `icidr-pde tstar ...`."""
+    from ..cli import main as cli_main
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    return cli_main(argv if argv[:1] == ["tstar"] else ["tstar"] + argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

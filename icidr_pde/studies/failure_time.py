@@ -1,0 +1,159 @@
+"""Failure time t*(N) of a shear-cell run: the study of fig 4(b).
+
+For the ill-posed mu(I),Phi(I)-rheology the discrete system blows up once the grid
+resolves the short waves that grow fastest; the stiff integrator then cannot meet its
+tolerances (step-size underflow, the paper's 'non-convergent') and the run stops at
+t*. :func:`failure_time` runs one case through the same path as ``run()``
+(:func:`~icidr_pde.case.build_case`, :func:`~icidr_pde.api.integrate`) without the
+recorders; :func:`sweep` computes t* for a range of N (in parallel, with a progress bar).
+
+t* is a property of the discrete system and of the integrator (its tolerances, its
+error control, even the round-off of the linear algebra), not of the PDE: the PDE is
+ill-posed and has no failure time. See docs/chebyshev.md for the measurements.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..api import collect, integrate, make_trackers
+from ..case import build_case
+from ..integrator import StiffSolver
+from .parallel import run_cases
+
+__all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR"]
+
+#: the paper's failure time of mu(I),Phi(I), IC (3.16), Chebyshev N_z = 201 (fig 4)
+PAPER_TSTAR = {"N": 201, "t_star": 0.01052}
+
+
+def parse_range(text: str) -> list[int]:
+    """'21:201:2' -> [21, 23, ..., 201] (start:stop:step, stop included); '47' -> [47];
+    '21,47,201' -> [21, 47, 201]."""
+    values: list[int] = []
+    try:
+        for part in str(text).split(","):
+            part = part.strip()
+            if ":" in part:
+                fields = [int(x) for x in part.split(":")]
+                if len(fields) == 2:
+                    fields.append(1)
+                if len(fields) != 3:
+                    raise ValueError
+                start, stop, step = fields
+                if step < 1 or stop < start:
+                    raise ValueError
+                values.extend(range(start, stop + 1, step))
+            else:
+                values.append(int(part))
+    except ValueError:
+        raise ValueError(f"`N` must look like start:stop:step (stop included), a number or "
+                         f"a comma-separated list; got {text!r}") from None
+    if not values or min(values) < 4:
+        raise ValueError(f"every N must be >= 4; got {text!r}")
+    return sorted(set(values))
+
+
+def failure_time(
+    rheology: str = "mui",
+    scene: str = "shear",
+    discretization: str = "cheb",
+    N: int = 201,
+    t_end: float = 20.0,
+    *,
+    method: str = "BDF",
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    jacobian: str | None = None,
+    backend: str = "numpy",
+    max_wall: float | None = None,
+    return_state: bool = False,
+    times=None,
+    **scene_params,
+) -> dict:
+    """Run one case without the max|w| and chi recorders and return t* (None if it reached `t_end`).
+
+    The same case builder, solver and failure detection as :func:`icidr_pde.api.run`.
+    `backend` is that of the right-hand side: 'numpy' needs no compilation and is as fast
+    as numba here (the cost is in the implicit solves). `max_wall` (seconds) abandons a
+    run that takes longer (reason 'timeout ...').
+
+    Returns a dict with N, t_star, reason, wall_s (solve, without set-up), n_steps, n_rhs,
+    n_jac, n_lu (and, with `return_state`, t_final, z and the final state (3, N) or the
+    state at t*; with `times`, snapshot_times and snapshots (n, 3, N) at those reached).
+    """
+    t_end = float(t_end)
+    snap = sorted({float(t) for t in times}) if times is not None else []
+    if any(not 0 <= t <= t_end for t in snap):
+        raise ValueError(f"`times` must lie in [0, t_end]; got {times}")
+    case = build_case(rheology, scene, discretization, N, scene_params=scene_params)
+    recorders = make_trackers(case, t_end, snap or [0.0], series_times=(), chi=False, max_wall=max_wall)
+    solver = StiffSolver(case.pde, method=method, rtol=rtol, atol=atol, jacobian=jacobian, backend=backend)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = collect(case, {"t_end": t_end}, solver, recorders,
+                         integrate(case, solver, t_end, recorders.trackers))
+    out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
+           **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
+    if return_state:
+        out.update(t_final=result.t_final, z=result.z, state=np.array(result.final))
+    if times is not None:
+        out.update(z=result.z, snapshot_times=list(result.times),
+                   snapshots=np.stack([result.phi, result.u, result.w], axis=1))
+    return out
+
+
+def _int(value):
+    return None if value is None else int(value)
+
+
+def _run_case(kwargs: dict) -> tuple[str, dict]:
+    return kwargs["discretization"], failure_time(**kwargs)
+
+
+def sweep(
+    Ns,
+    discretizations=("cheb",),
+    *,
+    jobs: int = 2,
+    progress: bool = True,
+    **kwargs,
+) -> dict[str, dict[int, dict]]:
+    """t* for every N and discretization: {discretization: {N: failure_time(...) dict}}.
+
+    Runs in `jobs` worker processes (spawned, with one BLAS thread each; jobs=1 runs
+    in this process) with a tqdm progress bar. `kwargs` go to :func:`failure_time`.
+    """
+    Ns = [int(n) for n in Ns]
+    cases = [dict(kwargs, discretization=d, N=n) for d in discretizations
+             for n in sorted(Ns, reverse=True)]  # large N first: the slowest runs
+    out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
+
+    def label(item):
+        disc, res = item
+        t = "none" if res["t_star"] is None else f"{res['t_star']:.5g}"
+        return f"{disc} N={res['N']} t*={t}"
+
+    for disc, res in run_cases(_run_case, cases, jobs, progress, ordered=False, desc="t*(N)", postfix=label):
+        out[disc][res["N"]] = res
+    return {d: dict(sorted(v.items())) for d, v in out.items()}
+
+
+def tstar_mapping(results: dict[int, dict]) -> dict[str, float | None]:
+    """{'N': t*} with N as strings (the JSON form)."""
+    return {str(n): r["t_star"] for n, r in sorted(results.items())}
+
+
+def threshold(mapping: dict) -> int | None:
+    """Smallest N such that every N >= it in `mapping` failed (None if the largest did not)."""
+    items = sorted((int(n), t) for n, t in mapping.items())
+    thr = None
+    for n, t in reversed(items):
+        if t is None:
+            break
+        thr = n
+    return thr
+
+

@@ -1,0 +1,138 @@
+"""The discretization contract (icidr_pde.discretizations.base), checked for every registered
+scheme: the steady shear fixed point (3.10), compiled kernels = independent numpy code, mass
+conservation, the analytic Jacobian against finite differences, its sparsity and band, and
+the validity checks. A new discretization gets these tests by registering itself."""
+
+import numpy as np
+import pytest
+from pde.pdes.base import PDEBase
+
+from icidr_pde.discretizations import DISCRETIZATIONS, ShearCellBase
+from icidr_pde.rheology import Material
+
+H = 30.0
+SCHEMES = sorted(DISCRETIZATIONS)
+LAWS = {"table1": Material(), "saturating": Material(dilatancy="saturating")}
+
+
+def perturbed_state(pde, N, a=0.1, seed=0):
+    """A generic smooth state with u_z > 0 (mu(I) is smooth there) and no node with w = 0."""
+    grid = pde.make_grid(N, H)
+    z = pde.nodes(grid)
+    rng = np.random.default_rng(seed)
+    k = rng.uniform(0.5, 1.5, 3)
+    bump = np.sin(np.pi * z / H)
+    state = pde.make_state(grid, 0.78 + 0.01 * np.cos(k[0] * z / H),
+                           z / H + a * np.sin(2 * np.pi * z / H) * bump,
+                           -0.1 * np.sin(2 * np.pi * z / H + 0.1) * bump + 0.002 * k[2] * bump)
+    return grid, state
+
+
+def central_differences(f, y, rel_step=1e-6):
+    """Jacobian of f at y by central differences with steps rel_step * max(1, |y_k|)."""
+    cols = []
+    for k in range(y.size):
+        h = rel_step * max(1.0, abs(y[k]))
+        yp, ym = y.copy(), y.copy()
+        yp[k] += h
+        ym[k] -= h
+        cols.append((f(yp) - f(ym)) / (2 * h))
+    return np.column_stack(cols)
+
+
+def small_N(cls):
+    return 24 if cls.name == "fd" else 13
+
+
+@pytest.fixture(params=SCHEMES)
+def scheme(request):
+    return DISCRETIZATIONS[request.param]
+
+
+def test_registry_and_declarations(scheme):
+    assert issubclass(scheme, ShearCellBase) and issubclass(scheme, PDEBase)
+    assert scheme.name in DISCRETIZATIONS and scheme.default_N >= 4
+    for key, valid in scheme.options.items():
+        assert len(valid) >= 1
+        pde = scheme("icidr", **{key: valid[-1]})
+        assert getattr(pde, key) == valid[-1] and pde.option_values()[key] == valid[-1]
+        with pytest.raises(ValueError, match=key):
+            scheme("icidr", **{key: "no-such-value"})
+    with pytest.raises(ValueError, match="unknown option"):
+        scheme("icidr", no_such_option=1)
+    with pytest.raises(ValueError, match="rheology"):
+        scheme("newtonian")
+    with pytest.raises(ValueError, match="`N`"):
+        scheme.make_grid(2)
+
+
+@pytest.mark.parametrize("rheology", ["mui", "icidr"])
+def test_steady_linear_shear_is_a_fixed_point(scheme, rheology):
+    """(3.10): phi = phi0, u = z/H, w = 0 solves the equations; both implementations keep it."""
+    pde = scheme(rheology)
+    grid = pde.make_grid(small_N(scheme) + 10, H)
+    state = pde.make_state(grid, 0.78, lambda z: z / H, 0.0)
+    for rate in (pde.evolution_rate(state).data, pde.make_rates(state)(state.data, 0.0)):
+        assert np.max(np.abs(rate)) < 1e-12
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+@pytest.mark.parametrize("rheology", ["mui", "icidr"])
+def test_compiled_kernels_equal_numpy_implementation(scheme, rheology, law):
+    pde = scheme(rheology, LAWS[law])
+    _, state = perturbed_state(pde, 31)
+    numpy_rate = pde.evolution_rate(state).data
+    compiled = pde.make_rates(state)(state.data, 0.0)
+    py_pde_numba = pde.make_pde_rhs(state, backend="numba")(state.data, 0.0)
+    scale = np.max(np.abs(numpy_rate))
+    np.testing.assert_allclose(compiled, numpy_rate, rtol=1e-12, atol=1e-13 * scale)
+    np.testing.assert_allclose(py_pde_numba, compiled, rtol=1e-12, atol=1e-13 * scale)
+
+
+@pytest.mark.parametrize("rheology", ["mui", "icidr"])
+def test_mass_is_conserved(scheme, rheology):
+    """d/dt of the scheme's integral of phi is -[phi w]_0^H = 0 (w = 0 at the walls)."""
+    pde = scheme(rheology)
+    grid, state = perturbed_state(pde, 40)
+    rate = pde.make_rates(state)(state.data, 0.0)[0]
+    assert abs(pde.integral(rate, grid)) < 1e-14 * pde.integral(np.abs(rate), grid) * 40
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+@pytest.mark.parametrize("rheology", ["mui", "icidr"])
+def test_jacobian_against_finite_differences(scheme, rheology, law):
+    options = [dict(zip(scheme.options, values)) for values in
+               (zip(*scheme.options.values()) if scheme.options else [()])]
+    for opts in options or [{}]:
+        pde = scheme(rheology, LAWS[law], **opts)
+        N = small_N(scheme)
+        _, state = perturbed_state(pde, N, seed=1)
+        rhs = pde.make_evolution_rate(state, "numpy")
+        y = state.data.ravel().copy()
+        J_fd = central_differences(lambda v: rhs(v.reshape(state.data.shape), 0.0).ravel(), y)
+        J = pde.make_jacobian(state)(0.0, y)
+        J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
+        assert np.max(np.abs(J - J_fd)) < 1e-6 * np.max(np.abs(J_fd)), opts
+        pattern = pde.jacobian_sparsity(state)
+        if pattern is not None:
+            assert not np.any(J[~(pattern.toarray() != 0)])  # the pattern covers the Jacobian
+        ordering = pde.interleaving(state)
+        if ordering is not None:
+            perm, lband, uband = ordering
+            rows, cols = np.nonzero(J[np.ix_(perm, perm)])
+            assert np.all(cols - rows <= uband) and np.all(rows - cols <= lband)
+
+
+def test_nodes_state_strain_rates_and_validity(scheme):
+    pde = scheme("icidr")
+    grid, state = perturbed_state(pde, small_N(scheme))
+    z = pde.nodes(grid)
+    assert state.data.shape == (len(pde.fields), *grid.shape) and z.shape == grid.shape
+    assert pde.integral(np.ones(grid.shape), grid) == pytest.approx(H, rel=1e-12)
+    pos, phi, *rates = pde.strain_rates(state.data, grid)
+    assert len(rates) == len(pde.kinematics.rates)
+    assert all(np.shape(r) == np.shape(pos) == np.shape(phi) for r in rates)
+    assert pde.check_state(state.data) is None and np.all(pde.validity_margins(state.data) > 0)
+    bad = state.data.copy()
+    bad[0].flat[2] = pde.material.phi_c + 0.01
+    assert "phi" in pde.check_state(bad) and pde.validity_margins(bad).min() < 0
