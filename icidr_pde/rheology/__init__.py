@@ -14,7 +14,7 @@ Everything is non-dimensional with the scalings (3.12): d = rho_* = V0 = 1.
 
 from .base import RHEOLOGIES, Rheology, chi, define_rheology, get_rheology
 from .icidr import ICIDR
-from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
+from .kinematics import INVARIANTS, PLANE_FLOW, SHEAR_CELL, Kinematics
 from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, FrictionLaw, LinearDilatancy,
                    MuOfI, SaturatingDilatancy)
 from .material import Material, mu_of_I
@@ -23,5 +23,5 @@ from .mui import MuIPhiI
 __all__ = [
     "Material", "mu_of_I", "Rheology", "MuIPhiI", "ICIDR", "RHEOLOGIES", "get_rheology", "define_rheology", "chi",
     "TABLE1", "FrictionLaw", "DilatancyLaw", "MuOfI", "LinearDilatancy", "SaturatingDilatancy",
-    "FRICTION_LAWS", "DILATANCY_LAWS", "Kinematics", "INVARIANTS", "SHEAR_CELL",
+    "FRICTION_LAWS", "DILATANCY_LAWS", "Kinematics", "INVARIANTS", "SHEAR_CELL", "PLANE_FLOW",
 ]

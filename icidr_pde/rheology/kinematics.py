@@ -8,7 +8,9 @@ Jacobians in those inputs are generated per (law, adapter) (:mod:`.codegen`).
 
 * :data:`INVARIANTS`: inputs (div_u, norm_S), outputs (p, c) -- the law itself;
 * :data:`SHEAR_CELL`: the 1-D cell, velocity (u(z), w(z)): inputs (u_z, w_z), so that
-  div u = w_z and ||S||^2 = (u_z^2 + w_z^2)/4 (3.4)-(3.5); outputs (p, tau_xz, tau_zz).
+  div u = w_z and ||S||^2 = (u_z^2 + w_z^2)/4 (3.4)-(3.5); outputs (p, tau_xz, tau_zz);
+* :data:`PLANE_FLOW`: 2-D flow (u(x, z), w(x, z)): inputs (u_x, u_z, w_x, w_z), outputs
+  (p, tau_xx, tau_xz, tau_zz).
 
 A new geometry (e.g. 2-D, inputs u_x, u_z, w_x, w_z) is one :class:`Kinematics` subclass
 giving its velocity gradient and the components of S it needs.
@@ -16,7 +18,8 @@ giving its velocity gradient and the components of S it needs.
 
 from __future__ import annotations
 
-__all__ = ["Kinematics", "Invariants", "ShearCell", "INVARIANTS", "SHEAR_CELL", "strain_rate"]
+__all__ = ["Kinematics", "Invariants", "ShearCell", "PlaneFlow", "INVARIANTS", "SHEAR_CELL", "PLANE_FLOW",
+           "strain_rate"]
 
 
 def strain_rate(grad_u):
@@ -102,3 +105,32 @@ class ShearCell(Kinematics):
 
 INVARIANTS = Invariants()
 SHEAR_CELL = ShearCell()
+
+
+class PlaneFlow(Kinematics):
+    """Velocity (u(x, z), w(x, z)): the full gradient [[u_x, u_z], [w_x, w_z]] (2.4)-(2.5).
+
+    Outputs the stress components of a 2-D flow, p and tau = c S (tau_zx = tau_xz); with
+    u_x = w_x = 0 the invariants are those of :class:`ShearCell`.
+    """
+
+    name = "plane_flow"
+    rates = ("u_x", "u_z", "w_x", "w_z")
+    outputs = ("p", "tau_xx", "tau_xz", "tau_zz")
+
+    def _tensors(self, rates):
+        import sympy as sp
+
+        ux, uz, wx, wz = rates
+        return strain_rate(sp.Matrix([[ux, uz], [wx, wz]]))
+
+    def invariants(self, rates):
+        div, _, norm = self._tensors(rates)
+        return div, norm
+
+    def stresses(self, p, c, rates):
+        _, S, _ = self._tensors(rates)
+        return p, c * S[0, 0], c * S[0, 1], c * S[1, 1]
+
+
+PLANE_FLOW = PlaneFlow()

@@ -1,0 +1,546 @@
+"""Finite volumes for the 2-D x-periodic shear cell on py-pde's Cartesian grid (``fv2d``).
+
+The 2-D equations (2.1)-(2.3) with rho = rho_* phi, gravity-free, non-dimensional (3.12),
+sigma = -p I + tau with tau = c S from the rheology's (p, c) on invariants (2.6):
+
+.. math::
+    \\partial_t \\phi = -\\nabla\\cdot(\\phi \\mathbf{u}), \\qquad
+    \\partial_t \\mathbf{u} = \\frac{1}{\\phi}\\nabla\\cdot\\sigma - (\\mathbf{u}\\cdot\\nabla)\\mathbf{u},
+
+on 0 <= x < L (periodic) and 0 < z < H with walls u = w = 0 at z = 0 and u = V0, w = 0
+at z = H (3.9), fields phi, u, w on ``CartesianGrid([[0, L], [0, H]], [Nx, Nz],
+periodic=[True, False])`` (cell centres, hx = L/Nx, hz = H/Nz). The scheme is the 1-D
+finite-volume scheme (:mod:`.fd`) in both directions:
+
+* the full stress tensor (sigma_xx, sigma_xz, sigma_zz) is evaluated on every cell face,
+  from the face average of phi, the compact difference normal to the face and the average
+  of the tangential central differences of the four adjacent cells (no central-of-central
+  stencil in the normal direction, so no undamped checkerboard);
+* phi is in conservative flux form div(phi u) with first-order upwind (default) or central
+  face values; the wall mass flux vanishes (Dirichlet ghost value of w is -w_edge), and
+  the x-fluxes telescope on the periodic axis, so the mass integral is conserved to
+  round-off;
+* advection (u.grad) u is first-order upwind per direction (or central);
+* the walls enter through py-pde's boundary handling: the ghost rows are the affine maps
+  alpha * (edge value) + beta read off py-pde's boundary setters once per grid
+  (:meth:`ShearCell2DPDE.ghost_coefficients`); the numpy path calls the setters themselves.
+
+With x-independent data every x-difference vanishes and the z-fluxes are those of the 1-D
+scheme: the rates equal the 1-D finite-volume rates up to the round-off of the 2-D stress
+kernel (tested). The Jacobian is analytic: the chain rule through the face stencils
+(sparse linear operators built once per grid) with the generated kernels' exact partial
+derivatives; its pattern (every cell couples to its 3 x 3 neighbourhood) is fixed, so a
+sparse direct solver can reuse its symbolic factorisation.
+"""
+
+from __future__ import annotations
+
+import pathlib
+from typing import Callable
+
+import numpy as np
+from pde import CartesianGrid, FieldCollection
+from pde.backends import get_backend
+from scipy import sparse
+
+from ..rheology import PLANE_FLOW, Material, Rheology
+from ..rheology.codegen import compose
+
+try:  # the written contract (discretizations/base.py)
+    from .base import ShearCellBase
+except ImportError:  # pragma: no cover
+    from ..pdes import ShearCellBase
+
+__all__ = ["ShearCell2DPDE", "colored_fd_jacobian"]
+
+_TEMPLATE = (pathlib.Path(__file__).parent / "templates" / "cartesian2d.py").read_text()
+ADVECTION_SCHEMES = ("upwind", "central")
+
+
+class ShearCell2DPDE(ShearCellBase):
+    """Gravity-free 2-D shear cell, x-periodic, closed by a rheology; finite volumes.
+
+    Args:
+        rheology, material, V0: as for the 1-D schemes
+        advection: 'upwind' (first order, default) or 'central' for div(phi u) and (u.grad) u
+    """
+
+    name = "fv2d"
+    label = "finite volumes, 2-D"
+    default_N = 64
+    options = {"advection": ADVECTION_SCHEMES}
+    kinematics = PLANE_FLOW
+    dim = 2
+
+    def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
+                 *, V0: float = 1.0, advection: str = "upwind", **options):
+        try:
+            super().__init__(rheology, material, V0=V0, advection=advection, **options)
+        except TypeError:  # pragma: no cover
+            super().__init__(rheology, material, V0=V0)
+            if advection not in ADVECTION_SCHEMES:
+                raise ValueError(f"`advection` must be one of {ADVECTION_SCHEMES}; got {advection!r}")
+            self.advection = advection
+        # x is periodic; the walls z = 0, H are py-pde's axis "y"
+        self.bc_phi = {"x": "periodic", "y": {"derivative": 0}}
+        self.bc_u = {"x": "periodic", "y-": {"value": 0.0}, "y+": {"value": self.V0}}
+        self.bc_w = {"x": "periodic", "y": {"value": 0.0}}
+
+    @property
+    def expression(self) -> str:
+        return (f"2-D shear cell ({self.rheology.name}, finite volumes): d_t phi = -div(phi u); "
+                "d_t u = div(sigma)/phi - (u.grad) u")
+
+    # --- grid and state -------------------------------------------------------------------
+
+    @classmethod
+    def make_grid(cls, N=None, H: float = 30.0, *, L: float | None = None, Nx: int | None = None,
+                  Nz: int | None = None) -> CartesianGrid:
+        """CartesianGrid([[0, L], [0, H]], [Nx, Nz], periodic=[True, False]).
+
+        `N` is Nz (an int) or (Nx, Nz); explicit `Nx`, `Nz` win; Nx defaults to Nz and L to H.
+        """
+        if isinstance(N, (tuple, list)):
+            N = tuple(N)
+            if len(N) != 2:
+                raise ValueError(f"`N` must be an integer or a pair (Nx, Nz); got {N}")
+            Nx, Nz = Nx if Nx is not None else N[0], Nz if Nz is not None else N[1]
+        else:
+            Nz = Nz if Nz is not None else (cls.default_N if N is None else N)
+            Nx = Nz if Nx is None else Nx
+        for name, value in (("Nx", Nx), ("Nz", Nz)):
+            if int(value) != value or value < 4:
+                raise ValueError(f"`{name}` must be an integer >= 4; got {value}")
+        L = H if L is None else L
+        for name, value in (("H", H), ("L", L)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"`{name}` must be > 0; got {value}")
+        return CartesianGrid([[0.0, float(L)], [0.0, float(H)]], [int(Nx), int(Nz)],
+                             periodic=[True, False])
+
+    def check_grid(self, grid) -> None:
+        if (not isinstance(grid, CartesianGrid) or grid.num_axes != 2
+                or tuple(grid.periodic) != (True, False)):
+            raise ValueError("`grid` must be a 2-D CartesianGrid([[0, L], [0, H]], [Nx, Nz], "
+                             f"periodic=[True, False]) (use {type(self).__name__}.make_grid)")
+
+    def nodes(self, grid) -> np.ndarray:
+        """Cell centres, shape (Nx, Nz, 2): nodes[..., 0] = x, nodes[..., 1] = z."""
+        return grid.cell_coords
+
+    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
+        """FieldCollection of phi, u, w from callables of the node positions (Nx, Nz, 2) or arrays."""
+        from pde import ScalarField
+
+        self.check_grid(grid)
+        xz = self.nodes(grid)
+        fields = []
+        for label, f in zip(("phi", "u", "w"), (phi, u, w)):
+            data = f(xz) if callable(f) else np.broadcast_to(np.asarray(f, float), grid.shape)
+            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+        return FieldCollection(fields)
+
+    def integral(self, values: np.ndarray, grid) -> float:
+        """Integral over the cell of cell-centred values (midpoint rule, exact for mass)."""
+        hx, hz = grid.discretization
+        return float(np.sum(values) * hx * hz)
+
+    @staticmethod
+    def _spacing(grid) -> tuple[int, int, float, float]:
+        nx, nz = grid.shape
+        hx, hz = grid.discretization
+        return int(nx), int(nz), float(hx), float(hz)
+
+    # --- walls ---------------------------------------------------------------------------
+
+    def _setters(self, grid, backend="numpy"):
+        backend = get_backend(backend)
+        return [backend.make_full_data_setter(grid.get_boundary_conditions(bc))
+                for bc in (self.bc_phi, self.bc_u, self.bc_w)]
+
+    def ghost_coefficients(self, grid) -> np.ndarray:
+        """(3, 2, 2) array: the ghost value of field k beyond wall s (0: z = 0, 1: z = H)
+        is ``c[k, s, 0] * edge + c[k, s, 1]``, read off py-pde's boundary setters.
+
+        Raises if a setter is not affine in the edge value alone or depends on x.
+        """
+        nx, nz = grid.shape
+        coeffs = np.empty((3, 2, 2))
+        for k, setter in enumerate(self._setters(grid)):
+            def ghosts(valid):
+                full = np.zeros((nx + 2, nz + 2))
+                setter(full, valid)
+                return np.stack([full[1:-1, 0], full[1:-1, -1]])  # (2, nx)
+
+            beta = ghosts(np.zeros((nx, nz)))
+            alpha = ghosts(np.ones((nx, nz))) - beta
+            probe = np.add.outer(np.linspace(0.3, 1.1, nx), np.linspace(0.2, 0.6, nz))
+            edge = np.stack([probe[:, 0], probe[:, -1]])
+            if not (np.allclose(ghosts(probe), alpha * edge + beta, rtol=1e-14, atol=1e-14)
+                    and np.ptp(alpha, axis=1).max() == 0 and np.ptp(beta, axis=1).max() == 0):
+                raise ValueError(f"boundary condition of field {('phi', 'u', 'w')[k]!r} is not an "
+                                 "x-independent affine function of the edge value")
+            coeffs[k, :, 0], coeffs[k, :, 1] = alpha[:, 0], beta[:, 0]
+        return coeffs
+
+    @staticmethod
+    def _padded(data: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """(3, Nx, Nz + 2) data with the wall ghost rows of the coefficients `c`."""
+        g = np.empty(data.shape[:2] + (data.shape[2] + 2,))
+        g[:, :, 1:-1] = data
+        g[:, :, 0] = c[:, 0, 0, None] * data[:, :, 0] + c[:, 0, 1, None]
+        g[:, :, -1] = c[:, 1, 0, None] * data[:, :, -1] + c[:, 1, 1, None]
+        return g
+
+    # --- right-hand side -------------------------------------------------------------------
+
+    def _law(self):
+        return self.rheology.kernels(self.kinematics)
+
+    def _loops(self):
+        return compose(_TEMPLATE, self._law(), name="cartesian2d")
+
+    def make_rates(self, state: FieldCollection) -> Callable:
+        """rhs(data, t) from the compiled finite-volume kernel (cached on disk)."""
+        self.check_grid(state.grid)
+        _, _, hx, hz = self._spacing(state.grid)
+        kernel = self._loops().rates
+        ghost = self.ghost_coefficients(state.grid)
+        upwind = self.advection == "upwind"
+        params = self.material.params
+
+        def rhs(data, t=0.0):
+            out = np.empty(data.shape)
+            kernel(np.ascontiguousarray(data, dtype=float), ghost, hx, hz, upwind, params, out)
+            return out
+
+        return rhs
+
+    def make_evolution_rate(self, state: FieldCollection, backend="numpy") -> Callable:
+        """rhs(state_data, t) for py-pde's `numpy` backend (independent numpy code on the
+        ghost cells of py-pde's boundary setters) or `numba` (the kernel of :meth:`make_rates`)."""
+        self.check_grid(state.grid)
+        backend = get_backend(backend)
+        if backend.name != "numpy":
+            kernel, ghost = self._loops().rates, self.ghost_coefficients(state.grid)
+            _, _, hx, hz = self._spacing(state.grid)
+            upwind, params = self.advection == "upwind", self.material.params
+
+            def pde_rhs(state_data, t=0.0):  # py-pde compiles this thin wrapper
+                out = np.empty(state_data.shape)
+                kernel(state_data, ghost, hx, hz, upwind, params, out)
+                return out
+
+            return pde_rhs
+        setters = self._setters(state.grid)
+        nx, nz, hx, hz = self._spacing(state.grid)
+        stress = self._law().stress_numpy
+        params = self.material.params
+        upwind = self.advection == "upwind"
+
+        def numpy_rhs(state_data, t=0.0):
+            g = np.empty((3, nx, nz + 2))
+            for k, setter in enumerate(setters):
+                full = np.empty((nx + 2, nz + 2))
+                setter(full, state_data[k])
+                g[k] = full[1:-1]
+            return _numpy_rates(g, hx, hz, upwind, stress, params)
+
+        return numpy_rhs
+
+    # --- what the stiff integrator asks ------------------------------------------------------
+
+    def jacobian_sparsity(self, state) -> sparse.csc_matrix:
+        """Pattern of the Jacobian: every field of cell (i, j) couples to every field of the
+        3 x 3 cells around it (periodic in x, folded onto the edge row at the walls)."""
+        self.check_grid(state.grid)
+        return _pattern(*state.grid.shape)
+
+    def interleaving(self, state):
+        """None: the periodic axis leaves no narrow band (a sparse solver is used instead)."""
+        return None
+
+    def make_jacobian(self, state) -> Callable:
+        """Analytic sparse Jacobian jac(t, y) of the flattened right-hand side (CSC)."""
+        self.check_grid(state.grid)
+        return _Jacobian2D(self, state.grid)
+
+    def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
+        """Face centres (n_faces, 2) and (phi, u_x, u_z, w_x, w_z) on them, where the stresses
+        live: the z-faces (Nx (Nz + 1)), then the x-faces (Nx Nz)."""
+        ops = _Operators(grid, self.ghost_coefficients(grid))
+        g = self._padded(np.asarray(data, float), ops.coeffs).reshape(3, -1)
+        (lx, hx_), (lz, hz_) = grid.axes_bounds[0], grid.axes_bounds[1]
+        nx, nz, hx, hz = self._spacing(grid)
+        x_c, z_c = grid.axes_coords
+        x_f = np.linspace(lx, hx_, nx + 1)[1:]
+        z_f = np.linspace(lz, hz_, nz + 1)
+        pos_z = np.stack(np.meshgrid(x_c, z_f, indexing="ij"), -1).reshape(-1, 2)
+        pos_x = np.stack(np.meshgrid(x_f, z_c, indexing="ij"), -1).reshape(-1, 2)
+        qz, qx = ops.face_inputs(g)
+        return (np.concatenate([pos_z, pos_x]),) + tuple(np.concatenate([a, b]) for a, b in zip(qz, qx))
+
+
+# --- numpy reference -----------------------------------------------------------------------
+
+
+def _numpy_rates(g, hx, hz, upwind, stress, params):
+    """Rates from z-padded data g (3, Nx, Nz + 2); x-neighbours by periodic rolls."""
+    phi_g, u_g, w_g = g
+
+    def xp(a):  # value at i + 1
+        return np.roll(a, -1, axis=0)
+
+    def xm(a):  # value at i - 1
+        return np.roll(a, 1, axis=0)
+
+    def zavg(a):
+        return 0.5 * (a[:, 1:] + a[:, :-1])
+
+    # z-faces
+    phi_fz, w_fz = zavg(phi_g), zavg(w_g)
+    ux_z = zavg((xp(u_g) - xm(u_g)) / (2 * hx))
+    wx_z = zavg((xp(w_g) - xm(w_g)) / (2 * hx))
+    uz_z = np.diff(u_g, axis=1) / hz
+    wz_z = np.diff(w_g, axis=1) / hz
+    p, txx, txz, tzz = stress(phi_fz, ux_z, uz_z, wx_z, wz_z, params)
+    fu_z, fw_z = txz, tzz - p
+    mass_z = (np.where(w_fz > 0, phi_g[:, :-1], phi_g[:, 1:]) if upwind else phi_fz) * w_fz
+    # x-faces (between i and i + 1), interior rows
+    phi, u, w = phi_g[:, 1:-1], u_g[:, 1:-1], w_g[:, 1:-1]
+    phi_fx, u_fx = 0.5 * (phi + xp(phi)), 0.5 * (u + xp(u))
+    ux_x, wx_x = (xp(u) - u) / hx, (xp(w) - w) / hx
+    cz_u = (u_g[:, 2:] - u_g[:, :-2]) / (2 * hz)
+    cz_w = (w_g[:, 2:] - w_g[:, :-2]) / (2 * hz)
+    uz_x, wz_x = 0.5 * (cz_u + xp(cz_u)), 0.5 * (cz_w + xp(cz_w))
+    p, txx, txz, tzz = stress(phi_fx, ux_x, uz_x, wx_x, wz_x, params)
+    fu_x, fw_x = txx - p, txz
+    mass_x = (np.where(u_fx > 0, phi, xp(phi)) if upwind else phi_fx) * u_fx
+    if upwind:
+        back_z = lambda a: (a[:, 1:-1] - a[:, :-2]) / hz  # noqa: E731
+        fwd_z = lambda a: (a[:, 2:] - a[:, 1:-1]) / hz  # noqa: E731
+        duz = np.where(w > 0, back_z(u_g), fwd_z(u_g))
+        dwz = np.where(w > 0, back_z(w_g), fwd_z(w_g))
+        dux = np.where(u > 0, (u - xm(u)) / hx, (xp(u) - u) / hx)
+        dwx = np.where(u > 0, (w - xm(w)) / hx, (xp(w) - w) / hx)
+    else:
+        duz, dwz = cz_u, cz_w
+        dux, dwx = (xp(u) - xm(u)) / (2 * hx), (xp(w) - xm(w)) / (2 * hx)
+    out = np.empty((3,) + phi.shape)
+    out[0] = -np.diff(mass_z, axis=1) / hz - (mass_x - xm(mass_x)) / hx
+    out[1] = np.diff(fu_z, axis=1) / (hz * phi) - w * duz + (fu_x - xm(fu_x)) / (hx * phi) - u * dux
+    out[2] = np.diff(fw_z, axis=1) / (hz * phi) - w * dwz + (fw_x - xm(fw_x)) / (hx * phi) - u * dwx
+    return out
+
+
+# --- analytic Jacobian ---------------------------------------------------------------------
+
+
+def _circulant(n: int, offsets, values) -> sparse.csr_matrix:
+    """n x n periodic matrix with `values` on the (wrapped) `offsets`: (A v)_i = sum v_(i+o)."""
+    i = np.arange(n)
+    rows = np.concatenate([i] * len(offsets))
+    cols = np.concatenate([(i + o) % n for o in offsets])
+    vals = np.concatenate([np.full(n, v, float) for v in values])
+    return sparse.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def _pattern(nx: int, nz: int) -> sparse.csc_matrix:
+    cx = _circulant(nx, (-1, 0, 1), (1.0, 1.0, 1.0))
+    cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
+    P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(cx, cz)))
+    P.data[:] = 1.0  # circulant wrap with nx = 2 could add entries
+    P.sort_indices()
+    return P
+
+
+def _band(rows: int, cols: int, entries) -> sparse.csr_matrix:
+    """rows x cols matrix with value v at (r, r + k) for (k, v) in `entries`."""
+    r = np.arange(rows)
+    return sparse.csr_matrix((np.concatenate([np.full(rows, v, float) for _, v in entries]),
+                              (np.concatenate([r] * len(entries)), np.concatenate([r + k for k, _ in entries]))),
+                             shape=(rows, cols))
+
+
+class _Operators:
+    """The scheme's linear face and cell operators on z-padded vectors (Nx (Nz + 2)), built once."""
+
+    def __init__(self, grid, coeffs):
+        nx, nz = grid.shape
+        hx, hz = grid.discretization
+        self.nx, self.nz, self.coeffs = nx, nz, coeffs
+        kron = sparse.kron
+        Ix, Iz = sparse.identity(nx, format="csr"), sparse.identity(nz, format="csr")
+        Sp = _circulant(nx, (1,), (1.0,))
+        cx = _circulant(nx, (1, -1), (0.5 / hx, -0.5 / hx))
+        ax = _circulant(nx, (0, 1), (0.5, 0.5))
+        dx = _circulant(nx, (1, 0), (1 / hx, -1 / hx))
+        bx = _circulant(nx, (0, -1), (1 / hx, -1 / hx))
+        avg_z = _band(nz + 1, nz + 2, [(0, 0.5), (1, 0.5)])
+        grad_z = _band(nz + 1, nz + 2, [(0, -1 / hz), (1, 1 / hz)])
+        R_z = _band(nz, nz + 2, [(1, 1.0)])
+        cz = _band(nz, nz + 2, [(0, -0.5 / hz), (2, 0.5 / hz)])
+        div_z = _band(nz, nz + 1, [(0, -1 / hz), (1, 1 / hz)])
+        back_z = _band(nz, nz + 2, [(0, -1 / hz), (1, 1 / hz)])
+        fwd_z = _band(nz, nz + 2, [(1, -1 / hz), (2, 1 / hz)])
+        csr = sparse.csr_matrix
+        # z-faces: phi_f, d_x (tangential, averaged), d_z (compact); upwind phi below / above
+        self.avg_zf, self.dx_zf, self.dz_zf = csr(kron(Ix, avg_z)), csr(kron(cx, avg_z)), csr(kron(Ix, grad_z))
+        self.below_zf = csr(kron(Ix, _band(nz + 1, nz + 2, [(0, 1.0)])))
+        self.above_zf = csr(kron(Ix, _band(nz + 1, nz + 2, [(1, 1.0)])))
+        # x-faces: phi_f, d_x (compact), d_z (tangential, averaged); upwind phi left / right
+        self.avg_xf, self.dx_xf, self.dz_xf = csr(kron(ax, R_z)), csr(kron(dx, R_z)), csr(kron(ax, cz))
+        self.left_xf, self.right_xf = csr(kron(Ix, R_z)), csr(kron(Sp, R_z))
+        # divergences of face fluxes into cells
+        self.div_z, self.div_x = csr(kron(Ix, div_z)), csr(kron(bx, Iz))
+        # advection derivatives at the cells (on padded vectors)
+        self.back_x, self.fwd_x, self.cen_x = csr(kron(bx, R_z)), csr(kron(dx, R_z)), csr(kron(cx, R_z))
+        self.back_z, self.fwd_z, self.cen_z = csr(kron(Ix, back_z)), csr(kron(Ix, fwd_z)), csr(kron(Ix, cz))
+        # ghost extension of each field: padded = E @ valid + const
+        self.extend = []
+        for k in range(3):
+            rows = np.concatenate(([0], np.arange(1, nz + 1), [nz + 1]))
+            cols = np.concatenate(([0], np.arange(nz), [nz - 1]))
+            vals = np.concatenate(([coeffs[k, 0, 0]], np.ones(nz), [coeffs[k, 1, 0]]))
+            self.extend.append(csr(kron(Ix, csr((vals, (rows, cols)), shape=(nz + 2, nz)))))
+
+    def face_inputs(self, g):
+        """(phi, u_x, u_z, w_x, w_z) on the z-faces and on the x-faces of padded data g (3, -1)."""
+        phi, u, w = g
+        z = (self.avg_zf @ phi, self.dx_zf @ u, self.dz_zf @ u, self.dx_zf @ w, self.dz_zf @ w)
+        x = (self.avg_xf @ phi, self.dx_xf @ u, self.dz_xf @ u, self.dx_xf @ w, self.dz_xf @ w)
+        return z, x
+
+
+class _Jacobian2D:
+    """jac(t, y) -> CSC matrix of the 2-D right-hand side, by the chain rule (see module doc).
+
+    ``pattern_values(t, y)`` returns the values in the CSC order of
+    :meth:`ShearCell2DPDE.jacobian_sparsity` (what a sparse direct solver with a fixed
+    pattern, e.g. CVODE's, fills).
+    """
+
+    def __init__(self, pde: ShearCell2DPDE, grid):
+        self.pde = pde
+        self.ops = _Operators(grid, pde.ghost_coefficients(grid))
+        self.shape = (3,) + tuple(grid.shape)
+        self.law = pde._law()
+        self.params = pde.material.params
+        self.upwind = pde.advection == "upwind"
+        self._grid = grid
+        self._keys = None
+
+    def _pattern_keys(self):
+        if self._keys is None:
+            P = _pattern(*self._grid.shape)
+            cols = np.repeat(np.arange(P.shape[1]), np.diff(P.indptr))
+            self._keys = cols.astype(np.int64) * P.shape[0] + P.indices
+            self.pattern = P
+        return self._keys
+
+    def __call__(self, t, y):
+        return self.matrix(y)
+
+    def pattern_values(self, t, y) -> np.ndarray:
+        """Jacobian values in the CSC order of the fixed pattern (zeros where J has none)."""
+        keys = self._pattern_keys()
+        J = self.matrix(y).tocoo()
+        pos = np.searchsorted(keys, J.col.astype(np.int64) * J.shape[0] + J.row)
+        out = np.zeros(keys.size)
+        np.add.at(out, pos, J.data)
+        return out
+
+    def matrix(self, y) -> sparse.csc_matrix:
+        ops, law, params = self.ops, self.law, self.params
+        data = np.asarray(y, float).reshape(self.shape)
+        phi, u, w = (a.ravel() for a in data)
+        g = ShearCell2DPDE._padded(data, ops.coeffs).reshape(3, -1)
+        E_phi, E_u, E_w = ops.extend
+        diag = sparse.diags
+        qz, qx = ops.face_inputs(g)
+        dz = law.stress_jacobian_array(*qz, params)  # d(p, txx, txz, tzz)/d(phi, ux, uz, wx, wz)
+        dx = law.stress_jacobian_array(*qx, params)
+        sz = law.stress_array(*qz, params)
+        sx = law.stress_array(*qx, params)
+
+        def d_flux(d, a, b=None):  # d(out a - out b)/d inputs
+            return [d[5 * a + q] - (0 if b is None else d[5 * b + q]) for q in range(5)]
+
+        def by_field(dflux, avg, ddx, ddz):  # sum over inputs of one field: (phi, u, w) blocks
+            return (diag(dflux[0]) @ avg @ E_phi,
+                    diag(dflux[1]) @ ddx @ E_u + diag(dflux[2]) @ ddz @ E_u,
+                    diag(dflux[3]) @ ddx @ E_w + diag(dflux[4]) @ ddz @ E_w)
+
+        # momentum: u rows use (tau_xx - p on x-faces, tau_xz on z-faces); w rows (tau_xz, tau_zz - p)
+        fluxes = {"u": (sx[1] - sx[0], sz[2], d_flux(dx, 1, 0), d_flux(dz, 2)),
+                  "w": (sx[2], sz[3] - sz[0], d_flux(dx, 2), d_flux(dz, 3, 0))}
+        inv_phi = diag(1 / phi)
+        rows = {}
+        for comp, (fx, fz, dfx, dfz) in fluxes.items():
+            bx = by_field(dfx, ops.avg_xf, ops.dx_xf, ops.dz_xf)
+            bz = by_field(dfz, ops.avg_zf, ops.dx_zf, ops.dz_zf)
+            blocks = [inv_phi @ (ops.div_x @ bx[m] + ops.div_z @ bz[m]) for m in range(3)]
+            divf = ops.div_x @ fx + ops.div_z @ fz
+            blocks[0] = blocks[0] - diag(divf / phi**2)
+            rows[comp] = blocks
+        if self.upwind:
+            Dx = diag((u > 0).astype(float)) @ ops.back_x + diag((u <= 0).astype(float)) @ ops.fwd_x
+            Dz = diag((w > 0).astype(float)) @ ops.back_z + diag((w <= 0).astype(float)) @ ops.fwd_z
+        else:
+            Dx, Dz = ops.cen_x, ops.cen_z
+        for comp, k, E in (("u", 1, E_u), ("w", 2, E_w)):
+            dfx, dfz = Dx @ g[k], Dz @ g[k]
+            blocks = rows[comp]
+            blocks[k] = blocks[k] - diag(u) @ Dx @ E - diag(w) @ Dz @ E
+            blocks[1] = blocks[1] - diag(dfx)
+            blocks[2] = blocks[2] - diag(dfz)
+        # mass: -div_z(phi_up w_f) - div_x(phi_up u_f)
+        w_fz, u_fx = ops.avg_zf @ g[2], ops.avg_xf @ g[1]
+        if self.upwind:
+            up_z = diag((w_fz > 0).astype(float)) @ ops.below_zf + diag((w_fz <= 0).astype(float)) @ ops.above_zf
+            up_x = diag((u_fx > 0).astype(float)) @ ops.left_xf + diag((u_fx <= 0).astype(float)) @ ops.right_xf
+        else:
+            up_z, up_x = ops.avg_zf, ops.avg_xf
+        mass = [-(ops.div_z @ diag(w_fz) @ up_z + ops.div_x @ diag(u_fx) @ up_x) @ E_phi,
+                -ops.div_x @ diag(up_x @ g[0]) @ ops.avg_xf @ E_u,
+                -ops.div_z @ diag(up_z @ g[0]) @ ops.avg_zf @ E_w]
+        return sparse.bmat([mass, rows["u"], rows["w"]], format="csc")
+
+
+# --- colored finite differences ------------------------------------------------------------
+
+
+def colored_fd_jacobian(fun: Callable, sparsity, scale) -> Callable:
+    """Sparse finite-difference Jacobian jac(t, y) with columns grouped by a coloring.
+
+    Unlike scipy's built-in increments for ``jac_sparsity`` (which shrink with |y| and
+    |f| and reach ~1e-17 where w ~ 0), the increment of column j is
+    sqrt(eps) * max(|y_j|, scale_j) with `scale` the typical size of each unknown, so the
+    difference quotients keep ~8 digits everywhere. One call to `fun` per color.
+    """
+    from scipy.optimize._numdiff import group_columns
+
+    P = sparse.csc_matrix(sparsity)
+    P.sort_indices()
+    groups = group_columns(P)
+    n_groups = int(groups.max()) + 1
+    rows, cols = P.nonzero()
+    scale = np.broadcast_to(np.asarray(scale, float), (P.shape[1],))
+    step0 = np.sqrt(np.finfo(float).eps)
+
+    def jac(t, y):
+        y = np.asarray(y, float)
+        f0 = fun(t, y)
+        h = step0 * np.maximum(np.abs(y), scale)
+        h = (y + h) - y  # exactly representable increments
+        vals = np.empty(rows.size)
+        for c in range(n_groups):
+            mask = groups == c
+            dy = np.where(mask, h, 0.0)
+            df = fun(t, y + dy) - f0
+            sel = mask[cols]
+            vals[sel] = df[rows[sel]] / h[cols[sel]]
+        return sparse.csc_matrix((vals, (rows, cols)), shape=P.shape)
+
+    jac.n_colors = n_groups
+    return jac
