@@ -1,0 +1,221 @@
+"""The 2-D x-periodic finite-volume shear cell (fv2d) against independent truth.
+
+* x-independent data: the rates, the Jacobian's action and a whole run equal those of
+  the 1-D finite-volume scheme;
+* a manufactured solution: the discrete operator converges to the exact 2-D right-hand
+  side (derived by sympy from the same law) at the scheme's order;
+* conservation: the discrete mass rate sums to zero; a run's mass drift is < 1e-12;
+* the analytic Jacobian against finite differences, and inside its declared pattern.
+"""
+
+import numpy as np
+import pytest
+
+from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE, colored_fd_jacobian
+from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
+
+H = L = 30.0
+
+
+def _fd1d():
+    try:
+        from icidr_pde.discretizations.fd import ShearCellPDE
+    except ImportError:  # pragma: no cover
+        from icidr_pde.pdes import ShearCellPDE
+    return ShearCellPDE
+
+
+def _state(pde, grid, amp=1.0):
+    """A smooth x-dependent state that satisfies the walls."""
+    def phi(p):
+        return 0.78 + amp * 0.01 * np.cos(2 * np.pi * p[..., 0] / L) * np.cos(np.pi * p[..., 1] / H)
+
+    def u(p):
+        return p[..., 1] / H + amp * 0.05 * np.sin(2 * np.pi * p[..., 1] / H) * np.cos(2 * np.pi * p[..., 0] / L)
+
+    def w(p):
+        return amp * 0.04 * np.sin(2 * np.pi * p[..., 1] / H) * np.sin(2 * np.pi * p[..., 0] / L + 0.3)
+
+    return pde.make_state(grid, phi, u, w)
+
+
+def _x_independent(data1d, nx):
+    return np.ascontiguousarray(np.broadcast_to(data1d[:, None, :], (3, nx, data1d.shape[1])))
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_numba_equals_numpy(rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    grid = pde.make_grid((9, 7), H, L=L)
+    state = _state(pde, grid)
+    a = pde.make_rates(state)(state.data, 0.0)
+    b = pde.make_evolution_rate(state, "numpy")(state.data, 0.0)
+    assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_x_independent_rates_are_the_1d_rates(rheology, advection):
+    fd = _fd1d()(rheology, advection=advection)
+    g1 = fd.make_grid(12, H)
+    z = fd.nodes(g1)
+    s1 = fd.make_state(g1, 0.78 + 0.01 * np.cos(np.pi * z / H), z / H + 0.1 * np.sin(2 * np.pi * z / H),
+                       0.05 * np.sin(2 * np.pi * z / H))
+    r1 = fd.make_evolution_rate(s1, "numpy")(s1.data, 0.0)
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    grid = pde.make_grid((5, 12), H, L=L)
+    d2 = _x_independent(s1.data, 5)
+    r2 = pde.make_rates(pde.make_state(grid, *d2))(d2, 0.0)
+    scale = np.max(np.abs(r1))
+    assert np.max(np.abs(r2 - r1[:, None, :])) <= 1e-13 * scale
+    # the Jacobian maps x-independent perturbations as the 1-D one does
+    J1 = fd.make_jacobian(s1)(0.0, s1.data.ravel()).toarray()
+    J2 = pde.make_jacobian(pde.make_state(grid, *d2))(0.0, d2.ravel())
+    v1 = np.random.default_rng(1).normal(size=s1.data.size)
+    Jv2 = (J2 @ _x_independent(v1.reshape(3, -1), 5).ravel()).reshape(3, 5, 12)
+    assert np.max(np.abs(Jv2 - (J1 @ v1).reshape(3, 1, 12))) <= 1e-12 * np.max(np.abs(J1 @ v1))
+
+
+def test_x_independent_run_reproduces_the_1d_run():
+    from pde.solvers import Controller
+
+    from icidr_pde.integrator import StiffSolver
+
+    fd = _fd1d()("icidr")
+    g1 = fd.make_grid(16, H)
+    z = fd.nodes(g1)
+    zc = z - H / 2
+    s1 = fd.make_state(g1, 0.78, z / H, 0.05 * zc * np.exp(-zc**2 / 9))
+    pde = ShearCell2DPDE("icidr")
+    grid = pde.make_grid((4, 16), H, L=L)
+    s2 = pde.make_state(grid, *_x_independent(s1.data, 4))
+    finals = []
+    for eq, state in ((fd, s1), (pde, s2)):
+        solver = StiffSolver(eq, method="BDF", rtol=1e-8, atol=1e-11, jacobian="analytic")
+        finals.append(Controller(solver, t_range=(0.0, 2.0), tracker=None).run(state).data)
+    assert np.max(np.abs(finals[1] - finals[0][:, None, :])) < 1e-9
+    assert np.max(np.abs(finals[0][2])) > 1e-4  # the bump has not decayed to nothing
+
+
+def test_mass_rate_sums_to_zero_and_run_conserves_mass():
+    from pde.solvers import Controller
+
+    from icidr_pde.integrator import StiffSolver
+
+    pde = ShearCell2DPDE("icidr")
+    grid = pde.make_grid((12, 10), H, L=L)
+    state = _state(pde, grid)
+    rate = pde.make_rates(state)(state.data, 0.0)
+    assert abs(pde.integral(rate[0], grid)) < 1e-15 * pde.integral(np.abs(rate[0]), grid) * rate[0].size
+    mass0 = pde.integral(state.data[0], grid)
+    solver = StiffSolver(pde, method="BDF", rtol=1e-6, atol=1e-9, jacobian="analytic")
+    final = Controller(solver, t_range=(0.0, 1.0), tracker=None).run(state).data
+    assert abs(pde.integral(final[0], grid) - mass0) / mass0 < 1e-12
+    assert np.max(np.abs(final[0] - state.data[0])) > 1e-6  # phi did evolve
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_analytic_jacobian_against_finite_differences(rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    grid = pde.make_grid((6, 5), H, L=L)
+    state = _state(pde, grid)
+    rhs = pde.make_rates(state)
+    y = state.data.ravel().copy()
+    J = pde.make_jacobian(state)(0.0, y).toarray()
+    eps = 1e-6
+    Jfd = np.empty_like(J)
+    for k in range(y.size):
+        dy = np.zeros_like(y)
+        dy[k] = eps
+        Jfd[:, k] = (rhs((y + dy).reshape(state.data.shape)) - rhs((y - dy).reshape(state.data.shape))).ravel() / (2 * eps)
+    assert np.max(np.abs(J - Jfd)) <= 1e-6 * np.max(np.abs(J))
+    P = pde.jacobian_sparsity(state).toarray()
+    assert np.all(J[P == 0] == 0) and np.all(Jfd[P == 0] == 0)
+
+
+def test_pattern_values_are_the_jacobian_in_csc_order():
+    pde = ShearCell2DPDE("icidr")
+    grid = pde.make_grid((6, 5), H, L=L)
+    state = _state(pde, grid)
+    jac = pde.make_jacobian(state)
+    y = state.data.ravel()
+    P = pde.jacobian_sparsity(state).astype(float)
+    P.data[:] = jac.pattern_values(0.0, y)
+    assert np.array_equal(P.toarray(), jac(0.0, y).toarray())
+
+
+def test_colored_fd_jacobian_is_accurate_where_w_vanishes():
+    """Well-scaled increments: accurate at steady shear (w = 0), where scipy's shrink."""
+    pde = ShearCell2DPDE("icidr")
+    grid = pde.make_grid((6, 6), H, L=L)
+    state = pde.make_state(grid, *Bump2DScene(eps=0.0).initial_condition(pde.nodes(grid)))
+    rhs = pde.make_rates(state)
+
+    def fun(t, y):
+        return rhs(y.reshape(state.data.shape), t).ravel()
+
+    jac = colored_fd_jacobian(fun, pde.jacobian_sparsity(state), 1.0)
+    y = state.data.ravel()
+    J = pde.make_jacobian(state)(0.0, y).toarray()
+    assert jac.n_colors < y.size / 3
+    assert np.max(np.abs(jac(0.0, y).toarray() - J)) <= 1e-6 * np.max(np.abs(J))
+
+
+def _exact_rates(rheology, advection):
+    """Exact 2-D right-hand side of the manufactured fields of :func:`_state`, by sympy."""
+    import sympy as sp
+
+    from icidr_pde.rheology.kinematics import strain_rate
+
+    x, z = sp.symbols("x z", real=True)
+    phi = sp.Rational(78, 100) + sp.Rational(1, 100) * sp.cos(2 * sp.pi * x / L) * sp.cos(sp.pi * z / H)
+    u = z / H + sp.Rational(5, 100) * sp.sin(2 * sp.pi * z / H) * sp.cos(2 * sp.pi * x / L)
+    w = sp.Rational(4, 100) * sp.sin(2 * sp.pi * z / H) * sp.sin(2 * sp.pi * x / L + sp.Rational(3, 10))
+    grad = sp.Matrix([[sp.diff(u, x), sp.diff(u, z)], [sp.diff(w, x), sp.diff(w, z)]])
+    div, S, norm = strain_rate(grad)
+    from icidr_pde.rheology import get_rheology
+
+    p, c = get_rheology(rheology).symbolic_stress(phi, div, norm)
+    sxx, sxz, szz = -p + c * S[0, 0], c * S[0, 1], -p + c * S[1, 1]
+    r_phi = -sp.diff(phi * u, x) - sp.diff(phi * w, z)
+    r_u = (sp.diff(sxx, x) + sp.diff(sxz, z)) / phi - u * sp.diff(u, x) - w * sp.diff(u, z)
+    r_w = (sp.diff(sxz, x) + sp.diff(szz, z)) / phi - u * sp.diff(w, x) - w * sp.diff(w, z)
+    return sp.lambdify((x, z), [r_phi, r_u, r_w], "numpy")
+
+
+@pytest.mark.parametrize("rheology,advection,order", [("icidr", "central", 1.8), ("icidr", "upwind", 0.9),
+                                                      ("mui", "central", 1.8)])
+def test_manufactured_solution_convergence_order(rheology, advection, order):
+    exact = _exact_rates(rheology, advection)
+    errors = []
+    sizes = (16, 32, 64)
+    for n in sizes:
+        pde = ShearCell2DPDE(rheology, advection=advection)
+        grid = pde.make_grid(n, H, L=L)
+        state = _state(pde, grid)
+        xz = pde.nodes(grid)
+        ref = np.array([np.broadcast_to(r, grid.shape) for r in exact(xz[..., 0], xz[..., 1])])
+        rate = pde.make_rates(state)(state.data, 0.0)
+        errors.append(max(np.max(np.abs(rate[k] - ref[k])) / np.max(np.abs(ref[k])) for k in range(3)))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > order), (errors, orders)
+
+
+def test_scenes_are_as_specified():
+    scene = Bump2DScene()
+    assert (scene.eps, scene.ell, scene.L, scene.H, scene.phi0) == (0.05, 3.0, 30.0, 30.0, 0.78)
+    xz = np.array([[15.0, 18.0], [15.0, 15.0], [0.0, 15.0]])
+    phi, u, w = scene.initial_condition(xz)
+    assert np.allclose(w, [0.05 * np.exp(-1.0), 0.0, 0.0]) and np.allclose(u, [0.6, 0.5, 0.5])
+    mode = Mode2DScene(theta=30.0, k=1.0)
+    kx, kz = mode.wave_vector()
+    assert np.isclose(kx * L / (2 * np.pi), round(kx * L / (2 * np.pi))) and np.isclose(kz, 0.5)
+
+
+@pytest.mark.parametrize("kwargs,match", [(dict(N=3), "N[xz]"), (dict(N=(8, 2)), "Nz"), (dict(N=8, L=-1.0), "L"),
+                                          (dict(N=(1, 2, 3)), "pair")])
+def test_bad_grid_input_names_the_parameter(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ShearCell2DPDE.make_grid(**kwargs)
