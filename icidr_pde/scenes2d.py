@@ -7,7 +7,9 @@
   (n = (cos theta, sin theta), theta = 90 deg is the 1-D direction z): the velocity
   perturbation eps (cos alpha, sin alpha) sin(k n.x) sin(pi z/H), the last factor keeping
   the walls exact; k n_x is rounded to a multiple of 2 pi/L so that the wave is periodic.
-  It measures the growth of single oblique modes against Lambda_max(theta).
+  It measures the growth of single oblique modes against Lambda_max(theta);
+* ``bump1d``: the 1-D cell with bump2d's perturbation made x-independent,
+  w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2).
 
 Initial conditions are functions of the node positions ``xz`` (shape (..., 2)).
 """
@@ -20,7 +22,7 @@ import numpy as np
 
 from .scenes import SCENES, Scene
 
-__all__ = ["Scene2D", "Bump2DScene", "Mode2DScene"]
+__all__ = ["Scene2D", "Bump2DScene", "Bump1DScene", "Mode2DScene"]
 
 
 @dataclass(frozen=True)
@@ -67,6 +69,28 @@ class Bump2DScene(Scene2D):
         w = self.eps * (zc / self.ell) * np.exp(-(xc**2 + zc**2) / self.ell**2)
         return phi, u, w
 
+    def x_independent(self) -> "Bump1DScene":
+        """The same perturbation without its x-dependence, as a scene of the 1-D cell."""
+        return Bump1DScene(H=self.H, phi0=self.phi0, eps=self.eps, ell=self.ell)
+
+
+@dataclass(frozen=True)
+class Bump1DScene(Scene):
+    """The x-independent companion of bump2d in the 1-D cell: w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)."""
+
+    name = "bump1d"
+    eps: float = field(default=0.05, metadata={"help": "amplitude of the w bump (bump2d)"})
+    ell: float = field(default=3.0, metadata={"help": "width of the w bump (bump2d)"})
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (np.isfinite(self.ell) and self.ell > 0):
+            raise ValueError(f"`ell` must be > 0; got {self.ell}")
+
+    def initial_condition(self, z):
+        zc = z - self.H / 2
+        return np.full_like(z, self.phi0), z / self.H, self.eps * (zc / self.ell) * np.exp(-zc**2 / self.ell**2)
+
 
 @dataclass(frozen=True)
 class Mode2DScene(Scene2D):
@@ -101,5 +125,5 @@ class Mode2DScene(Scene2D):
         return phi, u + np.cos(a) * wave, w + np.sin(a) * wave
 
 
-for _cls in (Bump2DScene, Mode2DScene):
+for _cls in (Bump2DScene, Bump1DScene, Mode2DScene):
     SCENES.setdefault(_cls.name, _cls)

@@ -1,0 +1,235 @@
+"""Studies of the 2-D shear cell (scene ``bump2d``), their tables, field images and movie.
+
+``python -m icidr_pde.studies2d convergence`` -- iCIDR on bump2d at 16^2 .. 128^2: max_w,
+max_phi_dev, l2_velocity at t = 0.5, 1, 2, 5, 10 and the observed orders
+(data/sim2d/convergence.json);
+``python -m icidr_pde.studies2d tstar`` -- mu(I),Phi(I) on bump2d at 16^2 .. 128^2: the
+failure time t* of every 2-D grid beside the 1-D finite-volume run of the same perturbation
+made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
+(data/sim2d/tstar.json);
+``python -m icidr_pde.studies2d tables`` -- the README tables from those files;
+``python -m icidr_pde.studies2d figures`` -- field images of w and phi for both rheologies
+(docs/sim2d_fields.png) and a movie of both runs (docs/sim2d.mp4).
+
+Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import sys
+
+import numpy as np
+
+__all__ = ["measures", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
+           "observed_orders", "field_figure", "movie"]
+
+TIMES = ("0.5", "1", "2", "5", "10")
+SIZES = (16, 32, 64, 128)
+QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
+DATA = pathlib.Path("data") / "sim2d"
+#: integrator settings of the studies (CVODE, matrix-free GMRES; tolerances well below the grid errors)
+SETTINGS = dict(method="CVODE", rtol=1e-7, atol=1e-10)
+
+
+def measures(pde, grid, scene, data) -> dict:
+    """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...)."""
+    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
+    phi, u, w = data
+    return {"max_w": float(np.max(np.abs(w))),
+            "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),
+            "l2_velocity": float(math.sqrt(pde.integral((u - z / scene.H) ** 2 + w**2, grid)))}
+
+
+def _write_json(path: pathlib.Path, payload) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(payload, indent=1))
+    os.replace(tmp, path)  # never half-written
+
+
+def observed_orders(values: list[float]) -> list[float | None]:
+    """log2 of successive difference ratios |q_N - q_2N| / |q_2N - q_4N| (grids doubling)."""
+    out = []
+    for a, b, c in zip(values, values[1:], values[2:]):
+        d1, d2 = abs(a - b), abs(b - c)
+        out.append(math.log2(d1 / d2) if d1 > 0 and d2 > 0 else None)
+    return out
+
+
+def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", **settings) -> dict:
+    """iCIDR on bump2d at Nx = Nz = N for each N in `sizes`; the JSON of each run plus orders."""
+    from .api import run
+
+    settings = {**SETTINGS, **settings}
+    runs = {}
+    for n in sizes:
+        result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times), **settings)
+        runs[str(n)] = {k: v for k, v in result.to_dict().items()
+                        if k in ("Nx", "Nz", "L", "blew_up", "reason", "mass_drift", "wall_s", "n_rhs",
+                                 *QUANTITIES)}
+        print(f"iCIDR bump2d {n}x{n}: {result}", flush=True)
+    orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
+    payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
+               "settings": settings, "runs": runs, "observed_orders": orders,
+               "command": "python -m icidr_pde.studies2d convergence"}
+    _write_json(pathlib.Path(path), payload)
+    return payload
+
+
+def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", **settings) -> dict:
+    """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz."""
+    from .api import run
+    from .scenes2d import Bump2DScene
+
+    settings = {**SETTINGS, **settings}
+    scene = Bump2DScene()
+    rows = []
+    for n in sizes:
+        r2 = run("mui", "bump2d", (n, n), t_end, ["0", f"{t_end:g}"], series_times=[], **settings)
+        r1 = run("mui", scene.x_independent(), n, t_end, ["0", f"{t_end:g}"], discretization="fd",
+                 series_times=[], **settings)
+        rows.append({"N": n, "t_star_2d": r2.t_star, "reason_2d": r2.reason, "t_star_1d": r1.t_star,
+                     "reason_1d": r1.reason, "max_w_1d_end": None if r1.blew_up else float(np.max(np.abs(r1.final[2])))})
+        print(f"mu(I) bump2d N = {n}: 2-D {r2}; 1-D {r1}", flush=True)
+    payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
+               "command": "python -m icidr_pde.studies2d tstar"}
+    _write_json(pathlib.Path(path), payload)
+    return payload
+
+
+def _fmt(x, spec=".4e"):
+    return "–" if x is None else format(x, spec)
+
+
+def convergence_table(payload: dict) -> str:
+    """Markdown: one row per grid, max_w / max_phi_dev / l2_velocity at each time, then orders."""
+    times, sizes = payload["times"], payload["sizes"]
+    lines = []
+    for q in QUANTITIES:
+        lines.append(f"**{q}**\n")
+        lines.append("| grid | " + " | ".join(f"t = {t}" for t in times) + " |")
+        lines.append("| --- |" + " --- |" * len(times))
+        for n in sizes:
+            run = payload["runs"][str(n)]
+            lines.append(f"| {n}² | " + " | ".join(_fmt(run[q].get(t)) for t in times) + " |")
+        for k, n in enumerate(sizes[2:]):
+            lines.append(f"| order ({sizes[k]}², {sizes[k + 1]}², {n}²) | "
+                         + " | ".join(_fmt(payload["observed_orders"][q][t][k], ".2f") for t in times) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def tstar_table(payload: dict) -> str:
+    """Markdown: t* of mu(I) on bump2d against N, 2-D beside the x-independent 1-D run."""
+    lines = ["| N (2-D: N², 1-D: N cells) | 2-D bump2d t* | 1-D, x-independent bump |", "| --- | --- | --- |"]
+    for row in payload["rows"]:
+        one_d = (f"fails, t* = {row['t_star_1d']:.4g}" if row["t_star_1d"] is not None
+                 else f"decays (max\\|w\\|(10) = {row['max_w_1d_end']:.2e})")
+        two_d = f"{row['t_star_2d']:.4g}" if row["t_star_2d"] is not None else "no failure"
+        lines.append(f"| {row['N']} | {two_d} | {one_d} |")
+    return "\n".join(lines)
+
+
+# --- figures and movie ---------------------------------------------------------------------
+
+
+def _snapshots(rheology, n, t_end, n_frames):
+    from .api import run
+
+    times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)]
+    return run(rheology, "bump2d", (n, n), t_end, times, series_times=[], **SETTINGS)
+
+
+def _panel(ax, result, k, frame, label):
+    from .scenes2d import Bump2DScene
+
+    scene = Bump2DScene(**{k_: v for k_, v in result.scene_params.items() if k_ in ("L", "H", "phi0", "eps", "ell")})
+    field = (result.w if k == "w" else result.phi - scene.phi0)[frame]
+    vmax = float(np.max(np.abs(field))) or 1.0
+    im = ax.imshow(field.T, origin="lower", extent=(0, scene.L, 0, scene.H), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
+    ax.set_title(f"{label}: {'w' if k == 'w' else 'phi - phi0'}, t = {result.times[frame]:.3g}", fontsize=8)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z")
+    return im
+
+
+def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
+    """w and phi - phi0 of both rheologies on bump2d: iCIDR at t = 0.5, 2, 10, mu(I) before t*."""
+    import matplotlib.pyplot as plt
+
+    from .api import run
+
+    icidr = run("icidr", "bump2d", (n, n), 10.0, ["0.5", "2", "10"], series_times=[], **SETTINGS)
+    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
+    t_star = probe.t_star if probe.blew_up else 10.0
+    mui = run("mui", "bump2d", (n, n), 10.0, [f"{f * t_star:.6g}" for f in (0.25, 0.6, 0.97)],
+              series_times=[], **SETTINGS)
+    fig, axes = plt.subplots(4, 3, figsize=(10, 12), constrained_layout=True)
+    for row, (res, k, label) in enumerate(((icidr, "w", "iCIDR"), (icidr, "phi", "iCIDR"),
+                                           (mui, "w", "mu(I)"), (mui, "phi", "mu(I)"))):
+        for col in range(3):
+            if col < len(res.times):
+                im = _panel(axes[row, col], res, k, col, label)
+                fig.colorbar(im, ax=axes[row, col], shrink=0.8)
+    fig.suptitle(f"bump2d, {n}x{n}: iCIDR decays smoothly; mu(I),Phi(I) fails at t* = {t_star:.3g}")
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    print(f"figure written to {path}")
+
+
+def movie(path="docs/sim2d.mp4", n=48, n_frames=60) -> None:
+    """Side-by-side movie of w: iCIDR to t = 10 and mu(I),Phi(I) up to its failure, same frame count."""
+    import imageio_ffmpeg
+    import matplotlib
+    import matplotlib.animation as animation
+    import matplotlib.pyplot as plt
+
+    from .api import run
+
+    matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
+    icidr = _snapshots("icidr", n, 10.0, n_frames)
+    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
+    t_star = probe.t_star if probe.blew_up else 10.0
+    mui = _snapshots("mui", n, 0.99 * t_star, n_frames)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2), constrained_layout=True)
+
+    def draw(frame):
+        for ax in axes:
+            ax.clear()
+        _panel(axes[0], icidr, "w", min(frame, len(icidr.times) - 1), "iCIDR")
+        _panel(axes[1], mui, "w", min(frame, len(mui.times) - 1), "mu(I)")
+
+    anim = animation.FuncAnimation(fig, draw, frames=n_frames)
+    tmp = pathlib.Path(path).with_name("tmp_" + pathlib.Path(path).name)
+    anim.save(tmp, writer=animation.FFMpegWriter(fps=12, bitrate=900))
+    os.replace(tmp, path)
+    plt.close(fig)
+    print(f"movie written to {path}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies2d", description=__doc__.split("\n")[0])
+    parser.add_argument("study", choices=["convergence", "tstar", "tables", "figures"])
+    parser.add_argument("--sizes", type=int, nargs="+", default=None)
+    args = parser.parse_args(argv)
+    if args.study == "convergence":
+        convergence_study(**({"sizes": tuple(args.sizes)} if args.sizes else {}))
+    elif args.study == "tstar":
+        tstar_study(**({"sizes": tuple(args.sizes)} if args.sizes else {}))
+    elif args.study == "figures":
+        field_figure()
+        movie()
+    else:
+        print(convergence_table(json.loads((DATA / "convergence.json").read_text())))
+        print()
+        print(tstar_table(json.loads((DATA / "tstar.json").read_text())))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
