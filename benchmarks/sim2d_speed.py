@@ -1,0 +1,102 @@
+"""Speed of the 2-D shear cell: iCIDR on bump2d to t = 10, whole process and solve.
+
+For each grid N^2 (default 32, 64, 128; 256 with --fast-only) runs, as separate whole
+processes of the command line (imports, kernel loading or compilation included),
+
+* the fast path: ``--method CVODE`` (SUNDIALS BDF, matrix-free GMRES Krylov solver);
+* the baseline: ``--method BDF --jacobian colored-fd`` (scipy's BDF with a sparse
+  finite-difference Jacobian, colored, well-scaled increments, SuperLU);
+
+and a reference on the same grid (CVODE, rtol 1e-10, atol 1e-13) for the accuracy figure
+beside each timing: the largest error of max_w, max_phi_dev and l2_velocity at
+t = 0.5, 1, 2, 5, 10 relative to the reference value. Wall time of the process and of
+the solve (JSON ``wall_s``), peak resident memory of the process (wait4's ru_maxrss).
+Prints a table and the ratio baseline/fast measured in this run; writes
+data/benchmarks/sim2d_speed.json.
+
+    nice -n 10 python benchmarks/sim2d_speed.py [--sizes 32 64 128] [--fast-only 256]
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+TIMES = ["0.5", "1", "2", "5", "10"]
+QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
+CONFIGS = {
+    "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8"],
+    "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
+    "reference": ["--method", "CVODE", "--rtol", "1e-10", "--atol", "1e-13"],
+}
+
+
+def whole_process(n: int, config: str) -> dict:
+    """Run one CLI process; return its wall time, peak RSS and the JSON it wrote."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "out.json"
+        cmd = [sys.executable, "-m", "icidr_pde.cli", "run", "--scene", "bump2d", "--rheology", "icidr",
+               "--Nx", str(n), "--Nz", str(n), "--t-end", "10", "--times", *TIMES, "--no-progress",
+               "--json", str(out), *CONFIGS[config]]
+        start = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        stderr = proc.stderr.read().decode()
+        proc.stderr.close()
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed:\n{stderr}")
+        result = json.loads(out.read_text())
+    return {"process_s": wall, "max_rss_mb": usage.ru_maxrss / 1024, "solve_s": result["wall_s"],
+            "compile_s": result["compile_s"], "n_rhs": result["n_rhs"], "n_jac": result["n_jac"],
+            **{q: result[q] for q in QUANTITIES}}
+
+
+def error(run: dict, ref: dict) -> float:
+    """Largest relative error of the measures at the requested times against the reference."""
+    return max(abs(run[q][t] - ref[q][t]) / abs(ref[q][t]) for q in QUANTITIES for t in TIMES)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128])
+    parser.add_argument("--fast-only", type=int, nargs="*", default=[], help="grids timed with the fast path only")
+    parser.add_argument("--json", default="data/benchmarks/sim2d_speed.json")
+    args = parser.parse_args()
+    rows = []
+    for n in args.sizes + args.fast_only:
+        ref = whole_process(n, "reference")
+        row = {"N": n, "reference": ref}
+        for config in ("fast",) if n in args.fast_only else ("fast", "baseline"):
+            row[config] = whole_process(n, config)
+            row[config]["error"] = error(row[config], ref)
+            print(f"{n}^2 {config}: {row[config]['process_s']:.1f} s process, {row[config]['solve_s']:.2f} s solve, "
+                  f"{row[config]['max_rss_mb']:.0f} MB, error {row[config]['error']:.1e}", flush=True)
+        rows.append(row)
+    print("\niCIDR bump2d to t = 10 (error: largest relative error of max_w, max_phi_dev, l2_velocity at "
+          "t = 0.5 ... 10 against CVODE rtol 1e-10 on the same grid)")
+    print(f"{'grid':>6s} {'method':38s} {'process [s]':>11s} {'solve [s]':>10s} {'RSS [MB]':>9s} "
+          f"{'error':>8s} {'ratio (solve)':>13s}")
+    for row in rows:
+        for config, label in (("fast", "CVODE, GMRES (matrix-free)"), ("baseline", "scipy BDF, colored sparse FD J")):
+            if config not in row:
+                continue
+            r = row[config]
+            ratio = r["solve_s"] / row["fast"]["solve_s"]
+            print(f"{row['N']:>4d}^2 {label:38s} {r['process_s']:11.1f} {r['solve_s']:10.2f} "
+                  f"{r['max_rss_mb']:9.0f} {r['error']:8.1e} {ratio:13.1f}")
+    path = pathlib.Path(args.json)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps({"rows": rows, "configs": CONFIGS, "times": TIMES,
+                               "command": "nice -n 10 python benchmarks/sim2d_speed.py " + " ".join(sys.argv[1:])},
+                              indent=1))
+    os.replace(tmp, path)
+
+
+if __name__ == "__main__":
+    main()
