@@ -135,6 +135,58 @@ def tstar_table(payload: dict) -> str:
     return "\n".join(lines)
 
 
+# --- growth of oblique modes against the symbol ---------------------------------------------
+
+
+def predicted_growth(rheology, scene, material=None) -> dict:
+    """The symbol's growth rates for the plane-wave components of a mode2d scene.
+
+    sin(k n.x) sin(pi z/H) is the sum of the waves (k_x, k_z +- pi/H); returns the largest
+    max Re eig A(xi, n) over them (stability.directional.symbol_matrix at steady shear,
+    velocity gradient u_z = 1/H) and xi^2 Lambda_max(theta) of the nominal wave.
+    """
+    from stability import directional
+
+    L_ = (0.0, 1.0 / scene.H, 0.0, 0.0)
+    a, B = directional.principal_part(rheology, scene.phi0, L_, material)
+    kx, kz = scene.wave_vector()
+    rates = []
+    for kz_ in (kz + np.pi / scene.H, kz - np.pi / scene.H):
+        xi, angle = math.hypot(kx, kz_), math.degrees(math.atan2(kz_, kx)) % 180.0
+        rates.append(float(np.max(np.linalg.eigvals(directional.symbol_matrix(a, B, scene.phi0, xi, angle)).real)))
+    lam = directional.lambda_max_function(a, B)
+    xi, angle = math.hypot(kx, kz), math.degrees(math.atan2(kz, kx)) % 180.0
+    return {"symbol": max(rates), "xi2_lambda_max": float(xi**2 * lam(np.array([angle]))[0]),
+            "xi": xi, "angle_deg": angle}
+
+
+def mode_growth(rheology, theta, n=64, k=0.9, eps=1e-8, material=None) -> dict:
+    """Measured growth rate of the mode2d perturbation (slope of log l2_velocity) on n^2."""
+    from .api import run
+    from .scenes2d import Mode2DScene
+
+    scene = Mode2DScene(theta=theta, k=k, eps=eps)
+    pred = predicted_growth(rheology, scene, material)
+    t_end = min(8.0 / abs(pred["symbol"]), 10.0)
+    times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, 17)]
+    result = run(rheology, scene, (n, n), t_end, times, series_times=[], method="CVODE", rtol=1e-9, atol=1e-14)
+    grid_pde = _case_pde(result, rheology)
+    amp = [measures(*grid_pde, scene, np.array([result.phi[i], result.u[i], result.w[i]]))["l2_velocity"]
+           for i in range(len(result.times))]
+    half = len(amp) // 2
+    slope = float(np.polyfit(result.times[half:], np.log(amp[half:]), 1)[0])
+    return {"rheology": rheology, "theta": theta, "N": n, "k": k, "measured": slope, **pred,
+            "rel_error": abs(slope - pred["symbol"]) / abs(pred["symbol"]), "blew_up": result.blew_up}
+
+
+def _case_pde(result, rheology):
+    from .discretizations.cartesian2d import ShearCell2DPDE
+
+    pde = ShearCell2DPDE(rheology)
+    return pde, pde.make_grid((result.settings.get("Nx", result.N), result.N), result.scene_params["H"],
+                              L=result.scene_params["L"])
+
+
 # --- figures and movie ---------------------------------------------------------------------
 
 

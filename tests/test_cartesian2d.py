@@ -11,7 +11,8 @@
 import numpy as np
 import pytest
 
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE, colored_fd_jacobian
+from icidr_pde.colored_fd import colored_fd_jacobian
+from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
 
 H = L = 30.0

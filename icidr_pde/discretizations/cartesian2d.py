@@ -51,7 +51,7 @@ try:  # the written contract (discretizations/base.py)
 except ImportError:  # pragma: no cover
     from ..pdes import ShearCellBase
 
-__all__ = ["ShearCell2DPDE", "colored_fd_jacobian"]
+__all__ = ["ShearCell2DPDE"]
 
 _TEMPLATE = (pathlib.Path(__file__).parent / "templates" / "cartesian2d.py").read_text()
 ADVECTION_SCHEMES = ("upwind", "central")
@@ -505,42 +505,3 @@ class _Jacobian2D:
                 -ops.div_x @ diag(up_x @ g[0]) @ ops.avg_xf @ E_u,
                 -ops.div_z @ diag(up_z @ g[0]) @ ops.avg_zf @ E_w]
         return sparse.bmat([mass, rows["u"], rows["w"]], format="csc")
-
-
-# --- colored finite differences ------------------------------------------------------------
-
-
-def colored_fd_jacobian(fun: Callable, sparsity, scale) -> Callable:
-    """Sparse finite-difference Jacobian jac(t, y) with columns grouped by a coloring.
-
-    Unlike scipy's built-in increments for ``jac_sparsity`` (which shrink with |y| and
-    |f| and reach ~1e-17 where w ~ 0), the increment of column j is
-    sqrt(eps) * max(|y_j|, scale_j) with `scale` the typical size of each unknown, so the
-    difference quotients keep ~8 digits everywhere. One call to `fun` per color.
-    """
-    from scipy.optimize._numdiff import group_columns
-
-    P = sparse.csc_matrix(sparsity)
-    P.sort_indices()
-    groups = group_columns(P)
-    n_groups = int(groups.max()) + 1
-    rows, cols = P.nonzero()
-    scale = np.broadcast_to(np.asarray(scale, float), (P.shape[1],))
-    step0 = np.sqrt(np.finfo(float).eps)
-
-    def jac(t, y):
-        y = np.asarray(y, float)
-        f0 = fun(t, y)
-        h = step0 * np.maximum(np.abs(y), scale)
-        h = (y + h) - y  # exactly representable increments
-        vals = np.empty(rows.size)
-        for c in range(n_groups):
-            mask = groups == c
-            dy = np.where(mask, h, 0.0)
-            df = fun(t, y + dy) - f0
-            sel = mask[cols]
-            vals[sel] = df[rows[sel]] / h[cols[sel]]
-        return sparse.csc_matrix((vals, (rows, cols)), shape=P.shape)
-
-    jac.n_colors = n_groups
-    return jac
