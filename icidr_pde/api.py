@@ -22,6 +22,7 @@ from .integrator import SimulationFailed, StiffSolver
 from .presets import resolve
 from .result import Result
 from .rheology import Material
+from .scenes import SCENES, Scene
 from .trackers import ChiTracker, MaxWTracker, dense_times
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
@@ -137,6 +138,16 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
     return Outcome(final, blew_up, t_star, reason, float(t_final), wall, compile_s)
 
 
+def _plane_kwargs(case: Case, data) -> dict:
+    """Grid and per-snapshot measures of a 2-D run (nothing for the 1-D cell)."""
+    if getattr(case.pde, "dim", 1) != 2:
+        return {}
+    from .studies2d import measures
+
+    return dict(Nx=int(case.grid.shape[0]), L=float(case.grid.axes_bounds[0][1]),
+                measures=[measures(case.pde, case.grid, case.scene, d) for d in data])
+
+
 def collect(case: Case, settings: dict, solver: StiffSolver, recorders: Recorders, outcome: Outcome,
             accuracy: str | None = None) -> Result:
     """The Result of a run from what the trackers recorded and how it ended."""
@@ -169,7 +180,7 @@ def collect(case: Case, settings: dict, solver: StiffSolver, recorders: Recorder
         n_jac=stats.n_jac, n_lu=stats.n_lu, scene_params=case.scene.parameters(),
         material=case.pde.material.to_dict(),
         settings=dict(accuracy=accuracy, **case.pde.option_values()),
-        **chi_kwargs,
+        **chi_kwargs, **_plane_kwargs(case, data[:n_snap]),
     )
 
 
@@ -203,7 +214,8 @@ def run(
             with the pressure (4.12))
         scene: a registered scene: 'shear' (IC (3.16)) or 'sine' (IC (5.7)); scene
             parameters (phi0, eps, a, b, H) are keyword arguments
-        N: number of grid cells ('fd') or collocation points with walls ('cheb')
+        N: number of grid cells ('fd') or collocation points with walls ('cheb'); for
+            'fv2d' Nz or the pair (Nx, Nz)
         t_end: final time
         times: snapshot times (strings keep their spelling as labels)
         accuracy: preset 'draft', 'standard' or 'publication' (see :mod:`icidr_pde.presets`);
@@ -227,6 +239,8 @@ def run(
     """
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"`t_end` must be > 0; got {t_end}")
+    if discretization is None:  # a scene of the 2-D cell names its scheme
+        discretization = getattr(scene if isinstance(scene, Scene) else SCENES.get(scene), "discretization", None)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     options = {}
     if advection is not None:

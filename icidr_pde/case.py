@@ -28,7 +28,8 @@ class Case:
 
     @property
     def N(self) -> int:
-        return int(self.grid.shape[0])
+        """Points along z (the 1-D N; Nz of a 2-D grid)."""
+        return int(self.grid.shape[-1])
 
     def nodes(self):
         return self.pde.nodes(self.grid)
@@ -51,6 +52,11 @@ def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | No
     scene_obj = get_scene(scene, **(scene_params or {}))
     pde = make_pde(rheology, discretization, material, **(options or {}))
     pde.material.check_phi(scene_obj.phi0, "phi0")
-    grid = pde.make_grid(type(pde).default_N if N is None else N, scene_obj.H)
+    dims = getattr(scene_obj, "dim", 1), getattr(pde, "dim", 1)
+    if dims[0] != dims[1]:
+        raise ValueError(f"scene {scene_obj.name!r} is {dims[0]}-D but discretization {pde.name!r} is "
+                         f"{dims[1]}-D; choose a {dims[0]}-D discretization")
+    grid_options = scene_obj.grid_options() if hasattr(scene_obj, "grid_options") else {}
+    grid = pde.make_grid(type(pde).default_N if N is None else N, scene_obj.H, **grid_options)
     state = pde.make_state(grid, *scene_obj.initial_condition(pde.nodes(grid)))
     return Case(pde, grid, state, scene_obj)

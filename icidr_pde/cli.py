@@ -50,6 +50,8 @@ def add_run_parser(subparsers):
                    help="default: from --accuracy")
     p.add_argument("--N", type=positive_int, default=None,
                    help="grid cells (fd) or collocation points (cheb) (default: from --accuracy)")
+    p.add_argument("--Nx", type=positive_int, default=None, help="cells along x (2-D scenes; default: Nz)")
+    p.add_argument("--Nz", type=positive_int, default=None, help="cells along z (2-D scenes; default: Nx or --N)")
     p.add_argument("--t-end", type=float, default=10.0)
     p.add_argument("--times", nargs="+", default=None, help="snapshot times (labels of the JSON max_w)")
     p.add_argument("--rtol", type=float, default=None, help="default: from --accuracy")
@@ -74,8 +76,12 @@ def cmd_run(args) -> int:
     from .api import run
 
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
+    N = args.N
+    if args.Nx is not None or args.Nz is not None:
+        nz = args.Nz or args.N or args.Nx
+        N = (args.Nx or nz, nz)
     result = run(
-        args.rheology, args.scene, args.N, args.t_end, args.times,
+        args.rheology, args.scene, N, args.t_end, args.times,
         accuracy=args.accuracy, discretization=args.discretization, method=args.method, rtol=args.rtol,
         atol=args.atol, jacobian=args.jacobian, advection=args.advection,
         progress=not args.no_progress, save=args.save, **scene_params,
@@ -88,6 +94,8 @@ def cmd_run(args) -> int:
     if args.plot:
         from .plotting import plot_result
 
+        if result.measures is not None:
+            from .studies2d import plot_fields as plot_result
         plot_result(result, args.plot)
         print(f"plot written to {args.plot}")
     return 0

@@ -21,6 +21,9 @@ import time
 import numpy as np
 from pde.solvers.base import SolverBase
 import scipy.integrate
+from scipy import sparse
+
+from .colored_fd import colored_fd_jacobian
 
 __all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
            "ENGINES", "METHODS", "JACOBIAN_MODES", "check_tolerances"]
@@ -63,9 +66,10 @@ def check_tolerances(rtol: float, atol: float) -> None:
 class JacobianSpec:
     """How the engine gets the Jacobian: `mode` and what that mode needs.
 
-    jac: analytic jac(t, y) (mode 'analytic'); sparsity: pattern for colored finite
-    differences ('sparse-fd'); band: (lower, upper) bandwidths of the engine's ordering
-    ('banded-fd'); nothing for 'none' (dense finite differences).
+    jac: analytic jac(t, y) (modes 'analytic', 'sparse'); sparsity: the Jacobian's pattern
+    (colored finite differences 'sparse-fd', 'colored-fd'; the fixed pattern of 'sparse');
+    band: (lower, upper) bandwidths of the engine's ordering ('banded-fd'); nothing for
+    'krylov' (matrix-free) and 'none' (dense finite differences).
     """
 
     mode: str
@@ -118,7 +122,8 @@ class ScipyEngine(Engine):
     """One scipy OdeSolver (BDF, Radau, LSODA), checked after every accepted step."""
 
     methods = ("BDF", "Radau", "LSODA")
-    jacobian_modes = {"BDF": ("analytic", "sparse-fd", "none"), "Radau": ("analytic", "sparse-fd", "none"),
+    jacobian_modes = {"BDF": ("analytic", "sparse-fd", "colored-fd", "none"),
+                      "Radau": ("analytic", "sparse-fd", "colored-fd", "none"),
                       "LSODA": ("banded-fd", "analytic", "none")}
 
     def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
@@ -130,6 +135,8 @@ class ScipyEngine(Engine):
             options["jac"] = _dense(jacobian.jac) if method == "LSODA" else jacobian.jac  # Fortran: dense
         elif jacobian.mode == "sparse-fd":
             options["jac_sparsity"] = jacobian.sparsity
+        elif jacobian.mode == "colored-fd":
+            options["jac"] = colored_fd_jacobian(fun, jacobian.sparsity, 1.0)
         elif jacobian.mode == "banded-fd":
             options.update(lband=jacobian.band[0], uband=jacobian.band[1])
         self.solver = getattr(scipy.integrate, method)(fun, t0, y0, np.inf, **options)
@@ -160,11 +167,13 @@ class CvodeEngine(Engine):
     space is caught exactly by CVODE's root finding on the `margins` (terminal events),
     other checks run at the interrupts. With the banded linear solver the Jacobian comes
     from CVODE's banded difference quotients (2 * band + 1 RHS calls); an analytic
-    Jacobian is factored by LAPACK's dense solver.
+    Jacobian is factored by LAPACK's dense solver. On 2-D grids ('krylov') GMRES solves
+    the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
+    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md).
     """
 
     methods = ("CVODE",)
-    jacobian_modes = {"CVODE": ("banded-fd", "analytic", "none")}
+    jacobian_modes = {"CVODE": ("banded-fd", "analytic", "krylov", "sparse", "none")}
 
     def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
                  jacobian: JacobianSpec, margins=None):
@@ -178,6 +187,15 @@ class CvodeEngine(Engine):
             kwargs["first_step"] = first_step
         if jacobian.mode == "banded-fd":
             kwargs.update(linsolver="band", lband=jacobian.band[0], uband=jacobian.band[1])
+        elif jacobian.mode == "krylov":  # GMRES, Jacobian-vector products by CVODE's difference quotients
+            kwargs.update(linsolver="gmres", krylov_dim=20)
+        elif jacobian.mode == "sparse":  # SuperLU_MT on the fixed pattern, analytic values
+            values = _pattern_values(jacobian.jac, jacobian.sparsity)
+
+            def jacfn(t, y, yp, JJ):
+                JJ[:] = values(t, np.array(y))
+
+            kwargs.update(linsolver="sparse", sparsity=jacobian.sparsity, jacfn=jacfn)
         elif jacobian.mode == "analytic":
             dense_jac = _dense(jacobian.jac)
 
@@ -223,10 +241,28 @@ class CvodeEngine(Engine):
         return None, self.njev, 0
 
 
+def _pattern_values(jac, pattern):
+    """values(t, y): the sparse jac(t, y) in the CSC order of `pattern` (zeros where it has none)."""
+    P = sparse.csc_matrix(pattern)
+    P.sort_indices()
+    keys = np.repeat(np.arange(P.shape[1], dtype=np.int64), np.diff(P.indptr)) * P.shape[0] + P.indices
+
+    def values(t, y):
+        J = sparse.coo_matrix(jac(t, y))
+        pos = np.searchsorted(keys, J.col.astype(np.int64) * J.shape[0] + J.row)
+        if np.any(pos >= keys.size) or np.any(keys[np.minimum(pos, keys.size - 1)] != J.col.astype(np.int64) * J.shape[0] + J.row):
+            raise ValueError("the Jacobian has entries outside its declared sparsity pattern")
+        out = np.zeros(keys.size)
+        np.add.at(out, pos, J.data)
+        return out
+
+    return values
+
+
 #: method name -> engine class
 ENGINES = {method: engine for engine in (ScipyEngine, CvodeEngine) for method in engine.methods}
 METHODS = tuple(ENGINES)
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "none")
+JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "sparse", "none")
 
 
 class StiffSolver(SolverBase):
@@ -243,9 +279,13 @@ class StiffSolver(SolverBase):
             'LSODA' (scipy) or 'CVODE' (SUNDIALS via scikit-sundae)
         rtol, atol: tolerances of the integrator
         jacobian: one of the engine's ``jacobian_modes[method]``: 'analytic',
-            'sparse-fd' (scipy's colored differences, BDF/Radau), 'banded-fd'
-            (LSODA/CVODE banded differences on the interleaved ordering) or 'none' (dense
-            differences, for comparison only); None picks the engine's default for the method
+            'sparse-fd' (scipy's colored differences, BDF/Radau), 'colored-fd' (colored
+            differences with well-scaled increments, :mod:`icidr_pde.colored_fd`, BDF/Radau),
+            'banded-fd' (LSODA/CVODE banded differences on the interleaved ordering),
+            'krylov' (CVODE's GMRES, matrix-free), 'sparse' (CVODE's SuperLU_MT with the
+            analytic Jacobian on the scheme's pattern) or 'none' (dense differences, for
+            comparison only); None picks the engine's default for the method (for CVODE on a
+            scheme without a banded ordering: 'krylov' if its Jacobian is sparse, else 'analytic')
         max_step: largest step the integrator may take
         backend: 'numba' (default: the discretization's compiled kernels, cached on disk) or
             'numpy' (its numpy implementation, no compilation)
@@ -296,10 +336,15 @@ class StiffSolver(SolverBase):
             if not self._default_jacobian:
                 raise ValueError("`jacobian`='banded-fd' needs a discretization with a banded "
                                  "ordering (finite differences); use 'analytic' or 'none'")
-            mode = self.jacobian = "analytic"  # no banded ordering (e.g. Chebyshev): dense analytic
+            # no banded ordering: Krylov where the Jacobian is sparse (2-D), else dense analytic (Chebyshev)
+            sparse_pattern = pde.jacobian_sparsity(state) is not None
+            mode = self.jacobian = "krylov" if sparse_pattern and "krylov" in self.engine.jacobian_modes[
+                self.method] else "analytic"
         if mode == "analytic":
             return JacobianSpec(mode, jac=pde.make_jacobian(state)), None
-        if mode == "sparse-fd":
+        if mode == "sparse":
+            return JacobianSpec(mode, jac=pde.make_jacobian(state), sparsity=pde.jacobian_sparsity(state)), None
+        if mode in ("sparse-fd", "colored-fd"):
             return JacobianSpec(mode, sparsity=pde.jacobian_sparsity(state)), None
         return JacobianSpec(mode), None
 

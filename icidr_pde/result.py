@@ -26,6 +26,9 @@ class Result:
         max_w_t, max_w: time series of max|w| over the nodes
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
         mass_drift: relative change of the integral of phi between 0 and t_final
+        Nx, L, measures: 2-D runs only (N is then Nz): cells along x, period L, and per
+            snapshot max_w, max_phi_dev (max|phi - phi0|) and l2_velocity
+            (sqrt of the integral of (u - z/H)^2 + w^2 over the cell)
     """
 
     rheology: str
@@ -64,6 +67,9 @@ class Result:
     scene_params: dict = field(default_factory=dict)
     material: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    Nx: int | None = None
+    L: float | None = None
+    measures: list | None = None
 
     def max_w_at_times(self) -> dict[str, float]:
         """max|w| at each requested time reached (label as requested -> value)."""
@@ -71,7 +77,7 @@ class Result:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (the CLI's --json contract)."""
-        return {
+        out = {
             "rheology": self.rheology,
             "scene": self.scene,
             "discretization": self.discretization,
@@ -96,6 +102,11 @@ class Result:
             "material": self.material,
             "settings": self.settings,
         }
+        if self.measures is not None:  # the 2-D cell
+            out.update(Nx=self.Nx, Nz=self.N, L=self.L)
+            for key in ("max_phi_dev", "l2_velocity"):
+                out[key] = {label: m[key] for label, m in zip(self.time_labels, self.measures)}
+        return out
 
     def save_json(self, path) -> None:
         with open(path, "w") as fh:

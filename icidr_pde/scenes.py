@@ -115,3 +115,6 @@ def get_scene(name: str | Scene, **params) -> Scene:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)} for scene {name!r}; "
                          f"valid: {sorted(known)}")
     return cls(**params)
+
+
+from . import scenes2d  # noqa: E402,F401  (registers the scenes of the 2-D cell)

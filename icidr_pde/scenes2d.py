@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scenes import SCENES, Scene
+from .scenes import Scene
 
 __all__ = ["Scene2D", "Bump2DScene", "Bump1DScene", "Mode2DScene"]
 
@@ -124,6 +124,3 @@ class Mode2DScene(Scene2D):
         a = np.radians(self.alpha)
         return phi, u + np.cos(a) * wave, w + np.sin(a) * wave
 
-
-for _cls in (Bump2DScene, Bump1DScene, Mode2DScene):
-    SCENES.setdefault(_cls.name, _cls)

@@ -35,7 +35,7 @@ sparse direct solver can reuse its symbolic factorisation.
 
 from __future__ import annotations
 
-import pathlib
+import importlib.resources
 from typing import Callable
 
 import numpy as np
@@ -45,15 +45,11 @@ from scipy import sparse
 
 from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
-
-try:  # the written contract (discretizations/base.py)
-    from .base import ShearCellBase
-except ImportError:  # pragma: no cover
-    from ..pdes import ShearCellBase
+from .base import ShearCellBase
 
 __all__ = ["ShearCell2DPDE"]
 
-_TEMPLATE = (pathlib.Path(__file__).parent / "templates" / "cartesian2d.py").read_text()
+_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
 ADVECTION_SCHEMES = ("upwind", "central")
 
 
@@ -74,13 +70,7 @@ class ShearCell2DPDE(ShearCellBase):
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):
-        try:
-            super().__init__(rheology, material, V0=V0, advection=advection, **options)
-        except TypeError:  # pragma: no cover
-            super().__init__(rheology, material, V0=V0)
-            if advection not in ADVECTION_SCHEMES:
-                raise ValueError(f"`advection` must be one of {ADVECTION_SCHEMES}; got {advection!r}")
-            self.advection = advection
+        super().__init__(rheology, material, V0=V0, advection=advection, **options)
         # x is periodic; the walls z = 0, H are py-pde's axis "y"
         self.bc_phi = {"x": "periodic", "y": {"derivative": 0}}
         self.bc_u = {"x": "periodic", "y-": {"value": 0.0}, "y+": {"value": self.V0}}
@@ -106,6 +96,8 @@ class ShearCell2DPDE(ShearCellBase):
                 raise ValueError(f"`N` must be an integer or a pair (Nx, Nz); got {N}")
             Nx, Nz = Nx if Nx is not None else N[0], Nz if Nz is not None else N[1]
         else:
+            if N is not None and (int(N) != N or N < 4):
+                raise ValueError(f"`N` must be an integer >= 4 (or a pair (Nx, Nz)); got {N}")
             Nz = Nz if Nz is not None else (cls.default_N if N is None else N)
             Nx = Nz if Nx is None else Nx
         for name, value in (("Nx", Nx), ("Nz", Nz)):
