@@ -13,17 +13,10 @@ import pytest
 
 from icidr_pde.colored_fd import colored_fd_jacobian
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+from icidr_pde.discretizations.fd import ShearCellPDE
 from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
 
 H = L = 30.0
-
-
-def _fd1d():
-    try:
-        from icidr_pde.discretizations.fd import ShearCellPDE
-    except ImportError:  # pragma: no cover
-        from icidr_pde.pdes import ShearCellPDE
-    return ShearCellPDE
 
 
 def _state(pde, grid, amp=1.0):
@@ -58,7 +51,7 @@ def test_numba_equals_numpy(rheology, advection):
 @pytest.mark.parametrize("rheology", ["icidr", "mui"])
 @pytest.mark.parametrize("advection", ["upwind", "central"])
 def test_x_independent_rates_are_the_1d_rates(rheology, advection):
-    fd = _fd1d()(rheology, advection=advection)
+    fd = ShearCellPDE(rheology, advection=advection)
     g1 = fd.make_grid(12, H)
     z = fd.nodes(g1)
     s1 = fd.make_state(g1, 0.78 + 0.01 * np.cos(np.pi * z / H), z / H + 0.1 * np.sin(2 * np.pi * z / H),
@@ -83,7 +76,7 @@ def test_x_independent_run_reproduces_the_1d_run():
 
     from icidr_pde.integrator import StiffSolver
 
-    fd = _fd1d()("icidr")
+    fd = ShearCellPDE("icidr")
     g1 = fd.make_grid(16, H)
     z = fd.nodes(g1)
     zc = z - H / 2
