@@ -138,16 +138,18 @@ def sensitivity(cache_dir, times, steps, H=30.0, bin_height=2.0):
 
 
 def cpu_seconds(cache_dir):
-    """CPU seconds of all cached DEM work and continuum runs."""
-    tot_dem = tot_cont = 0.0
+    """CPU seconds of all cached transient DEM work, steady (pool) runs and continuum runs."""
+    tot_dem = tot_cont = tot_steady = 0.0
     for p in Path(cache_dir).glob("*.npz"):
         with np.load(p) as f:
-            if "cpu_s" in f.files:
+            if "cpu_total" in f.files:
+                tot_steady += float(f["cpu_total"])
+            elif "cpu_s" in f.files:
                 if p.name.startswith("continuum_"):
                     tot_cont += float(f["cpu_s"])
                 else:
                     tot_dem += float(f["cpu_s"]) + float(f["cpu_base_s"]) if "cpu_base_s" in f.files else 0.0
-    return tot_dem, tot_cont
+    return tot_dem, tot_cont, tot_steady
 
 
 def definitions(results, cont_raw_t1, phi0, H=30.0):
@@ -292,8 +294,9 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
     steps = {"mu_s": 0.009, "mu_d": 0.034, "I0": 0.041, "phi_c": 0.0018, "a": 0.015}
     summary["sensitivity"] = sensitivity(cache_dir, times, steps, H)
     summary["sensitivity"]["steps_are"] = "1 sigma of our fit of Table 1 (data/dem/steady.json)"
-    dem_cpu, cont_cpu = cpu_seconds(cache_dir)
-    summary["cpu_s"] = {"dem_cached_runs": dem_cpu, "continuum_runs": cont_cpu,
+    dem_cpu, cont_cpu, steady_cpu = cpu_seconds(cache_dir)
+    summary["cpu_s"] = {"dem_transient_runs": dem_cpu, "dem_steady_pool_runs": steady_cpu,
+                        "continuum_runs": cont_cpu,
                         "this_report": time.process_time() - c0}
     Path(json_path).parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(str(json_path) + ".tmp")
