@@ -101,8 +101,10 @@ def write_json(checks, path) -> None:
 
 def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) -> int:
     """Run the report, print the table, optionally write JSON/markdown; exit code 0 unless unexpected failures."""
+    from . import plane  # noqa: PLC0415  (2-D plane waves: the direction the 1-D appendix A leaves out)
+
     t0 = time.perf_counter()
-    checks = run_checks(crosscheck)
+    checks = run_checks(crosscheck) + plane.checks()
     stream(format_table(checks))
     n = {s: sum(c.status == s for c in checks) for s in ("exact", "numeric", "fails")}
     stream(f"\n{len(checks)} checks: {n['exact']} exact, {n['numeric']} numeric, {n['fails']} fail "
