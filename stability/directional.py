@@ -1,8 +1,8 @@
 """Numbers of the 2-D plane-wave analysis: Lambda_max(theta), ill-posed angles, worst angle.
 
 The coefficients a_ij, B_ijkl of :mod:`stability.plane` (derivatives of the 2-D stress
-tensor) are compiled once per law with ``sympy.lambdify`` (d = rho_* = 1, material
-functions (2.10), (2.13)), then contracted with n = (cos theta, sin theta) in numpy:
+tensor) are compiled once per law and material laws with ``sympy.lambdify`` (d = rho_* = 1,
+the material's M(phi), Psi(phi), default (2.10), (2.13)), then contracted with n = (cos theta, sin theta) in numpy:
 Gamma(theta) = B_ijkl n_j n_l, alpha(theta) = a_ij n_j.  Per angle:
 
 * ``lambda_max`` = max Re eig(-Gamma) (the larger root Lambda_+ of (A8) at theta),
@@ -29,8 +29,8 @@ import sympy as sp
 from scipy.optimize import brentq, minimize_scalar
 
 from . import plane, rheologies
-from .material import check_phi, material_params
-from .symbols import MATERIAL_SYMBOLS, Mf, Psif, d, phi, rho
+from .material import check_phi, check_rheology_name, default_material
+from .symbols import Mf, Psif, d, phi, rho
 
 GRADIENT_NAMES = ("u_x", "u_z", "w_x", "w_z")
 _ARGS = (phi, plane.ux, plane.uz, plane.wx, plane.wz)
@@ -38,32 +38,49 @@ _ARGS = (phi, plane.ux, plane.uz, plane.wx, plane.wz)
 
 # --- compiled principal part -------------------------------------------------------------
 
-def _concrete(e):
-    """M(phi), Psi(phi) -> (2.10), (2.13) with symbolic parameters; d = rho_* = 1."""
-    if e.has(Mf) or e.has(Psif):
-        e = e.subs(rheologies.concrete_functions()).doit()
-    return e.subs({d: 1, rho: 1})
+def _expressions(kind, law, laws):
+    """Sympy expressions of `kind` ('principal': the 4 a_ij then the 16 B_ijkl; 'stress': sigma_ij) for `law`
+    with the material functions of `laws` (parameters as symbols) and d = rho_* = 1."""
+    sigma = plane.stress_tensor(law, material=laws)
+    if kind == "stress":
+        exprs = [sigma[i, j] for i in range(2) for j in range(2)]
+    else:
+        a, B = plane.principal_part(sigma)
+        exprs = [a[i][j] for i in range(2) for j in range(2)]
+        exprs += [B[i][j][k][l] for i in range(2) for j in range(2) for k in range(2) for l in range(2)]
+    subs = rheologies.concrete_functions(laws)
+    return [(e.subs(subs).doit() if e.has(Mf) or e.has(Psif) else e).subs({d: 1, rho: 1}) for e in exprs]
 
 
 @lru_cache(maxsize=64)
-def _compiled(law):
-    a, B = plane.principal_part(plane.stress_tensor(law))
-    exprs = [_concrete(a[i][j]) for i in range(2) for j in range(2)]
-    exprs += [_concrete(B[i][j][k][l]) for i in range(2) for j in range(2) for k in range(2) for l in range(2)]
-    allowed = set(_ARGS) | set(MATERIAL_SYMBOLS.values())
-    extra = set().union(*(e.free_symbols for e in exprs)) - allowed
+def _lambdified(kind, law, laws):
+    exprs = _expressions(kind, law, laws)
+    params = rheologies.parameter_symbols(laws)
+    extra = set().union(*(e.free_symbols for e in exprs)) - set(_ARGS) - set(params)
     if extra:
         raise ValueError(f"`rheology` {plane.law_name(law)!r}: its stress depends on {sorted(map(str, extra))}, "
-                         f"which are neither state variables {[str(s) for s in _ARGS]} nor material parameters "
-                         f"{list(MATERIAL_SYMBOLS)}")
-    return sp.lambdify((*_ARGS, *MATERIAL_SYMBOLS.values()), exprs, modules="numpy", cse=True)
+                         f"which are neither state variables {[str(s) for s in _ARGS]} nor parameters "
+                         f"{[str(s) for s in params]} of the material")
+    return sp.lambdify((*_ARGS, *params), exprs, modules="numpy", cse=True)
 
 
-def _compiled_for(law):
+def compiled(kind, law, material=None):
+    """(f, params): f(phi, u_x, u_z, w_x, w_z, *params) evaluates :func:`_expressions` (numpy, complex allowed).
+
+    Compiled once per law and pair of material laws (the values enter as arguments); a
+    Rheology instance brings its own material when `material` is None.
+    """
+    from icidr_pde.rheology import Rheology  # noqa: PLC0415
+
+    if material is None and isinstance(law, Rheology):
+        material = law.material
+    material = default_material(material)
+    laws = rheologies._law_representative(material)
     try:
-        return _compiled(law)
+        f = _lambdified(kind, law, laws)
     except TypeError:                                # unhashable user law: compile without the cache
-        return _compiled.__wrapped__(law)
+        f = _lambdified.__wrapped__(kind, law, laws)
+    return f, material.params
 
 
 def principal_part(rheology, phi0, velocity_gradient, material=None):
@@ -74,15 +91,12 @@ def principal_part(rheology, phi0, velocity_gradient, material=None):
     Raises ValueError for phi outside (0, phi_c), a bad gradient, or a state where the law
     is not differentiable (non-finite coefficients, e.g. mu(I) at ||S|| = 0).
     """
-    law = rheology if isinstance(rheology, str) else plane.resolve_law(rheology)
-    if isinstance(law, str):
-        plane.toolkit_law(law)                       # validates the name
+    law = _law(rheology)
     phi0 = float(check_phi(phi0, material))
     L = check_gradient(velocity_gradient)
-    prm = material_params(material)
-    f = _compiled_for(law)
+    f, params = compiled("principal", law, material)
     with np.errstate(all="ignore"):
-        vals = np.array(f(phi0, *L, *prm.values()), dtype=float)
+        vals = np.array(f(phi0, *L, *params), dtype=float)
     if not np.all(np.isfinite(vals)):
         raise ValueError(f"`velocity_gradient` = {list(L)}: the stress of {plane.law_name(law)!r} is not "
                          f"differentiable there (||S|| = {strain_rate_norm(L):g}); choose a state where it is")
@@ -96,18 +110,17 @@ def lambda_max_field(rheology, phi_f, grad_u, angles_deg=None, material=None):
     Points where the law is not differentiable (e.g. mu(I) at ||S|| = 0) or degenerate give nan.
     Returns (lambda_max (...), worst_angle_deg (...)).
     """
-    law = rheology if isinstance(rheology, str) else plane.resolve_law(rheology)
+    law = _law(rheology)
     phi_f = check_phi(phi_f, material)
     grad_u = np.asarray(grad_u, dtype=float)
     if grad_u.shape[:2] != (2, 2) or not np.all(np.isfinite(grad_u)):
         raise ValueError(f"`grad_u` must be finite with shape (2, 2, ...); got shape {grad_u.shape}")
     angles = np.arange(0.0, 180.0, 1.0) if angles_deg is None else check_angles(angles_deg)
     shape = np.broadcast(phi_f, grad_u[0, 0]).shape
-    prm = material_params(material)
-    f = _compiled_for(law)
+    f, params = compiled("principal", law, material)
     with np.errstate(all="ignore"):
         vals = [np.broadcast_to(np.asarray(v, dtype=float), shape).ravel()
-                for v in f(phi_f, grad_u[0, 0], grad_u[0, 1], grad_u[1, 0], grad_u[1, 1], *prm.values())]
+                for v in f(phi_f, grad_u[0, 0], grad_u[0, 1], grad_u[1, 0], grad_u[1, 1], *params)]
     B = np.stack(vals[4:], -1).reshape(-1, 2, 2, 2, 2)
     n = directions(angles)
     G = np.einsum("pijkl,aj,al->paik", B, n, n)
@@ -121,6 +134,16 @@ def lambda_max_field(rheology, phi_f, grad_u, angles_deg=None, material=None):
     top = lam[np.arange(lam.shape[0]), i]
     worst = np.where(bad, np.nan, angles[i] % 180.0)
     return top.reshape(shape), worst.reshape(shape)
+
+
+def _law(rheology):
+    """A registered name (validated) or Rheology as is; anything else through :func:`stability.plane.resolve_law`."""
+    from icidr_pde.rheology import Rheology  # noqa: PLC0415
+
+    if isinstance(rheology, str):
+        check_rheology_name(rheology)
+        return rheology
+    return rheology if isinstance(rheology, Rheology) else plane.resolve_law(rheology)
 
 
 def check_gradient(velocity_gradient) -> tuple:

@@ -16,29 +16,18 @@ is compared with max Re eig A(xi, n) of :func:`stability.directional.symbol_matr
 
 from __future__ import annotations
 
-from functools import lru_cache
 
 import numpy as np
-import sympy as sp
 from scipy.integrate import solve_ivp
 
-from . import directional, plane
-from .material import check_xi, material_params
-from .symbols import MATERIAL_SYMBOLS
-
-
-@lru_cache(maxsize=16)
-def _compiled_stress(law):
-    sigma = plane.stress_tensor(law)
-    exprs = [directional._concrete(sigma[i, j]) for i in range(2) for j in range(2)]
-    return sp.lambdify((*directional._ARGS, *MATERIAL_SYMBOLS.values()), exprs, modules="numpy", cse=True)
+from . import directional
+from .material import check_xi
 
 
 def stress_field(rheology, phi_f, grad_u, material=None):
     """sigma_ij (2, 2, ...) of the law on fields phi_f (...) and grad_u (2, 2, ...); complex input allowed."""
-    law = rheology if isinstance(rheology, str) else plane.resolve_law(rheology)
-    prm = material_params(material)
-    s = _compiled_stress(law)(phi_f, grad_u[0, 0], grad_u[0, 1], grad_u[1, 0], grad_u[1, 1], *prm.values())
+    f, params = directional.compiled("stress", directional._law(rheology), material)
+    s = f(phi_f, grad_u[0, 0], grad_u[0, 1], grad_u[1, 0], grad_u[1, 1], *params)
     shape = np.broadcast(phi_f, grad_u[0, 0]).shape
     return np.array([np.broadcast_to(np.asarray(v), shape) for v in s]).reshape(2, 2, *shape)
 

@@ -39,9 +39,8 @@ Closed forms (proved in :func:`checks`; m = S n, s = ||S||, delta = div u):
   Lambda_max(theta) = -K q/(2 rho phi) = -2 d^2 (R - delta)/(phi Psi^2) for every theta.
 
 The law enters through one object with ``symbolic_stress(phi, div_u, norm_S) -> (p, c)``
-(the interface of the core's rheology registry); :func:`toolkit_law` provides it for any
-registered rheology from the core's definition (:meth:`icidr_pde.rheology.Rheology.law`) with
-generic M(phi), Psi(phi) and dimensional d, rho_*.
+(the interface of the core's rheology registry); :func:`toolkit_law` takes a registered
+rheology ('mui', 'icidr', or any other) from its one definition in :mod:`icidr_pde.rheology`.
 """
 
 from __future__ import annotations
@@ -52,7 +51,7 @@ from typing import Callable
 
 import sympy as sp
 
-from icidr_pde.rheology import get_rheology
+from icidr_pde.rheology import Rheology, get_rheology
 
 from .checks import EXACT, FAILS, Check, exact_zero
 from .symbols import M, Mf, Psi, Psif, d, delta, phi, rho, uz, wz
@@ -82,39 +81,43 @@ class InvariantLaw:
         return self.stress(phi_, div_u, norm_S)
 
 
-def toolkit_law(name: str, M_=None, Psi_=None) -> InvariantLaw:
-    """'mui' ((2.14), (2.6)-(2.7)) or 'icidr' ((4.12), (4.14)) as an :class:`InvariantLaw`.
+def toolkit_law(name, M_=None, Psi_=None, material=None) -> InvariantLaw:
+    """A rheology of the simulator's registry (:func:`icidr_pde.rheology.get_rheology`) as an :class:`InvariantLaw`.
 
-    M_, Psi_ default to the generic functions M(phi), Psi(phi) of :mod:`stability.symbols`;
-    pass plain symbols for values at one state (Gamma needs no phi-derivative).
+    The one definition, :meth:`icidr_pde.rheology.Rheology.law` ((2.14)/(2.6)-(2.7) for 'mui',
+    (4.12)/(4.14) for 'icidr'), with its material parameters as symbols and made dimensional
+    (p and c times rho_* d^2, the scalings (3.12)).  M_, Psi_ default to the generic functions
+    M(phi), Psi(phi) of :mod:`stability.symbols`; pass plain symbols for values at one state
+    (Gamma needs no phi-derivative).  `name` may also be a Rheology instance.
     """
     M_ = Mf(phi) if M_ is None else M_
     Psi_ = Psif(phi) if Psi_ is None else Psi_
-    rheology = get_rheology(name)  # the core's one definition (raises for an unknown name)
-    scale = rho * d**2  # the laws are non-dimensional with (3.12); dimensional stresses scale so
+    r = get_rheology(name, material)
+    prm = r.material.values(symbolic=True)
 
     def law(phi_, div_u, norm_S):
-        p, c = rheology.law(phi_, div_u, norm_S, M_, Psi_, rheology.material.values(symbolic=True))
-        return scale * p, scale * c
+        p, c = r.law(phi_, div_u, norm_S, M_, Psi_, prm)
+        return rho * d**2 * p, rho * d**2 * c
 
-    return InvariantLaw(name, law)
+    return InvariantLaw(r.name or type(r).__name__, law)
 
 
-def resolve_law(law, M_=None, Psi_=None):
-    """A name ('mui', 'icidr'), an object with ``symbolic_stress``, or a callable (phi, div_u, norm_S) -> (p, c)."""
-    if isinstance(law, str):
-        return toolkit_law(law, M_, Psi_)
+def resolve_law(law, M_=None, Psi_=None, material=None):
+    """A registered name ('mui', 'icidr', ...) or Rheology instance of :mod:`icidr_pde.rheology`, any object with
+    ``symbolic_stress(phi, div_u, norm_S) -> (p, c)``, or such a callable."""
+    if isinstance(law, (str, Rheology)):
+        return toolkit_law(law, M_, Psi_, material)
     if hasattr(law, "symbolic_stress"):
         return law
     if callable(law):
         return InvariantLaw(getattr(law, "__name__", "law"), law)
-    raise ValueError("`rheology` must be a name ('mui', 'icidr'), an object with symbolic_stress(phi, div_u, "
-                     f"norm_S) or a callable returning (p, c); got {law!r}")
+    raise ValueError("`rheology` must be a registered name (e.g. 'mui', 'icidr'), an object with "
+                     f"symbolic_stress(phi, div_u, norm_S) or a callable returning (p, c); got {law!r}")
 
 
 def law_name(law) -> str:
     """Printable name of a law given to :func:`resolve_law`."""
-    return law if isinstance(law, str) else str(getattr(law, "name", getattr(law, "__name__", "law")))
+    return law if isinstance(law, str) else str(getattr(law, "name", "") or getattr(law, "__name__", "law"))
 
 
 # --- kinematics and the stress tensor ------------------------------------------------
@@ -128,13 +131,14 @@ def kinematics(grad_u=VELOCITY_GRADIENT):
     return {"D": D, "div": div, "S": S, "normS": normS}
 
 
-def stress_tensor(law, grad_u=VELOCITY_GRADIENT, phi_=phi, M_=None, Psi_=None):
+def stress_tensor(law, grad_u=VELOCITY_GRADIENT, phi_=phi, M_=None, Psi_=None, material=None):
     """sigma = -p I + c S (2.3) for the law's (p, c) at the invariants of `grad_u`.
 
-    The one place where a rheology becomes a 2-D stress tensor for this analysis.
+    The one place where a rheology becomes a 2-D stress tensor for this analysis; a
+    registered rheology comes from its one definition in :mod:`icidr_pde.rheology`.
     """
     k = kinematics(grad_u)
-    p, c = resolve_law(law, M_, Psi_).symbolic_stress(phi_, k["div"], k["normS"])
+    p, c = resolve_law(law, M_, Psi_, material).symbolic_stress(phi_, k["div"], k["normS"])
     return -p * sp.eye(2) + c * k["S"]
 
 

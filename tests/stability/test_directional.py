@@ -223,3 +223,16 @@ def test_lambda_max_field_matches_pointwise_analysis():
             assert np.all(lam < 0)
     with pytest.raises(ValueError, match="grad_u"):
         D.lambda_max_field("mui", phi, grad[0])
+
+
+def test_law_defined_through_the_registry():
+    """A law built with icidr_pde.rheology.define_rheology (here mu(I)'s p and c retyped) gives mu(I)'s numbers."""
+    from icidr_pde.rheology import define_rheology
+    from icidr_pde.rheology import symbols as s
+
+    cls = define_rheology("mui_copy_for_test", (2 * s.norm_S / s.Psi) ** 2, 4 * s.M * s.norm_S / s.Psi**2,
+                          register=False)
+    r = D.directional_stability(cls(), 0.78, STEADY)
+    ref = D.directional_stability("mui", 0.78, STEADY)
+    np.testing.assert_allclose(r.lambda_max, ref.lambda_max, rtol=1e-13)
+    np.testing.assert_allclose(r.ill_posed_intervals_deg, ref.ill_posed_intervals_deg, rtol=1e-12)
