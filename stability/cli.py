@@ -133,14 +133,16 @@ def _positive_float(text):
 
 
 def add_stability_parser(subparsers):
-    """Add ``stability --rheology {mui,icidr} --phi (--uz --wz | --velocity-gradient ...) [--angles] [--xi] [--json] [--plot]``."""
+    """Add ``stability --rheology NAME --phi (--uz --wz | --velocity-gradient ...) [--angles] [--xi] [--json] [--plot]``."""
     p = subparsers.add_parser("stability", help="symbols of the linearised 1-D system / 2-D plane waves at one state",
                               description="1-D (--uz --wz): print M, chi (A18), tr/det Gamma, Lambda_pm (A9), "
                                           "max Re eig A(xi)/xi^2 and -C/B for a uniform base state. 2-D "
                                           "(--velocity-gradient U_X U_Z W_X W_Z): Lambda_max(theta) of plane waves "
                                           "n = (cos theta, sin theta), ill-posed angle intervals, worst angle "
                                           "(theta = 90 deg is the 1-D direction).")
-    p.add_argument("--rheology", choices=("mui", "icidr"), required=True)
+    from icidr_pde.rheology import RHEOLOGIES  # noqa: PLC0415
+
+    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), required=True)
     p.add_argument("--phi", type=_positive_float, required=True, help="packing fraction, in (0, phi_c)")
     p.add_argument("--uz", type=_positive_float, default=None, help="1-D base shear rate d_z u")
     p.add_argument("--wz", type=_positive_float, default=None, help="1-D base dilation rate d_z w")
