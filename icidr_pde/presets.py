@@ -12,8 +12,9 @@ The numbers behind each choice come from ``python benchmarks/work_precision.py``
 * ``publication``: fd, N = 801, CVODE rtol 1e-8: 0.16 s (shear), 0.87 s (sine); max|w|
   error 2.4e-5 (shear), 7.1e-5 (sine).
 
-Numba compiles each new (rheology, N) once per process, 6-15 s, reported apart as
-``compile_s``. Chebyshev is not the default: the evolved iCIDR solutions are not smooth
+The compiled kernels are built once per installation and law, for every N
+(:mod:`icidr_pde.rheology.codegen`); their set-up (compilation the first time, loading from
+the disk cache afterwards) is reported apart as ``compile_s``. Chebyshev is not the default: the evolved iCIDR solutions are not smooth
 (phi keeps a sharp dip), so it converges only algebraically and loses to fd at equal cost.
 
 An explicit discretization, N, method, rtol or atol overrides that knob only.
