@@ -216,7 +216,8 @@ def growth_table(payload: dict) -> str:
 def _snapshots(rheology, n, t_end, n_frames):
     from .api import run
 
-    times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)]
+    t_end = float(f"{t_end:.4g}")  # the labels below must not round past t_end
+    times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)[:-1]] + [f"{t_end:.6g}"]
     return run(rheology, "bump2d", (n, n), t_end, times, series_times=[], **SETTINGS)
 
 
