@@ -1,4 +1,4 @@
-"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem}``."""
+"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures}``."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ _PLUGINS = [
     ("stability.cli", "add_verify_parser"),
     ("stability.cli", "add_stability_parser"),
     ("icidr_pde.dem.cli", "add_parser"),
+    ("icidr_pde.figures", "add_parser"),
 ]
 
 

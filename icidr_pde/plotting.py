@@ -1,4 +1,4 @@
-"""Figures in the style of the paper: w profiles (figs 3, 6a, 7) and max|w|(t) (figs 4a, 6b, 7e)."""
+"""Plot helpers for one Result (``--plot``, ``demo``); the paper's figures are in :mod:`icidr_pde.figures`."""
 
 from __future__ import annotations
 
@@ -10,19 +10,31 @@ from .result import Result
 __all__ = ["plot_result", "plot_profiles", "plot_max_w", "demo_figure"]
 
 
-def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_prefix: str = ""):
-    """Snapshots of `field` against z, one line per requested time reached (and t* if failed)."""
+def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_prefix: str = "",
+                  t_min: float = -1.0, show_final: bool = False):
+    """Snapshots of `field` against z, one line per requested time reached after `t_min`.
+
+    The state at t* of a failed run is not drawn unless `show_final`: it is the integrator's
+    last accepted state, grid-scale noise (often largest at the walls) that hides where the
+    growth began; its size is written in the panel instead.
+    """
     data = getattr(result, field)
-    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(result.times), 1)))
+    shown = [(t, profile) for t, profile in zip(result.times, data) if t > t_min]
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(shown), 1)))
     marker = "o" if style == "o" else None
     ls = "none" if style == "o" else style
-    for t, profile, c in zip(result.times, data, colors):
+    for (t, profile), c in zip(shown, colors):
         ax.plot(result.z, profile, ls=ls, marker=marker, mfc="none", ms=4, color=c,
                 label=f"{label_prefix}t = {t:g}")
     if result.blew_up:
         index = {"phi": 0, "u": 1, "w": 2}[field]
-        ax.plot(result.z, result.final[index], color="r", lw=0.8,
-                label=f"{label_prefix}t* = {result.t_star:.4g}")
+        if show_final:
+            ax.plot(result.z, result.final[index], color="r", lw=0.8,
+                    label=f"{label_prefix}t* = {result.t_star:.4g}")
+        else:
+            ax.text(0.02, 0.03, f"{label_prefix}fails at t* = {result.t_star:.4g} "
+                    f"(max|{field}| there {np.max(np.abs(result.final[index])):.2g})",
+                    transform=ax.transAxes, fontsize=7, color="r")
     ax.set_xlabel("z")
     ax.set_ylabel(field)
 
@@ -60,9 +72,8 @@ def demo_figure(mui_coarse: Result, mui_fine: Result, icidr_coarse: Result, icid
     """The paper's headline in one figure: figs 3/4(a) for mu(I), fig 6 for iCIDR."""
     fig, axes = plt.subplots(2, 2, figsize=(11, 8))
     ax = axes[0, 0]
-    plot_profiles(ax, mui_fine, "w")
-    ax.set_yscale("symlog", linthresh=0.03)
-    ax.set_title(f"(a) $\\mu(I),\\Phi(I)$, N = {mui_fine.N}: w blows up (cf. fig 3a)")
+    plot_profiles(ax, mui_fine, "w")  # linear axis: the growth before t* (the state at t* is noise)
+    ax.set_title(f"(a) $\\mu(I),\\Phi(I)$, N = {mui_fine.N}: w grows in the centre (cf. fig 3a)")
     ax.legend(fontsize=7)
     ax = axes[0, 1]
     plot_max_w(ax, mui_coarse, label=f"N = {mui_coarse.N}", color="tab:blue", ls="--")
@@ -73,8 +84,8 @@ def demo_figure(mui_coarse: Result, mui_fine: Result, icidr_coarse: Result, icid
     ax.set_title("(b) $\\mu(I),\\Phi(I)$ max|w|: refinement fails sooner (cf. fig 4a)")
     ax.legend(fontsize=8)
     ax = axes[1, 0]
-    plot_profiles(ax, icidr_fine, "w")
-    plot_profiles(ax, icidr_coarse, "w", style="o")
+    plot_profiles(ax, icidr_fine, "w", t_min=0.0)  # t > 0: the identical IC would dominate the panel
+    plot_profiles(ax, icidr_coarse, "w", style="o", t_min=0.0)
     ax.set_title(f"(c) iCIDR w: N = {icidr_coarse.N} (o) and {icidr_fine.N} (lines) (cf. fig 6a)")
     ax.legend(fontsize=6, ncol=2)
     ax = axes[1, 1]

@@ -1,0 +1,695 @@
+"""Every figure of the paper the project can compute, and its supplementary movies 1-6.
+
+``icidr-pde figures [--only fig3 fig7 ...] [--out docs/figures] [--draft] [--movies]``
+
+Figures are entries of a registry (:data:`FIGURES`): a name, a one-line caption, the
+paper's caption, the runs it needs and a function drawing it from those runs. The
+runs (:data:`RUNS`, public :func:`icidr_pde.run` only) are made once per invocation
+and shared: figs 3 and 4(a) use the same four mu(I) runs, figs 6 and 7 the iCIDR ones,
+and the movies use the same runs' snapshots at their frame interval. Each figure
+returns the numbers a reader compares with the paper (t*, max|w| extrema, chi > 0
+intervals); :func:`make_figures` writes them to ``numbers.json`` and a gallery page
+(``README.md``) beside the PNGs.
+
+Settings: the paper's integrator was ode15s; we use BDF with rtol 1e-6, atol 1e-9
+(t* of mu(I) depends on integrator and tolerance, README "Failure time"). The paper's
+captions do not give the snapshot times of figs 3, 6 and 7; we use t = 0, 0.5, 1, 2, 5,
+10 (fig 6) and t = 0, 1, 2, 3, 5, 10, 20 (fig 7, as in the DEM comparison), and for
+the blow-ups of fig 3(a,b) snapshots every 0.0025 up to t*.
+
+``draft=True`` (tests, notebooks in CI) replaces N = 201 by N = 101 and keeps every
+other setting: the same figures, qualitatively the same findings, a fraction of the cost.
+
+Adding a figure (e.g. the 2-D scene ``bump2d`` of the 2-D simulator, fields phi, u, w on
+a ``CartesianGrid``): define its runs in :data:`RUNS` (or compute them inside the drawing
+function) and decorate the drawing function with :func:`register_figure`, with
+``dims="2d"``; ``icidr-pde figures`` and the gallery pick it up. No 2-D entry exists yet.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FIGURES", "RUNS", "FigureSpec", "RunCache", "register_figure", "make_figures", "make_movies",
+           "positive_intervals", "add_parser", "DATA"]
+
+DATA = Path(__file__).resolve().parent.parent / "data"
+PAPER_TSTAR_CHEB = 0.01052  # fig 4(a) caption
+PAPER_SETTINGS = dict(method="BDF", rtol=1e-6, atol=1e-9)  # ode15s-like
+FIG6_TIMES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)
+FIG7_TIMES = (0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0)
+BLOWUP_DT = 2.5e-4  # snapshot interval of the mu(I) fine runs (figure lines every 0.0025, movie frames)
+
+
+# --- runs --------------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Keyword arguments of :func:`icidr_pde.run` for one run, N given as (paper, draft)."""
+
+    rheology: str
+    scene: str
+    discretization: str
+    N: tuple[int, int]
+    t_end: float
+    times: tuple = ()
+    movie: str | None = None
+
+    def kwargs(self, draft: bool) -> dict:
+        from .movies import MOVIES, frame_times
+
+        times = set(self.times)
+        if self.movie:
+            spec = MOVIES[self.movie]
+            t_movie = self.t_end if spec.frame_dt >= 0.01 else 0.1  # blow-ups: frames up to t = 0.1 at most
+            times |= set(np.round(frame_times(t_movie, spec.frame_dt), 12))
+        return dict(rheology=self.rheology, scene=self.scene, discretization=self.discretization,
+                    N=self.N[1] if draft else self.N[0], t_end=self.t_end, times=sorted(times), **PAPER_SETTINGS)
+
+
+_FINE_BLOWUP = tuple(np.round(np.arange(0, 0.1 + 1e-12, BLOWUP_DT), 12))
+RUNS = {
+    "mui-fd-fine": RunSpec("mui", "shear", "fd", (201, 101), 10.0, _FINE_BLOWUP, "movie1"),
+    "mui-cheb-fine": RunSpec("mui", "shear", "cheb", (201, 101), 10.0, _FINE_BLOWUP, "movie2"),
+    "mui-fd-coarse": RunSpec("mui", "shear", "fd", (47, 47), 10.0, FIG6_TIMES, "movie3"),
+    "mui-cheb-coarse": RunSpec("mui", "shear", "cheb", (47, 47), 10.0, FIG6_TIMES),
+    "icidr-shear-fd-coarse": RunSpec("icidr", "shear", "fd", (47, 47), 10.0, FIG6_TIMES),
+    "icidr-shear-fd-fine": RunSpec("icidr", "shear", "fd", (201, 101), 10.0, FIG6_TIMES, "movie4"),
+    "icidr-shear-cheb-fine": RunSpec("icidr", "shear", "cheb", (201, 101), 10.0, FIG6_TIMES, "movie5"),
+    "icidr-sine-fd-coarse": RunSpec("icidr", "sine", "fd", (47, 47), 20.0, FIG7_TIMES),
+    "icidr-sine-fd-fine": RunSpec("icidr", "sine", "fd", (201, 101), 20.0, FIG7_TIMES, "movie6"),
+}
+
+
+class RunCache:
+    """Runs of :data:`RUNS`, made on first use and kept for the invocation."""
+
+    def __init__(self, draft: bool = False, verbose: bool = False):
+        self.draft, self.verbose = draft, verbose
+        self._results: dict = {}
+        self.seconds: dict[str, float] = {}
+
+    def __getitem__(self, key: str):
+        if key not in self._results:
+            from .api import run
+
+            kwargs = RUNS[key].kwargs(self.draft)
+            start = time.perf_counter()
+            if self.verbose:
+                print(f"  run {key} (N = {kwargs['N']}) ...", flush=True)
+            self._results[key] = run(**kwargs)
+            self.seconds[key] = time.perf_counter() - start
+        return self._results[key]
+
+
+# --- registry ----------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """A figure: `draw(runs) -> (matplotlib Figure, numbers)`; `runs` is a :class:`RunCache`."""
+
+    name: str
+    caption: str
+    paper: str
+    draw: Callable
+    dims: str = "1d"
+    source: str = "computed"  # or a committed data file
+    command: str = field(default="")
+
+
+FIGURES: dict[str, FigureSpec] = {}
+
+
+def register_figure(name: str, caption: str, paper: str, *, dims: str = "1d", source: str = "computed"):
+    """Decorator adding a drawing function to :data:`FIGURES` under `name`."""
+
+    def decorator(draw):
+        FIGURES[name] = FigureSpec(name, caption, paper, draw, dims, source,
+                                   command=f"icidr-pde figures --only {name}")
+        return draw
+
+    return decorator
+
+
+# --- helpers -----------------------------------------------------------------------------------------------------------
+
+def _plt():
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def positive_intervals(z, values) -> list[list[float]]:
+    """The z-intervals where `values` > 0 (each [first z, last z] of a run of positive values)."""
+    positive = np.asarray(values) > 0
+    intervals, start = [], None
+    for k, flag in enumerate(positive):
+        if flag and start is None:
+            start = k
+        if start is not None and (not flag or k == len(positive) - 1):
+            stop = k if flag else k - 1
+            intervals.append([float(z[start]), float(z[stop])])
+            start = None
+    return intervals
+
+
+def _snapshot(result, t):
+    """Index of the snapshot at time t (exact match of a requested time)."""
+    k = int(np.argmin(np.abs(result.times - t)))
+    if abs(result.times[k] - t) > 1e-9:
+        raise KeyError(f"no snapshot at t = {t} in {result.rheology} N = {result.N}")
+    return k
+
+
+def _colors(n):
+    return _plt().cm.viridis(np.linspace(0, 0.85, max(n, 1)))
+
+
+def _tstar_label(result):
+    return f"t* = {result.t_star:.5g}" if result.blew_up else "no failure"
+
+
+def _max_w_extrema(result, t_min=0.0):
+    """Global maximum of max|w|(t) and the interior local maxima after t_min."""
+    t, m = result.max_w_t, result.max_w
+    keep = t >= t_min
+    t, m = t[keep], m[keep]
+    inner = [k for k in range(1, len(m) - 1) if m[k] >= m[k - 1] and m[k] > m[k + 1]]
+    return {"max": float(m.max()), "t_of_max": float(t[np.argmax(m)]),
+            "local_maxima": [[float(t[k]), float(m[k])] for k in inner],
+            "final": float(m[-1]), "t_final": float(t[-1])}
+
+
+def _grid_difference(coarse, fine, times):
+    """Largest |w_coarse - w_fine| (fine interpolated to the coarse nodes) over the snapshot `times`
+    after t = 0 (at t = 0 both are the same formula; the difference would be interpolation error)."""
+    return max(float(np.max(np.abs(np.interp(coarse.z, fine.z, fine.w[_snapshot(fine, t)])
+                                   - coarse.w[_snapshot(coarse, t)]))) for t in times if t > 0)
+
+
+# --- figure 2 ----------------------------------------------------------------------------------------------------------
+
+@register_figure("fig2", "Initial condition (3.16) and chi (A18) of mu(I),Phi(I): ill-posed (chi > 0) in the centre",
+                 "Fig 2: u(z,0), w(z,0), phi(z,0) for IC (3.16), phi0 = 0.78, eps = 0.05, H = 30; (d) chi(z)")
+def fig2(runs):
+    plt = _plt()
+    res = runs["mui-fd-fine"]
+    fig, axes = plt.subplots(1, 4, figsize=(13, 3.3))
+    for ax, name, label, letter in zip(axes[:3], ("u", "w", "phi"), ("u", "w", r"$\phi$"), "abc"):
+        ax.plot(res.z, getattr(res, name)[0], "k")
+        ax.set(xlabel="z", ylabel=label, title=f"({letter})", xlim=(0, 30))
+    axes[2].set_ylim(0.77, 0.79)
+    z_chi, chi = res.chi_z, res.chi[0]
+    ax = axes[3]
+    ax.plot(z_chi, chi, "k")
+    ax.axhline(0, color="gray", lw=0.6)
+    intervals = positive_intervals(z_chi, chi)
+    for a, b in intervals:
+        ax.axvspan(a, b, color="tab:red", alpha=0.15)
+    ax.set(xlabel="z", ylabel=r"$\chi$", title="(d)  shaded: $\\chi > 0$ (ill-posed)", xlim=(0, 30))
+    fig.tight_layout()
+    return fig, {"chi_positive_z": intervals, "chi_max": float(np.max(chi)), "chi_min": float(np.min(chi)),
+                 "max_w0": float(np.max(np.abs(res.w[0])))}
+
+
+# --- figure 3 ----------------------------------------------------------------------------------------------------------
+
+def _blowup_times(res, fractions=(0.25, 0.5, 0.7, 0.85, 0.95)):
+    """Snapshot times (multiples of BLOWUP_DT) at about these fractions of t*, and the last one before t*."""
+    reached = res.times[res.times > 0]
+    if not res.blew_up or len(reached) == 0:
+        return []
+    picked = {float(reached[np.argmin(np.abs(reached - f * res.t_star))]) for f in fractions}
+    picked.add(float(reached[-1]))
+    return sorted(picked)
+
+
+def _blowup_panel(ax, res, letter, title):
+    """w at a few times up to the last snapshot before t*, the IC dashed. The state at t* itself is
+    not drawn: the integrator's last accepted state is grid-scale noise of size ~1e6-1e10 everywhere,
+    which hides where the growth started (the centre); its size is printed instead."""
+    times = _blowup_times(res)
+    for t, c in zip(times, _colors(len(times))):
+        ax.plot(res.z, res.w[_snapshot(res, t)], color=c, lw=1, label=f"t = {t:.4g}")
+    ax.plot(res.z, res.w[0], "k--", lw=1.2, label="t = 0 (3.16)")
+    if res.blew_up:
+        ax.text(0.02, 0.03, f"fails at t* = {res.t_star:.4g}: max|w| = {np.max(np.abs(res.final[2])):.2g}",
+                transform=ax.transAxes, fontsize=8, color="tab:red")
+    ax.set(xlabel="z", ylabel="w", xlim=(0, 30), title=f"({letter}) {title}")
+    ax.legend(fontsize=7, loc="upper left")
+
+
+@register_figure("fig3", "mu(I),Phi(I) w snapshots: N = 201 fails (fd, Chebyshev), N = 47 decays",
+                 "Fig 3: w snapshots, (a) finite differences N = 201, (b) Chebyshev N = 201, (c) finite "
+                 "differences N = 47; IC dashed black")
+def fig3(runs):
+    plt = _plt()
+    fd, cheb, coarse = runs["mui-fd-fine"], runs["mui-cheb-fine"], runs["mui-fd-coarse"]
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    _blowup_panel(axes[0], fd, "a", f"finite differences, N = {fd.N}: {_tstar_label(fd)}")
+    _blowup_panel(axes[1], cheb, "b", f"Chebyshev, N = {cheb.N}: {_tstar_label(cheb)}")
+    ax = axes[2]
+    shown = [t for t in FIG6_TIMES if t > 0]
+    for t, c in zip(shown, _colors(len(shown))):
+        ax.plot(coarse.z, coarse.w[_snapshot(coarse, t)], color=c, label=f"t = {t:g}")
+    ax.plot(coarse.z, coarse.w[0], "k--", lw=1.2, label="t = 0 (3.16)")
+    ax.set(xlabel="z", ylabel="w", xlim=(0, 30),
+           title=f"(c) finite differences, N = {coarse.N}: {_tstar_label(coarse)}")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig, {"t_star_fd_fine": fd.t_star, "t_star_cheb_fine": cheb.t_star, "N_fine": fd.N,
+                 "coarse_blew_up": coarse.blew_up, "coarse_max_w_t10": float(np.max(np.abs(coarse.w[-1]))),
+                 "max_w0": float(np.max(np.abs(coarse.w[0]))),
+                 "argmax_z_before_tstar_fd": float(fd.z[np.argmax(np.abs(fd.w[len(fd.times) - 1]))])}
+
+
+# --- figure 4 ----------------------------------------------------------------------------------------------------------
+
+def _load_tstar(name):
+    path = DATA / "tstar" / name
+    data = json.loads(path.read_text())
+    N = np.array(sorted(int(k) for k in data))
+    t = np.array([np.nan if data[str(n)] is None else data[str(n)] for n in N], dtype=float)
+    return N, t
+
+
+@register_figure("fig4", "max|w|(t) of the four mu(I) runs with t* marked; t*(N) of the Chebyshev scheme",
+                 "Fig 4: (a) max|w|(t), finite differences dashed, Chebyshev solid, N = 201 red, N = 47 blue, "
+                 "t* = 0.01052 indicated; (b) t* against N (Chebyshev)", source="computed + data/tstar/")
+def fig4(runs):
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    ax = axes[0]
+    numbers = {}
+    for key, color, ls in (("mui-fd-fine", "tab:red", "--"), ("mui-cheb-fine", "tab:red", "-"),
+                           ("mui-fd-coarse", "tab:blue", "--"), ("mui-cheb-coarse", "tab:blue", "-")):
+        res = runs[key]
+        keep = res.max_w_t > 0
+        name = "finite differences" if res.discretization == "fd" else "Chebyshev"
+        ax.loglog(res.max_w_t[keep], res.max_w[keep], ls=ls, color=color, label=f"{name}, N = {res.N}")
+        if res.blew_up:  # the value at t* (1e6-1e10) is off the axis: the cross sits at its top
+            ax.plot([res.t_star], [min(res.max_w[-1], 5.0)], "x", color=color, ms=8, clip_on=False)
+        numbers[f"t_star_{key}"] = res.t_star
+        numbers[f"max_w_final_{key}"] = float(res.max_w[-1])
+    cheb = runs["mui-cheb-fine"]
+    if cheb.blew_up:
+        ax.axvline(cheb.t_star, color="k", lw=0.7)
+        ax.annotate(f"Chebyshev t* = {cheb.t_star:.4g}\n(paper, N = 201: {PAPER_TSTAR_CHEB})", (cheb.t_star, 0.5),
+                    xycoords=("data", "axes fraction"), xytext=(4, 0), textcoords="offset points", fontsize=8)
+    ax.set(xlabel="t", ylabel="max|w|", title="(a)  x: failure", xlim=(1e-4, 10), ylim=(1e-4, 5))
+    ax.legend(fontsize=8, loc="lower left")
+    ax = axes[1]
+    N, t = _load_tstar("mui_shear_cheb_BDF_rtol1e-6_atol1e-9.json")
+    ax.plot(N, t, "o", color="k", ms=3, mfc="none", label="Chebyshev (data/tstar, icidr-pde tstar)")
+    ax.plot([cheb.N], [cheb.t_star], "*", color="tab:red", ms=12, label=f"this run, N = {cheb.N}")
+    ax.set_yscale("log")
+    ax.set(xlabel="$N_z$", ylabel="$t_*$", title="(b)  no failure by t = 20 below the threshold")
+    threshold = int(N[np.isfinite(t)].min())
+    ax.axvline(threshold - 1, color="gray", lw=0.6, ls=":")
+    ax.text(threshold + 3, 0.5 * np.nanmax(t), f"fails for $N_z \\geq$ {threshold}", fontsize=8, va="top")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    numbers.update(paper_t_star=PAPER_TSTAR_CHEB, cheb_threshold_N=threshold,
+                   cheb_t_star_N201_data=float(t[N == 201][0]))
+    return fig, numbers
+
+
+# --- figure 5 ----------------------------------------------------------------------------------------------------------
+
+FIG5_PHI = (0.72, 0.74, 0.76, 0.78, 0.80)
+
+
+def yield_ratio(I, phi, material=None):
+    """Y/p of iCIDR (4.7): mu(Psi(phi)) I / Psi(phi)."""
+    from .rheology import Material
+
+    m = Material() if material is None else material
+    psi = m.Psi(phi)
+    return m.mu(psi) * np.asarray(I, dtype=float) / psi
+
+
+@register_figure("fig5", "iCIDR yield ratio Y/p against I for several phi, with mu(I) and mu_d",
+                 "Fig 5: Y/p against I for several phi (black), mu(I) (blue), steady isochoric points "
+                 "I = Psi(phi) (dots), mu_d (dashed red)", source="(4.7), Table 1")
+def fig5(runs):
+    from .rheology import Material
+
+    plt = _plt()
+    m = Material()
+    I = np.linspace(0, 0.6, 301)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    dots = []
+    for phi in FIG5_PHI:
+        ax.plot(I, yield_ratio(I, phi, m), "k", lw=1)
+        psi = float(m.Psi(phi))
+        dots.append([phi, psi, float(m.mu(psi))])
+        ax.plot([psi], [m.mu(psi)], "ko", ms=5)
+        ax.annotate(f"$\\phi$ = {phi:g}", (I[-1], yield_ratio(I[-1], phi, m)), fontsize=7,
+                    xytext=(-40, 4), textcoords="offset points")
+    ax.plot(I, m.mu(I), color="tab:blue", lw=2, label=r"$\mu(I)$ (2.10)")
+    ax.axhline(m.mu_d, color="tab:red", ls="--", label=r"$\mu_d$")
+    ax.set(xlabel="I", ylabel="Y/p", xlim=(0, 0.6), ylim=(0, 1.0))
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    return fig, {"isochoric_points_phi_I_mu": dots, "mu_d": m.mu_d}
+
+
+# --- figure 6 ----------------------------------------------------------------------------------------------------------
+
+@register_figure("fig6", "iCIDR with IC (3.16): w snapshots and max|w|(t) at N = 47 and 201 on top of one another",
+                 "Fig 6: (a) w at a sequence of times, N = 47 (open circles) and N = 201 (lines); (b) max|w|(t), "
+                 "N = 47 blue circles, N = 201 red line")
+def fig6(runs):
+    plt = _plt()
+    coarse, fine = runs["icidr-shear-fd-coarse"], runs["icidr-shear-fd-fine"]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    ax = axes[0]
+    for t, c in zip(FIG6_TIMES, _colors(len(FIG6_TIMES))):
+        ax.plot(fine.z, fine.w[_snapshot(fine, t)], color=c, label=f"t = {t:g}")
+        ax.plot(coarse.z, coarse.w[_snapshot(coarse, t)], "o", color=c, mfc="none", ms=4)
+    ax.set(xlabel="z", ylabel="w", xlim=(0, 30), title=f"(a) lines N = {fine.N}, circles N = {coarse.N}")
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=4, markevery=6,
+            label=f"N = {coarse.N}")
+    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")
+    ax.set(xlabel="t", ylabel="max|w|", yscale="log", xlim=(0, 10), title="(b)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    w0 = np.max(np.abs(fine.w[0]))
+    diff = _grid_difference(coarse, fine, FIG6_TIMES)
+    return fig, {"blew_up": bool(coarse.blew_up or fine.blew_up), "max_w0": float(w0),
+                 "max_w_t10_fine": float(np.max(np.abs(fine.w[-1]))),
+                 "grid_difference_rel_max_w0": diff / w0, "N": [coarse.N, fine.N]}
+
+
+# --- figure 7 ----------------------------------------------------------------------------------------------------------
+
+@register_figure("fig7", "iCIDR with IC (5.7): phi, u, w at N = 47 and 201, chi at t = 0, max|w|(t) with its "
+                 "local maximum near t = 3",
+                 "Fig 7: (a-c) phi, u, w, N = 201 lines, N = 47 open circles; (d) chi (A18) at t = 0; (e) max|w|(t), "
+                 "N = 47 open circles, N = 201 red line")
+def fig7(runs):
+    plt = _plt()
+    coarse, fine = runs["icidr-sine-fd-coarse"], runs["icidr-sine-fd-fine"]
+    fig, axes = plt.subplots(1, 5, figsize=(17, 3.8))
+    for ax, name, label, letter in zip(axes[:3], ("phi", "u", "w"), (r"$\phi$", "u", "w"), "abc"):
+        for t, c in zip(FIG7_TIMES, _colors(len(FIG7_TIMES))):
+            ax.plot(fine.z, getattr(fine, name)[_snapshot(fine, t)], color=c, label=f"t = {t:g}")
+            ax.plot(coarse.z, getattr(coarse, name)[_snapshot(coarse, t)], "o", color=c, mfc="none", ms=3)
+        ax.set(xlabel="z", ylabel=label, xlim=(0, 30), title=f"({letter})")
+    axes[0].legend(fontsize=6)
+    ax = axes[3]
+    z_chi, chi = fine.chi_z, fine.chi[0]
+    intervals = positive_intervals(z_chi, chi)
+    ax.plot(z_chi, np.where(np.isfinite(chi), chi, np.nan), "k")
+    inf_z = z_chi[np.isinf(chi)]
+    for a, b in intervals:
+        ax.axvspan(a, b, color="tab:red", alpha=0.15)
+    for zi in inf_z:
+        ax.axvline(zi, color="tab:red", lw=0.8, ls=":")
+    ax.axhline(0, color="gray", lw=0.6)
+    ax.set(xlabel="z", ylabel=r"$\chi$ at t = 0", xlim=(0, 30), ylim=(-10, 10),
+           title="(d) shaded $\\chi>0$; dotted $\\chi=\\infty$")
+    ax = axes[4]
+    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=3, markevery=6,
+            label=f"N = {coarse.N}")
+    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")
+    extrema = _max_w_extrema(fine, t_min=1.0)
+    for t, v in extrema["local_maxima"]:
+        ax.plot([t], [v], "kv", ms=6)
+        ax.annotate(f"local max t = {t:.2f}", (t, v), xytext=(6, 6), textcoords="offset points", fontsize=7)
+    ax.set(xlabel="t", ylabel="max|w|", yscale="log", xlim=(0, 20), title="(e)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    w0 = np.max(np.abs(fine.w[0]))
+    diff = _grid_difference(coarse, fine, FIG7_TIMES)
+    return fig, {"chi_positive_z": intervals, "chi_infinite_z": [float(z) for z in inf_z],
+                 "max_w_local_maxima_after_t1": extrema["local_maxima"], "blew_up": bool(coarse.blew_up or fine.blew_up),
+                 "grid_difference_rel_max_w0": diff / w0, "max_w_t20_fine": float(np.max(np.abs(fine.w[-1])))}
+
+
+# --- figures 1 and 8: DEM, from committed data -------------------------------------------------------------------------
+
+@register_figure("fig1", "Steady DEM mu(I) and phi(I) (LAMMPS, committed data) with (2.10), (2.11) and Table 1",
+                 "Fig 1: (a) mu and (b) phi against I; blue lines (2.10), (2.11) with Table 1; symbols DEM",
+                 source="data/dem/steady.json")
+def fig1(runs):
+    from .rheology import Material
+
+    plt = _plt()
+    summary = json.loads((DATA / "dem" / "steady.json").read_text())
+    pts = summary["points"]
+    I, dI = np.array([p["I"] for p in pts]), np.array([p["I_std"] for p in pts])
+    mu, dmu = np.array([p["mu"] for p in pts]), np.array([p["mu_std"] for p in pts])
+    phi = np.array([p["phi"] for p in pts])
+    m = Material()
+    Ig = np.linspace(0, 0.3, 301)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    axes[0].errorbar(I, mu, xerr=dI, yerr=dmu, fmt="o", color="k", mfc="none", ms=5, capsize=2,
+                     label=f"DEM ({summary['repeats']} repeats, {summary['n_particles']} disks)")
+    axes[0].plot(Ig, m.mu(Ig), color="tab:blue", label="(2.10), Table 1")
+    axes[1].errorbar(I, phi, xerr=dI, fmt="o", color="k", mfc="none", ms=5, capsize=2, label="DEM")
+    axes[1].plot(Ig, m.Phi(Ig), color="tab:blue", label="(2.11), Table 1")
+    axes[0].set(xlabel="I", ylabel=r"$\mu$", title="(a)", xlim=(0, 0.3))
+    axes[1].set(xlabel="I", ylabel=r"$\phi$", title="(b)", xlim=(0, 0.3))
+    for ax in axes:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    residual_mu = float(np.max(np.abs(mu - m.mu(I))))
+    residual_phi = float(np.max(np.abs(phi - m.Phi(I))))
+    return fig, {"I_range": [float(I.min()), float(I.max())], "max_abs_mu_minus_table1": residual_mu,
+                 "max_abs_phi_minus_table1": residual_phi, "fit": summary.get("fit")}
+
+
+@register_figure("fig8", "iCIDR (Table 1) against the mean of 10 DEM runs from IC (5.7): phi, u, w and max|w|(t)",
+                 "Fig 8: (a-c) phi, u, w profiles, DEM mean (circles) +- std (bars) against iCIDR; (d) max|w|(t)",
+                 source="data/dem/transient_ensemble.npz")
+def fig8(runs):
+    plt = _plt()
+    ens = np.load(DATA / "dem" / "transient_ensemble.npz")
+    tt, z = ens["times"], ens["z"]
+    fig, axes = plt.subplots(1, 4, figsize=(16, 4))
+    for j, t in enumerate(FIG7_TIMES):
+        k = int(np.argmin(np.abs(tt - t)))
+        color = _colors(len(FIG7_TIMES))[j]
+        for ax, f in zip(axes[:3], ("phi", "u", "w")):
+            ax.errorbar(z, ens[f"{f}_mean"][k], yerr=ens[f"{f}_std"][k], fmt="o", ms=3, mfc="none", color=color,
+                        capsize=1.5, label=f"t = {t:g}" if f == "phi" else None)
+            ax.plot(z, ens[f"icidr_table1_{f}"][k], "-", color=color)
+    for ax, label, letter in zip(axes[:3], (r"$\phi$", "u", "w"), "abc"):
+        ax.set(xlabel="z", ylabel=label, title=f"({letter})")
+    axes[0].legend(fontsize=6)
+    ax = axes[3]
+    icidr_max = np.max(np.abs(ens["icidr_table1_w"]), axis=1)
+    ax.plot(tt, ens["max_w"], "ko", mfc="none", ms=3, label=f"DEM mean of {int(ens['repeats'])} runs")
+    ax.plot(tt, icidr_max, color="tab:red", label="iCIDR (Table 1), same bins")
+    ax.set(xlabel="t", ylabel="max|w| (2d bins)", yscale="log", title="(d)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    summary = json.loads((DATA / "dem" / "transient.json").read_text())
+    return fig, {"rel_error_table1_max": summary["rel_error_table1_summary"]["max"],
+                 "secondary_max_w_peak": summary.get("secondary_max_w_peak")}
+
+
+# --- the project's own -------------------------------------------------------------------------------------------------
+
+@register_figure("work_precision", "Work-precision of every integrator and Jacobian mode (committed benchmark data)",
+                 "not in the paper: python benchmarks/work_precision.py", source="data/benchmarks/work_precision.json")
+def work_precision(runs):
+    plt = _plt()
+    data = json.loads((DATA / "benchmarks" / "work_precision.json").read_text())
+    cases = list(data["cases"])
+    fig, axes = plt.subplots(1, len(cases), figsize=(6 * len(cases), 4.5), squeeze=False)
+    numbers = {}
+    for ax, case in zip(axes[0], cases):
+        rows = [r for r in data["cases"][case]["rows"] if "error" not in r]
+        for family in sorted({r["family"] for r in rows}):
+            pts = sorted((r["series"], r["wall_s"]) for r in rows if r["family"] == family)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=family)
+        ax.axvline(data["cases"][case]["summary"]["target"], color="gray", lw=0.6, ls=":")
+        ax.set(xlabel="max|w|(t) error (relative)", ylabel="wall time [s]", title=case)
+        ax.grid(True, which="both", alpha=0.3)
+        numbers[case] = data["cases"][case]["summary"].get("speedup_vs_c")
+    axes[0][-1].legend(fontsize=6)
+    fig.tight_layout()
+    return fig, {"speedup_vs_c": numbers}
+
+
+@register_figure("growth", "Largest growth rate of the linearised finite-volume operator against h (symbolic toolkit)",
+                 "not in the paper: mu(I) grows like 4 Lambda_+/h^2, iCIDR stays bounded", source="stability")
+def growth(runs):
+    from stability.growth import fd_growth_table
+
+    plt = _plt()
+    rows = fd_growth_table(Ns=(32, 64, 128, 256) if runs.draft else (32, 64, 128, 256, 512, 1024))
+    h = np.array([r["h"] for r in rows])
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    ax.loglog(h, [r["mui"] for r in rows], "o-", color="tab:red", label=r"$\mu(I),\Phi(I)$")
+    ax.loglog(h, [max(r["icidr"], 1e-12) for r in rows], "s-", color="tab:blue", label="iCIDR (floored at 1e-12)")
+    ax.invert_xaxis()
+    ax.set(xlabel="grid spacing h", ylabel="max Re(eigenvalue), linearised fd operator")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    return fig, {"rows": [{k: float(v) for k, v in r.items()} for r in rows]}
+
+
+# --- driver ------------------------------------------------------------------------------------------------------------
+
+def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, runs: RunCache | None = None,
+                 dpi=110) -> dict:
+    """Draw the figures named in `only` (default: all) into `out`; return {name: numbers}."""
+    plt = _plt()
+    names = list(FIGURES) if not only else list(only)
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown:
+        raise ValueError(f"`only` must name figures of {sorted(FIGURES)}; got {unknown}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    runs = runs or RunCache(draft=draft, verbose=verbose)
+    numbers = {}
+    for name in names:
+        start = time.perf_counter()
+        if verbose:
+            print(f"{name}: {FIGURES[name].caption}", flush=True)
+        fig, nums = FIGURES[name].draw(runs)
+        path = out / f"{name}.png"
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+        nums = {"png": path.name, "seconds": round(time.perf_counter() - start, 2), "draft": draft, **nums}
+        numbers[name] = nums
+        if verbose:
+            print(f"  -> {path} ({nums['seconds']} s)")
+    return numbers
+
+
+def make_movies(only=None, out="docs/figures", *, draft=False, runs: RunCache | None = None, verbose=True,
+                suffix=".mp4") -> dict:
+    """Write the supplementary movies (default: movies 1-6) from the shared runs."""
+    from .movies import MOVIES, movie_from_result
+
+    names = list(MOVIES) if not only else list(only)
+    runs = runs or RunCache(draft=draft, verbose=verbose)
+    key_of = {spec.movie: key for key, spec in RUNS.items() if spec.movie}
+    written = {}
+    for name in names:
+        spec = MOVIES[name]
+        res = runs[key_of[name]]
+        start = time.perf_counter()
+        path = movie_from_result(res, Path(out) / f"{name}{suffix}", frame_dt=spec.frame_dt,
+                                 title=f"movie {name[5:]}: {spec.caption}" + (" [draft]" if draft else ""))
+        written[name] = {"file": path.name, "frame_dt": spec.frame_dt, "seconds": round(time.perf_counter() - start, 1),
+                         "t_star": res.t_star}
+        if verbose:
+            print(f"{name}: {path} ({written[name]['seconds']} s)")
+    return written
+
+
+# --- gallery -----------------------------------------------------------------------------------------------------------
+
+def _fmt(value):
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_fmt(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_fmt(v)}" for k, v in value.items()) + "}"
+    return str(value)
+
+
+_HIDDEN = {"png", "seconds", "draft", "rows", "fit"}
+
+
+def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None, meta: dict | None = None) -> Path:
+    """Write `out`/README.md: each figure with its caption, the paper's caption, its command and numbers."""
+    out = Path(out)
+    lines = ["# Figures of Schaeffer et al. (2019), recomputed", "",
+             "Generated by `icidr-pde figures` (this page too: do not edit by hand). Each figure names the command "
+             "that redraws it and the numbers a reader compares with the paper. Settings: BDF, rtol 1e-6, "
+             "atol 1e-9 (ode15s-like), finite differences unless stated; the paper's captions give no snapshot "
+             "times, so we use those listed in `icidr_pde/figures.py`.", ""]
+    if meta:
+        lines += [f"Last full run: {meta.get('date', '?')}, {meta.get('total_s', 0):.0f} s wall on 2 shared cores "
+                  f"({'draft' if meta.get('draft') else 'paper'} resolution, movies "
+                  f"{'included' if meta.get('movies') else 'not included'}).", ""]
+    for name, spec in FIGURES.items():
+        if name not in numbers:
+            continue
+        nums = numbers[name]
+        lines += [f"## {name}: {spec.caption}", "", f"![{name}]({nums['png']})", "",
+                  f"*Paper:* {spec.paper}.  ", f"*Command:* `{spec.command}`  (source: {spec.source}; "
+                  f"{nums['seconds']} s{', draft' if nums.get('draft') else ''})", ""]
+        shown = {k: v for k, v in nums.items() if k not in _HIDDEN}
+        if shown:
+            lines += ["| measured | value |", "| --- | --- |"]
+            lines += [f"| {k} | {_fmt(v)} |" for k, v in shown.items()]
+            lines.append("")
+    lines += ["## Slot: 2-D figures", "",
+              "A 2-D figure (scene `bump2d`, fields phi, u, w on a `CartesianGrid`) is one "
+              "`@register_figure(..., dims=\"2d\")` function in `icidr_pde/figures.py`; none exists yet.", ""]
+    if movies:
+        from .movies import MOVIES
+
+        lines += ["## Supplementary movies 1-6", "", "`icidr-pde figures --movies` (frames at a fixed interval of "
+                  "simulated time; a failed run ends on its state at t*). Movies 7-8 of the paper are DEM "
+                  "renderings and are not reproduced.", "",
+                  "| movie | content | frame interval | file |", "| --- | --- | --- | --- |"]
+        for name, info in movies.items():
+            lines.append(f"| {name[5:]} | {MOVIES[name].caption} | {info['frame_dt']:g} | [{info['file']}]({info['file']}) |")
+        lines.append("")
+    path = out / "README.md"
+    path.write_text("\n".join(lines))
+    return path
+
+
+# --- command line ------------------------------------------------------------------------------------------------------
+
+def add_parser(subparsers):
+    p = subparsers.add_parser("figures", help="redraw the paper's figures (and movies 1-6) into docs/figures")
+    p.add_argument("--only", nargs="+", default=None, metavar="NAME",
+                   help=f"figures to draw (default: all): {' '.join(FIGURES)}")
+    p.add_argument("--out", default="docs/figures", help="output folder (PNGs, numbers.json, README.md)")
+    p.add_argument("--draft", action="store_true", help="N = 101 instead of 201 (same findings, a fraction of the cost)")
+    p.add_argument("--movies", nargs="*", default=None, metavar="MOVIE",
+                   help="also write the supplementary movies (all, or those named: movie1 ... movie6)")
+    p.add_argument("--gif", action="store_true", help="movies as GIF instead of MP4")
+    p.set_defaults(func=cmd_figures)
+    return p
+
+
+def cmd_figures(args) -> int:
+    import datetime
+
+    start = time.perf_counter()
+    out = Path(args.out)
+    runs = RunCache(draft=args.draft, verbose=True)
+    numbers = make_figures(args.only, out, draft=args.draft, runs=runs)
+    movies = None
+    if args.movies is not None:
+        movies = make_movies(args.movies or None, out, draft=args.draft, runs=runs,
+                             suffix=".gif" if args.gif else ".mp4")
+    total = time.perf_counter() - start
+    store = out / "numbers.json"
+    previous = json.loads(store.read_text()) if store.exists() else {}
+    figures = {**previous.get("figures", {}), **numbers}
+    movies_all = {**previous.get("movies", {}), **(movies or {})}
+    meta = previous.get("meta", {})
+    if not args.only:  # a complete run: its time is the one to quote
+        meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+                "total_s": total, "draft": args.draft, "movies": movies is not None,
+                "run_seconds": {k: round(v, 1) for k, v in runs.seconds.items()}}
+    tmp = store.with_suffix(".json.partial")
+    tmp.write_text(json.dumps({"meta": meta, "figures": figures, "movies": movies_all}, indent=1))
+    tmp.replace(store)
+    write_gallery(figures, out, movies_all or None, meta)
+    print(f"{len(numbers)} figure(s){' and %d movie(s)' % len(movies) if movies else ''} in {out} ({total:.0f} s)")
+    return 0

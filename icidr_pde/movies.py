@@ -1,0 +1,286 @@
+"""Movies of shear-cell runs: phi, u, w against z and max|w|(t), frame by frame.
+
+The paper's supplementary movies 1-6 (:data:`MOVIES`) show the full time evolution
+behind figs 3, 6 and 7. Frames are snapshots at a fixed interval of simulated time
+(``frame_dt``), independent of the snapshot times a user asks for; a failed run ends
+with its state at t*, titled with the reason.
+
+MP4 is written by py-pde's :class:`~pde.visualization.movies.Movie` (matplotlib's
+FFMpegWriter) with the ffmpeg binary of the ``imageio-ffmpeg`` wheel, so no system
+package is needed; ``.gif`` (or MP4 when no ffmpeg can be found) falls back to
+matplotlib's Pillow writer. A movie is written to a temporary name and renamed when
+complete: a failure never leaves half a file.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pde.trackers.base import TrackerBase
+
+__all__ = ["MOVIES", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
+           "frame_times"]
+
+
+def ffmpeg_exe() -> str | None:
+    """Path of an ffmpeg binary (the imageio-ffmpeg wheel's, else one on PATH), or None.
+
+    Also points matplotlib's ``animation.ffmpeg_path`` at it, which is where py-pde's
+    Movie (through matplotlib's FFMpegWriter) looks.
+    """
+    import matplotlib
+
+    try:
+        import imageio_ffmpeg
+
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        from shutil import which
+
+        exe = which("ffmpeg")
+    if exe:
+        matplotlib.rcParams["animation.ffmpeg_path"] = exe
+    return exe
+
+
+DEFAULT_FRAMES = 200  # frames of the uniform part of the default schedule
+DEFAULT_LOG_FRAMES = 40  # log-spaced frames before it, from t = 1e-4
+
+
+def frame_times(t_end: float, frame_dt: float | None = None) -> np.ndarray:
+    """Frame times: 0, frame_dt, 2 frame_dt, ... up to t_end (t_end included).
+
+    `frame_dt=None` (the default of ``run(movie=...)``): 40 log-spaced frames from t = 1e-4 to
+    t_end/200, then every t_end/200, so that a run failing early (mu(I): t* ~ 1e-2 of t_end = 10)
+    is still animated; each frame's title shows its time.
+    """
+    if not (np.isfinite(t_end) and t_end > 0):
+        raise ValueError(f"`t_end` must be > 0; got {t_end}")
+    if frame_dt is None:
+        dt = t_end / DEFAULT_FRAMES
+        early = np.geomspace(min(1e-4, dt / 10), dt, DEFAULT_LOG_FRAMES + 1)[:-1]
+        return np.concatenate(([0.0], early, frame_times(t_end, dt)[1:]))
+    if not (np.isfinite(frame_dt) and frame_dt > 0):
+        raise ValueError(f"`frame_dt` must be > 0; got {frame_dt}")
+    n = int(np.floor(t_end / frame_dt * (1 + 1e-12)))
+    times = frame_dt * np.arange(n + 1)
+    return times if np.isclose(times[-1], t_end) else np.append(times, t_end)
+
+
+class _FrameFigure:
+    """One figure (phi, u, w, max|w|(t)) whose artists are updated for every frame."""
+
+    def __init__(self, z, times, frames, max_w_t, max_w, title, dpi):
+        from matplotlib.figure import Figure
+        from matplotlib.ticker import LogFormatter
+
+        self.fig = Figure(figsize=(12, 3.4), dpi=dpi)
+        axes = self.fig.subplots(1, 4)
+        steady = np.array(frames[0]) if len(frames) else None
+        self.lines = []
+        regular = frames[:-1] if len(frames) > 2 else frames  # axis limits without the t* state
+        for k, (ax, name) in enumerate(zip(axes, ("φ", "u", "w"))):
+            ax.plot(z, steady[k], color="k", ls="--", lw=0.8, label="t = 0")
+            (line,) = ax.plot(z, steady[k], color="tab:red")
+            self.lines.append(line)
+            lo, hi = np.min(regular[:, k]), np.max(regular[:, k])
+            pad = 0.05 * (hi - lo) if hi > lo else 1e-3 * max(abs(hi), 1.0)
+            ax.set_ylim(lo - pad, hi + pad)
+            ax.set_xlabel("z")
+            ax.set_ylabel(name)
+        ax = axes[3]
+        keep = max_w_t > 0
+        ax.loglog(max_w_t[keep], max_w[keep], color="0.6", lw=1)
+        (self.marker,) = ax.loglog([], [], "o", color="tab:red")
+        for axis in (ax.xaxis, ax.yaxis):  # plain "1e-2" labels: mathtext would double the drawing time
+            axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
+            axis.set_minor_formatter(LogFormatter(labelOnlyBase=True))
+        ax.set_xlabel("t")
+        ax.set_ylabel("max|w|")
+        self.axes = axes
+        self.max_w_t, self.max_w = max_w_t, max_w
+        self.title = title
+        self.suptitle = self.fig.suptitle(title)
+        self.fig.tight_layout()
+
+    def update(self, t, frame, note=""):
+        for k, line in enumerate(self.lines):
+            line.set_ydata(frame[k])
+        if note:  # the failure state: its values can be far outside the regular frames
+            for k, ax in enumerate(self.axes[:3]):
+                ax.relim()
+                ax.autoscale_view()
+        if t > 0:
+            self.marker.set_data([t], [np.interp(t, self.max_w_t, self.max_w)])
+        self.suptitle.set_text(f"{self.title}    t = {t:.4g}{note}")
+
+
+def write_movie(path, z, times, frames, *, max_w_t=None, max_w=None, title="", failed_reason=None,
+                fps: float = 15, dpi: int = 100) -> Path:
+    """Write frames (array (n, 3, len(z)) of phi, u, w at `times`) as a movie at `path`.
+
+    `failed_reason`: the last frame is the state at t* of a failed run (titled so).
+    The suffix of `path` picks the format: .mp4 (ffmpeg) or .gif (Pillow). Returns the
+    path written, which is a .gif beside `path` when an .mp4 was asked for but no
+    ffmpeg exists (with a warning).
+    """
+    path = Path(path)
+    frames = np.asarray(frames, dtype=float)
+    times = np.asarray(times, dtype=float)
+    if frames.ndim != 3 or frames.shape[0] != len(times) or frames.shape[1] != 3 or len(times) == 0:
+        raise ValueError(f"`frames` must have shape (n_times, 3, n_z) with n_times = {len(times)} > 0; "
+                         f"got {frames.shape}")
+    if not path.parent.is_dir():
+        raise ValueError(f"`path`: folder {path.parent} does not exist")
+    suffix = path.suffix.lower()
+    if suffix not in (".mp4", ".gif"):
+        raise ValueError(f"`path` must end in .mp4 or .gif; got {path.name!r}")
+    if suffix == ".mp4" and ffmpeg_exe() is None:
+        warnings.warn("no ffmpeg found (install imageio-ffmpeg): writing a GIF instead", stacklevel=2)
+        path, suffix = path.with_suffix(".gif"), ".gif"
+    if max_w_t is None:
+        max_w_t, max_w = times, np.max(np.abs(frames[:, 2]), axis=1)
+    plot = _FrameFigure(z, times, frames, np.asarray(max_w_t, float), np.asarray(max_w, float), title, dpi)
+    partial = path.with_name(f".{path.stem}.partial{suffix}")
+    try:
+        if suffix == ".mp4":
+            from pde.visualization.movies import Movie
+
+            with Movie(str(partial), framerate=fps, dpi=dpi) as movie:
+                _add_frames(plot, times, frames, failed_reason, movie.add_figure)
+        else:
+            from matplotlib.animation import PillowWriter
+
+            writer = PillowWriter(fps=fps)
+            with writer.saving(plot.fig, str(partial), dpi=dpi):
+                _add_frames(plot, times, frames, failed_reason, lambda fig: writer.grab_frame())
+        os.replace(partial, path)
+    finally:
+        if partial.exists():
+            partial.unlink()
+    return path
+
+
+def _add_frames(plot, times, frames, failed_reason, grab):
+    last = len(times) - 1
+    for k, (t, frame) in enumerate(zip(times, frames)):
+        note = f"  FAILED at t* ({failed_reason})" if failed_reason and k == last else ""
+        plot.update(t, frame, note)
+        grab(plot.fig)
+
+
+def movie_from_result(result, path, *, frame_dt=None, title=None, **kwargs) -> Path:
+    """Movie of a :class:`~icidr_pde.result.Result`'s snapshots (plus its state at t* if it failed).
+
+    `frame_dt`: keep only the snapshots at multiples of it (the run may hold others).
+    """
+    times, frames = np.asarray(result.times), np.stack([result.phi, result.u, result.w], axis=1)
+    if frame_dt is not None:
+        k = times / frame_dt
+        keep = np.abs(k - np.round(k)) < 1e-6
+        times, frames = times[keep], frames[keep]
+    reason = None
+    if result.blew_up:
+        times = np.append(times, result.t_star)
+        frames = np.concatenate([frames, np.asarray(result.final)[None]], axis=0)
+        reason = result.reason
+    if title is None:
+        title = f"{result.rheology}, scene {result.scene}, {result.discretization} N = {result.N}"
+    return write_movie(path, result.z, times, frames, max_w_t=result.max_w_t, max_w=result.max_w,
+                       title=title, failed_reason=reason, **kwargs)
+
+
+class MovieTracker(TrackerBase):
+    """Collect frames every `frame_dt` of simulated time and write the movie at the end.
+
+    Frames are copies of the state (3 x N floats each), so memory is frames x 24 N bytes;
+    rendering happens once, in :meth:`finalize`, after the run (also after a failure,
+    then with the state at t* as last frame: py-pde's ``info["controller"]`` with
+    ``successful=False``, ``t_final``, ``stop_reason``, ``state_data``).
+
+    Args:
+        path: .mp4 or .gif file
+        z: positions of the unknowns
+        t_end: final time
+        frame_dt: interval of simulated time between frames (None: see :func:`frame_times`)
+        title: movie title
+    """
+
+    name = "shear_movie"
+
+    def __init__(self, path, z, t_end: float, frame_dt: float | None = None, *, title: str = "", fps: float = 15,
+                 write_on_finalize: bool = True):
+        super().__init__(interrupts=list(frame_times(t_end, frame_dt)))
+        path = Path(path)
+        if path.suffix.lower() not in (".mp4", ".gif"):
+            raise ValueError(f"`movie` must end in .mp4 or .gif; got {path.name!r}")
+        if not path.parent.is_dir():
+            raise ValueError(f"`movie`: folder {path.parent} does not exist")
+        self.path, self.z, self.title, self.fps = path, np.asarray(z), title, fps
+        self.frame_dt = frame_dt
+        self.write_on_finalize = write_on_finalize
+        self.failed_reason: str | None = None
+        self.times: list[float] = []
+        self.frames: list[np.ndarray] = []
+        self.written: Path | None = None
+
+    def handle(self, field, t: float) -> None:
+        self.times.append(float(t))
+        self.frames.append(np.array(field.data, copy=True))
+
+    def finalize(self, info=None) -> None:
+        super().finalize(info)
+        controller = (info or {}).get("controller", {})
+        if controller.get("successful") is False and controller.get("state_data") is not None:
+            self.times.append(float(controller["t_final"]))
+            self.frames.append(np.asarray(controller["state_data"], dtype=float))
+            self.failed_reason = controller.get("stop_reason", "failed")
+        if self.write_on_finalize:
+            self.write()
+
+    def write(self) -> Path | None:
+        """Render the collected frames (``run()`` calls this after timing the solve)."""
+        if self.frames and self.written is None:
+            self.written = write_movie(self.path, self.z, self.times, np.stack(self.frames), title=self.title,
+                                       failed_reason=self.failed_reason, fps=self.fps)
+        return self.written
+
+
+@dataclass(frozen=True)
+class MovieSpec:
+    """One supplementary movie: the run (keyword arguments of :func:`icidr_pde.run`) and
+    the interval of simulated time between frames."""
+
+    name: str
+    caption: str
+    run: dict = field(default_factory=dict)
+    frame_dt: float = 0.05
+
+
+# The paper's supplementary movies 1-6 (movies 7-8 are DEM renderings, not computed here).
+# ode15s-like settings as in the paper: BDF, rtol 1e-6, atol 1e-9.
+_PAPER = dict(method="BDF", rtol=1e-6, atol=1e-9)
+MOVIES = {
+    "movie1": MovieSpec("movie1", "mu(I),Phi(I), IC (3.16), finite differences N = 201: blow-up (fig 3a)",
+                        dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
+                        frame_dt=2.5e-4),
+    "movie2": MovieSpec("movie2", "mu(I),Phi(I), IC (3.16), Chebyshev N = 201: blow-up (fig 3b)",
+                        dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
+                        frame_dt=2.5e-4),
+    "movie3": MovieSpec("movie3", "mu(I),Phi(I), IC (3.16), finite differences N = 47: decays (fig 3c)",
+                        dict(rheology="mui", scene="shear", N=47, t_end=10.0, discretization="fd", **_PAPER),
+                        frame_dt=0.1),
+    "movie4": MovieSpec("movie4", "iCIDR, IC (3.16), finite differences N = 201 (fig 6)",
+                        dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
+                        frame_dt=0.1),
+    "movie5": MovieSpec("movie5", "iCIDR, IC (3.16), Chebyshev N = 201 (fig 6)",
+                        dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
+                        frame_dt=0.1),
+    "movie6": MovieSpec("movie6", "iCIDR, IC (5.7), finite differences N = 201 (fig 7)",
+                        dict(rheology="icidr", scene="sine", N=201, t_end=20.0, discretization="fd", **_PAPER),
+                        frame_dt=0.2),
+}

@@ -1,0 +1,86 @@
+"""Progress bar and live plot: phases, an honest end of a failed run, one figure updated in place.
+
+Driven through py-pde's tracker protocol (initialize / handle / finalize with
+info["controller"]); the run path's own use is checked in the notebooks and test_paper.
+"""
+
+import io
+
+import numpy as np
+import pde
+import pytest
+
+from icidr_pde.trackers import LivePlotTracker, ProgressBarTracker
+
+
+def _state(n=40):
+    grid = pde.CartesianGrid([[0, 30]], n)
+    return pde.FieldCollection([pde.ScalarField.from_expression(grid, e) for e in ("0.78", "x/30", "0.01*sin(x)")])
+
+
+def _drive(tracker, state, times, final_info):
+    info = {"controller": {"t_start": 0.0, "t_end": 1.0}, "solver": {}}
+    tracker.initialize(state, info=info)
+    phase_after_initialize = tracker.phase if hasattr(tracker, "phase") else None
+    info["solver"]["compile_s"] = 1.25  # what the solver reports once its stepper is built
+    for t in times:
+        tracker.handle(state, t)
+    tracker.finalize(info=final_info)
+    return phase_after_initialize
+
+
+def test_progress_success_ends_at_t_end():
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream)
+    phase = _drive(bar, _state(), [0.0, 0.5, 1.0], {"controller": {"successful": True, "t_final": 1.0}})
+    assert phase == "compiling" and bar.phase == "done" and bar.compile_s == 1.25
+    assert bar.bar.n == pytest.approx(1.0)
+    text = stream.getvalue()
+    assert "compiling" not in text.rsplit("\r", 1)[-1] and "done" in text
+
+
+def test_progress_failure_stops_at_t_star_and_says_why():
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.001, t_end=10.0, file=stream)
+    _drive(bar, _state(), [0.0, 0.005, 0.01], {"controller": {"successful": False, "t_final": 0.01486,
+                                                              "stop_reason": "step size underflow"}})
+    assert bar.phase == "failed" and bar.bar.n == pytest.approx(0.01486)
+    last = stream.getvalue().rsplit("\r", 1)[-1]
+    assert "FAILED at t* = 0.01486: step size underflow" in last and "100%" not in last
+
+
+def test_progress_needs_t_end_without_interrupts():
+    with pytest.raises(ValueError, match="`t_end` is required"):
+        ProgressBarTracker()
+
+
+def test_live_plot_draws_the_final_state_into_its_file(tmp_path):
+    state = _state()
+    z = state.grid.axes_coords[0]
+    out = tmp_path / "live.png"
+    live = LivePlotTracker(z, 1.0, interrupts=0.1, show=False, output_file=out,
+                           chi=lambda data: (z, data[2] - 0.005))
+    times = np.linspace(0, 1, 11)
+    for_failure = state.data * 3
+    _drive(live, state, times, {"controller": {"successful": False, "t_final": 1.0, "stop_reason": "x",
+                                               "state_data": for_failure}})
+    assert out.read_bytes()[:4] == b"\x89PNG" and 1 <= live.n_draws <= len(times) + 1
+    np.testing.assert_array_equal(live._lines["w"].get_ydata(), for_failure[2])  # last draw: the state at t*
+    assert "FAILED" in live._suptitle.get_text()
+    assert live.max_w[-1] == pytest.approx(np.max(np.abs(for_failure[2])))
+    assert live.overhead_s > 0
+
+
+def test_live_plot_budget_skips_redraws():
+    """With a 1 % budget and handles in quick succession, most redraws are skipped (no timing
+    is asserted: the budget only decides how many of the requested redraws happen)."""
+    state = _state()
+    live = LivePlotTracker(state.grid.axes_coords[0], 1.0, interrupts=0.01, show=False, max_overhead=0.01)
+    _drive(live, state, np.linspace(0, 1, 101), {"controller": {"successful": True, "t_final": 1.0}})
+    assert len(live.times) == 101 and live.n_draws < 101
+
+
+def test_live_plot_rejects_bad_budget():
+    with pytest.raises(ValueError, match="`max_overhead` must lie in \\(0, 1\\); got 1.5"):
+        LivePlotTracker([0, 1], 1.0, max_overhead=1.5)
+

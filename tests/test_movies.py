@@ -1,0 +1,111 @@
+"""Movies are playable: decoded back with ffmpeg, they have the frames that were rendered."""
+
+import numpy as np
+import pytest
+
+from icidr_pde.movies import MOVIES, MovieTracker, _FrameFigure, ffmpeg_exe, frame_times, write_movie
+
+
+def _frames(n=12, nz=61):
+    z = np.linspace(0, 30, nz)
+    times = np.linspace(0, 1, n)
+    frames = np.stack([np.stack([0.78 + 0.01 * np.sin(z / 3 + 6 * t), z / 30, 0.05 * np.sin(z / 5 - 6 * t)])
+                       for t in times])
+    return z, times, frames
+
+
+def _decode(path):
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    width, height = meta["size"]
+    return [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
+
+
+def _render(z, times, frames, k, dpi=100):
+    """Frame k rendered directly by matplotlib, as RGB."""
+    plot = _FrameFigure(z, times, frames, times, np.max(np.abs(frames[:, 2]), axis=1), "t", dpi)
+    plot.update(times[k], frames[k])
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(plot.fig)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3]
+
+
+def test_ffmpeg_comes_from_the_wheel():
+    exe = ffmpeg_exe()
+    assert exe and "imageio_ffmpeg" in exe
+
+
+def test_mp4_decodes_to_the_rendered_frames(tmp_path):
+    z, times, frames = _frames()
+    path = write_movie(tmp_path / "m.mp4", z, times, frames, title="t")
+    assert path == tmp_path / "m.mp4" and not list(tmp_path.glob(".*partial*"))
+    decoded = _decode(path)
+    assert len(decoded) == len(times)
+    k = 7
+    expected = _render(z, times, frames, k)
+    h, w = min(expected.shape[0], decoded[k].shape[0]), min(expected.shape[1], decoded[k].shape[1])
+    error = np.mean(np.abs(decoded[k][:h, :w].astype(float) - expected[:h, :w]))
+    other = np.mean(np.abs(decoded[0][:h, :w].astype(float) - expected[:h, :w]))
+    assert error < 0.5 * other and error < 5.0  # lossy codec: close to frame k, farther from frame 0
+
+
+def test_gif_fallback_has_every_frame(tmp_path):
+    from PIL import Image
+
+    z, times, frames = _frames(n=5)
+    path = write_movie(tmp_path / "m.gif", z, times, frames)
+    with Image.open(path) as image:
+        assert image.n_frames == 5
+
+
+def test_bad_input_names_the_parameter(tmp_path):
+    z, times, frames = _frames(n=3)
+    with pytest.raises(ValueError, match="`path` must end in .mp4 or .gif"):
+        write_movie(tmp_path / "m.avi", z, times, frames)
+    with pytest.raises(ValueError, match="`frames` must have shape"):
+        write_movie(tmp_path / "m.mp4", z, times[:2], frames)
+    with pytest.raises(ValueError, match="`frame_dt` must be > 0"):
+        frame_times(1.0, 0.0)
+
+
+def test_a_failure_while_writing_leaves_no_file(tmp_path, monkeypatch):
+    import icidr_pde.movies as movies
+
+    def broken(plot, times, frames, reason, grab):
+        grab(plot.fig)
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(movies, "_add_frames", broken)
+    z, times, frames = _frames(n=3)
+    with pytest.raises(RuntimeError):
+        write_movie(tmp_path / "m.mp4", z, times, frames)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_frame_times_are_a_fixed_interval():
+    np.testing.assert_allclose(frame_times(1.0, 0.25), [0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_allclose(frame_times(1.0, 0.3), [0, 0.3, 0.6, 0.9, 1.0])
+    assert set(MOVIES) == {f"movie{k}" for k in range(1, 7)}
+
+
+def test_movie_tracker_frames_and_failure_frame(tmp_path):
+    """Driven through py-pde's tracker protocol: one frame per interrupt, then the state at t*
+    that a failed run hands to finalize (py-pde's info["controller"])."""
+    import pde
+
+    grid = pde.CartesianGrid([[0, 30]], 32)
+    state = pde.FieldCollection([pde.ScalarField.from_expression(grid, e) for e in ("0.78", "x/30", "sin(x/5)")])
+    tracker = MovieTracker(tmp_path / "d.mp4", grid.axes_coords[0], 1.0, 0.25, title="failing")
+    t = tracker.initialize(state, info={"controller": {"t_start": 0.0}})
+    while t <= 0.5:
+        state.data[2] *= 1.5
+        tracker.handle(state, t)
+        t = tracker.interrupt.next(t)
+    tracker.finalize(info={"controller": {"successful": False, "t_final": 0.6, "stop_reason": "blow-up",
+                                          "state_data": state.data * 10}})
+    assert tracker.times == [0.0, 0.25, 0.5, 0.6]
+    assert len(_decode(tracker.written)) == 4
