@@ -36,10 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .datafiles import data_dir
+
 __all__ = ["FIGURES", "RUNS", "FigureSpec", "RunCache", "register_figure", "make_figures", "make_movies",
            "positive_intervals", "add_parser", "DATA"]
 
-DATA = Path(__file__).resolve().parent.parent / "data"
+DATA = data_dir()  # the committed results (repository data/, or icidr_pde/data in a wheel)
 PAPER_TSTAR_CHEB = 0.01052  # fig 4(a) caption
 PAPER_SETTINGS = dict(method="BDF", rtol=1e-6, atol=1e-9)  # ode15s-like
 FIG6_TIMES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)
