@@ -14,16 +14,17 @@ import numpy as np
 from pde import FileStorage, MemoryStorage
 from pde.solvers import Controller
 from pde.trackers.base import FinishedSimulation
-from pde.trackers.trackers import CallbackTracker, PlotTracker, ProgressTracker
+from pde.trackers.trackers import CallbackTracker
 
 from .case import Case, build_case, make_pde
 from .discretizations import DISCRETIZATIONS, get_discretization
 from .integrator import SimulationFailed, StiffSolver
+from .movies import MovieTracker
 from .presets import resolve
 from .result import Result
 from .rheology import Material
 from .scenes import SCENES, Scene
-from .trackers import ChiTracker, MaxWTracker, dense_times
+from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker, dense_times
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
@@ -51,14 +52,17 @@ class Recorders:
     max_w: MaxWTracker | None
     chi: ChiTracker | None
     trackers: list = field(default_factory=list)
+    movie: MovieTracker | None = None
 
 
 def make_trackers(case: Case, t_end: float, times=None, *, series_times=None, chi: bool | None = None,
                   save: str | None = None, progress: bool = False, live_plot: bool = False,
-                  max_wall: float | None = None) -> Recorders:
+                  max_wall: float | None = None, movie: str | None = None,
+                  frame_dt: float | None = None) -> Recorders:
     """Snapshots at `times` (default: the scene's), max|w| at `series_times` (default dense;
     empty: none), chi of (A18) if the scene asks for it (or `chi`), optional HDF5 file,
-    progress bar, live plot and a wall-clock limit `max_wall` (seconds)."""
+    progress bar, live plot, movie frames every `frame_dt` and a wall-clock limit `max_wall`
+    (seconds)."""
     if times is None:
         times = [t for t in case.scene.default_times if t <= t_end] + [t_end]
     labels, snap_times = _time_labels(times, t_end)
@@ -75,13 +79,33 @@ def make_trackers(case: Case, t_end: float, times=None, *, series_times=None, ch
         trackers.append(chi_tracker)
     if save:
         trackers.append(FileStorage(save, write_mode="truncate").tracker(interrupts=list(snap_times)))
-    if progress:
-        trackers.append(ProgressTracker(interrupts=max(t_end / 200, 1e-6)))
-    if live_plot:
-        trackers.append(PlotTracker(interrupts=t_end / 50, show=True))
+    view = _view_trackers(case, t_end, progress, live_plot, movie, frame_dt)
+    trackers += view
     if max_wall is not None:
         trackers.append(_wall_clock_limit(max_wall, t_end))
-    return Recorders(labels, snap_times, storage, max_w, chi_tracker, trackers)
+    movie_tracker = next((t for t in view if isinstance(t, MovieTracker)), None)
+    return Recorders(labels, snap_times, storage, max_w, chi_tracker, trackers, movie_tracker)
+
+
+def _view_trackers(case: Case, t_end, progress, live_plot, movie, frame_dt) -> list:
+    """Trackers that show a run: progress bar, live figure (with chi for mu(I)), movie frames."""
+    title = f"{case.pde.rheology.name} {case.scene.name} {case.pde.name} N={case.N}"
+    trackers = []
+    if progress:
+        trackers.append(ProgressBarTracker(t_end=t_end))
+    if (live_plot or movie) and case.state.data.ndim > 2:
+        raise ValueError("`live_plot` and `movie` draw 1-D scenes (fields against z); "
+                         f"got the 2-D scene {case.scene.name!r}")
+    if live_plot:
+        chi = None
+        if case.pde.rheology.name == "mui":  # chi (A18) is the ill-posedness test of mu(I)
+            def chi(data):
+                z_s, phi, uz, wz = case.pde.strain_rates(data, case.grid)
+                return z_s, case.pde.rheology.chi(phi, uz, wz)
+        trackers.append(LivePlotTracker(case.nodes(), t_end, chi=chi, title=title))
+    if movie:  # rendered by run() after the timing
+        trackers.append(MovieTracker(movie, case.nodes(), t_end, frame_dt, title=title, write_on_finalize=False))
+    return trackers
 
 
 class _Timeout(FinishedSimulation):
@@ -131,8 +155,9 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
     except SimulationFailed as failure:
         blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
         final = failure.state_data
-        for tracker in trackers:  # close files and progress bars
-            tracker.finalize()
+        info = {"controller": {"successful": False, "t_final": t_star, "stop_reason": reason, "state_data": final}}
+        for tracker in trackers:  # close files and progress bars; the bar and a movie end at t*
+            tracker.finalize(info=info)
     compile_s = solver.info.get("compile_s", 0.0)
     wall = _time.perf_counter() - start - compile_s
     return Outcome(final, blew_up, t_star, reason, float(t_final), wall, compile_s)
@@ -202,6 +227,8 @@ def run(
     progress: bool = False,
     live_plot: bool = False,
     save: str | None = None,
+    movie: str | None = None,
+    frame_dt: float | None = None,
     series_times=None,
     backend: str = "numba",
     max_wall: float | None = None,
@@ -227,9 +254,13 @@ def run(
         jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's default)
         material: laws and parameters (default Table 1)
         advection: 'upwind' or 'central' (an option of 'fd'; None: the scheme's default)
-        progress: show a progress bar
-        live_plot: show the fields while they evolve (py-pde PlotTracker, e.g. in Jupyter)
+        progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.trackers.ProgressBarTracker`)
+        live_plot: one figure of the fields updated in place while they evolve, redrawn within
+            ~10 % of the wall time (:class:`~icidr_pde.trackers.LivePlotTracker`), Jupyter or a window
         save: optional HDF5 file for the snapshots (py-pde FileStorage)
+        movie: optional .mp4 (or .gif) file: a movie of the run (:mod:`icidr_pde.movies`)
+        frame_dt: interval of simulated time between movie frames, independent of `times`
+            (None: 40 log-spaced frames up to t_end/200, then every t_end/200)
         series_times: times of the max|w| series (default: dense log+linear; empty: none)
         backend: 'numba' (compiled kernels, cached on disk) or 'numpy'
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
@@ -250,8 +281,10 @@ def run(
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
                       options=options, scene_params=scene_params)
     recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
-                              live_plot=live_plot, max_wall=max_wall)
+                              live_plot=live_plot, max_wall=max_wall, movie=movie, frame_dt=frame_dt)
     solver = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
                          jacobian=jacobian, backend=backend)
     outcome = integrate(case, solver, t_end, recorders.trackers)
+    if recorders.movie is not None:  # after the timing: wall_s is the solve and the trackers
+        recorders.movie.write()
     return collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)

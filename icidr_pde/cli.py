@@ -69,6 +69,10 @@ def add_run_parser(subparsers):
     p.add_argument("--json", default=None, help="write the result summary here")
     p.add_argument("--plot", default=None, help="write a PNG of profiles and max|w|(t)")
     p.add_argument("--save", default=None, help="write the snapshots to this HDF5 file")
+    p.add_argument("--movie", default=None, help="write a movie of the run (.mp4, or .gif)")
+    p.add_argument("--frame-dt", type=float, default=None,
+                   help="simulated time between movie frames, independent of --times "
+                        "(default: 40 log-spaced frames up to t_end/200, then every t_end/200)")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_run)
 
@@ -85,7 +89,8 @@ def cmd_run(args) -> int:
         args.rheology, args.scene, N, args.t_end, args.times,
         accuracy=args.accuracy, discretization=args.discretization, method=args.method, rtol=args.rtol,
         atol=args.atol, jacobian=args.jacobian, advection=args.advection,
-        progress=not args.no_progress, save=args.save, **scene_params,
+        progress=not args.no_progress, save=args.save, movie=args.movie, frame_dt=args.frame_dt,
+        **scene_params,
     )
     print(result)
     print(json.dumps({k: v for k, v in result.to_dict().items()
@@ -99,6 +104,8 @@ def cmd_run(args) -> int:
             from .studies2d import plot_fields as plot_result
         plot_result(result, args.plot)
         print(f"plot written to {args.plot}")
+    if args.movie:
+        print(f"movie written to {args.movie}")
     return 0
 
 

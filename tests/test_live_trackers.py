@@ -84,3 +84,21 @@ def test_live_plot_rejects_bad_budget():
     with pytest.raises(ValueError, match="`max_overhead` must lie in \\(0, 1\\); got 1.5"):
         LivePlotTracker([0, 1], 1.0, max_overhead=1.5)
 
+
+
+def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
+    """run(): the failed mu(I) run's bar stops at t* with the reason; its movie ends on the t* state."""
+    from icidr_pde import run
+    from icidr_pde.movies import frame_times
+
+    path = tmp_path / "m.mp4"
+    res = run("mui", "shear", 101, 1.0, [0], method="BDF", rtol=1e-6, atol=1e-9, progress=True,
+              movie=str(path), frame_dt=0.01)
+    assert res.blew_up
+    err = capsys.readouterr().err
+    last = err.rsplit("\r", 1)[-1]
+    assert f"FAILED at t* = {res.t_star:.5g}" in last and "100%" not in last and "compiling" in err
+    import imageio_ffmpeg
+
+    n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    assert n_frames == np.sum(frame_times(1.0, 0.01) <= res.t_star) + 1  # frames before t*, and t*
