@@ -41,7 +41,9 @@ class Case:
 
 def make_pde(rheology="icidr", discretization="fd", material: Material | None = None, **options):
     """The shear-cell PDE for `rheology` discretized by `discretization` (a registry name)."""
-    return get_discretization(discretization)(get_rheology(rheology, material), **options)
+    law = get_rheology(rheology, material)
+    getattr(law, "check_runnable", lambda: None)()   # a CIDR law whose flow rule has no positive p
+    return get_discretization(discretization)(law, **options)
 
 
 def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | None = None, *,

@@ -21,6 +21,7 @@ _PLUGINS = [
     ("stability.cli", "add_stability_parser"),
     ("icidr_pde.dem.cli", "add_parser"),
     ("icidr_pde.figures", "add_parser"),
+    ("icidr_pde.law_cli", "add_parser"),
 ]
 
 

@@ -5,6 +5,9 @@
 * :mod:`.base` -- :class:`Rheology`: (phi, div u, ||S||) -> (p, c) with tau = c S, the
   registry, :func:`define_rheology`, chi (A18);
 * :mod:`.mui`, :mod:`.icidr` -- the two rheologies of the paper, one class per file;
+* :mod:`.cidr` -- the workbench: a CIDR law from (Y, f) (equation of state solved from the
+  flow rule, stress from the yield law) or a law given as (p, tau); :mod:`.nonmonotonic`,
+  :mod:`.saturating`, :mod:`.mu_psi`, :mod:`.blended` -- the laws built with it (section 7);
 * :mod:`.kinematics` -- adapters from a geometry's strain rates to the invariants;
 * :mod:`.codegen` -- numeric kernels and Jacobians generated from the sympy definitions,
   compiled by numba once per installation.
@@ -19,9 +22,12 @@ from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, Friction
                    MuOfI, SaturatingDilatancy)
 from .material import Material, mu_of_I
 from .mui import MuIPhiI
+from .cidr import CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, load_law_file
+from . import blended, mu_psi, nonmonotonic, saturating  # noqa: F401,E402  (the shipped workbench laws)
 
 __all__ = [
     "Material", "mu_of_I", "Rheology", "MuIPhiI", "ICIDR", "RHEOLOGIES", "get_rheology", "define_rheology", "chi",
     "TABLE1", "FrictionLaw", "DilatancyLaw", "MuOfI", "LinearDilatancy", "SaturatingDilatancy",
     "FRICTION_LAWS", "DILATANCY_LAWS", "Kinematics", "INVARIANTS", "SHEAR_CELL", "PLANE_FLOW",
+    "CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "load_law_file",
 ]

@@ -43,9 +43,14 @@ class Rheology:
             RHEOLOGIES[cls.name] = cls
 
     def __init__(self, material: Material | None = None):
-        self.material = Material() if material is None else material
+        self.material = type(self).default_material() if material is None else material
         if not isinstance(self.material, Material):
             raise TypeError("`material` must be an icidr_pde.rheology.Material")
+
+    @classmethod
+    def default_material(cls) -> Material:
+        """The material used when none is given (Table 1; a law may ship its own)."""
+        return Material()
 
     def __repr__(self) -> str:
         return f"{self.__class__.__name__}({self.material!r})"

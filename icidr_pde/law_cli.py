@@ -1,0 +1,75 @@
+"""``icidr-pde law {check,list}``: the rheology workbench from the command line.
+
+``law check NAME|FILE [--json out.json]`` prints conditions (4.3)-(4.5) (status, method,
+counterexample), the equation of state and the verdict of the symbol in 1-D and 2-D, and
+writes the full report (:func:`stability.workbench.law_report`) as JSON. ``law list``
+lists the registered laws. Exit codes: 0 (the report was made, whatever the verdict),
+2 (bad input: unknown law, a law file that cannot be used).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+
+def _check(args) -> int:
+    from stability.workbench import law_report, write_report
+
+    report = law_report(args.law, with_curves=not args.no_curves)
+    print(f"law {report['law']} ({report['kind']}; phi in ({report['phi_domain'][0]:g}, "
+          f"{report['phi_domain'][1]:g}))")
+    for key, c in report["conditions"].items():
+        where = "" if c["counterexample"] is None else "  e.g. at " + ", ".join(
+            f"{k} = {v:.4g}" for k, v in c["counterexample"].items())
+        method = f" ({c['method']})" if c["method"] else ""
+        print(f"  {key}: {c['status']}{method}{where}")
+    eos = report.get("equation_of_state")
+    if eos:
+        print(f"  equation of state: {eos['method']}; sqrt(p) = {eos['sqrt_p']}")
+        if eos["no_positive_root_at"]:
+            s = eos["no_positive_root_at"]
+            print("  flow rule has no positive solution for p at " + ", ".join(f"{k} = {v:.4g}" for k, v in s.items())
+                  + ": stability analysis only")
+    st = report["stability"]
+    for dim in ("one_d", "two_d"):
+        w = st[dim]["max_Lambda_plus"]
+        print(f"  symbol {dim.replace('_', '-')}: {'well-posed' if st[dim]['well_posed'] else 'ILL-POSED'} "
+              f"(max Re Lambda_+ = {w['Lambda_plus']:.4g} at phi = {w['phi']:.4g}, gamma-dot = {w['gamma_dot']:.4g}, "
+              f"div u/||S|| = {w['div_u_over_norm_S']:.3g}; {w['ill_posed_states']} of {st['grid']['states']} "
+              "states ill-posed)")
+    print(f"  verdict: {'WELL-POSED' if report['well_posed'] else 'ILL-POSED'}")
+    if args.json:
+        write_report(report, args.json)
+        print(f"report written to {args.json}")
+    return 0
+
+
+def _list(args) -> int:
+    from stability.workbench import law_list
+
+    laws = law_list()
+    if args.json:
+        json.dump(laws, sys.stdout, indent=2)
+        print()
+        return 0
+    for law in laws:
+        print(f"{law['name']:<22} {law['kind']:<7} {law['doc']}")
+    return 0
+
+
+def add_parser(subparsers):
+    """Add ``law check`` and ``law list`` to the ``icidr-pde`` command."""
+    p = subparsers.add_parser("law", help="rheology workbench: check a law for well-posedness, list laws",
+                              description="Check a constitutive law (a registered name or a Python file defining "
+                                          "yield_function/dilatancy_function or pressure/shear_stress).")
+    sub = p.add_subparsers(dest="law_command", required=True)
+    c = sub.add_parser("check", help="conditions (4.3)-(4.5), equation of state, symbol over a grid of states")
+    c.add_argument("law", help="registered name (see `law list`) or a .py file")
+    c.add_argument("--json", default=None, help="write the full report here")
+    c.add_argument("--no-curves", action="store_true", help="skip the Y/p and steady mu(I), Phi(I) curves")
+    c.set_defaults(func=_check)
+    ls = sub.add_parser("list", help="the registered laws")
+    ls.add_argument("--json", action="store_true", help="print the list as JSON")
+    ls.set_defaults(func=_list)
+    return p

@@ -1,0 +1,433 @@
+"""CIDR laws from a yield function Y(p, I, phi) and a dilatancy function f(p, I, phi) (section 4).
+
+A CIDR law is (4.1) ||tau|| = Y(p, I, phi) and the flow rule (4.2) div u = 2 f(p, I, phi) ||S||,
+with the inertial number (2.9) I = 2 ||S||/sqrt(p) (d = rho_* = 1, scalings (3.12)) and the
+alignment law (2.6). The workbench turns (Y, f) into a :class:`~.base.Rheology` on invariants:
+
+* **equation of state.** With q = sqrt(p) and I = 2||S||/q, the flow rule is one equation
+  for q given (phi, div u, ||S||). It is solved by sympy in closed form (as (4.12) follows
+  from (4.9)); the root taken is the one positive on the sample of :func:`sample_states`
+  (the others are not positive anywhere there, or the law is rejected). Where that root is
+  not positive the flow rule has no positive solution: :meth:`CIDRLaw.admissibility` reports
+  such a state, and such a law is for the stability analysis only (it is not run).
+  A subclass may also give the closed form itself (:meth:`CIDRLaw.closed_form`, e.g. a
+  cancellation-free one): it is then *checked* against the flow rule and the yield law
+  (:meth:`CIDRLaw.verify_closed_form`), not trusted;
+* **stress.** ||tau|| = Y at that p, and tau = (Y/||S||) S (2.6): c = Y/||S||, simplified
+  so that it stays finite as ||S|| -> 0 wherever the law allows;
+* **stable form.** For the kernels, a difference sqrt(A) - B that cancels in floating point
+  when B > 0 is rewritten as (A - B^2)/(sqrt(A) + B) there (the same function).
+
+Everything numeric (kernels, Jacobians for every discretization, the stability toolkit)
+is then generated from :meth:`~.base.Rheology.law` as for any other rheology: the
+derivatives are sympy's, none is written by hand.
+
+A law given directly as p and ||tau|| on invariants (like mu(I),Phi(I)) is a
+:class:`DirectLaw`: (4.3)-(4.5) do not apply to it; only the stability analysis does.
+
+A law written in a file (:func:`load_law_file`) defines ``yield_function`` and
+``dilatancy_function`` (or ``pressure`` and ``shear_stress``) of
+(p, I, phi, M, Psi, prm) resp. (phi, div_u, norm_S, M, Psi, prm); M = mu(Psi(phi)) and
+Psi = Psi(phi) of the material, prm the material parameters by name.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import re
+
+import numpy as np
+
+from .base import RHEOLOGIES, Rheology
+from .material import Material
+
+__all__ = ["CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "load_law_file",
+           "sample_states", "pressure_symbol", "is_file_law"]
+
+
+class LawError(ValueError):
+    """A law that cannot be used: names the condition and a state where it fails."""
+
+    def __init__(self, law: str, condition: str, state: dict | None = None, detail: str = ""):
+        self.law, self.condition, self.state = law, condition, state
+        where = "" if state is None else " at " + ", ".join(f"{k} = {v:.6g}" for k, v in state.items())
+        super().__init__(f"law {law!r}: {condition}{where}" + (f" ({detail})" if detail else ""))
+
+
+def pressure_symbol():
+    """The sympy symbol p (pressure), positive."""
+    import sympy as sp
+
+    return sp.Symbol("p", positive=True)
+
+
+def _sqrt_p_symbol():
+    import sympy as sp
+
+    return sp.Symbol("q", positive=True)
+
+
+def sample_states(phi_range, n_phi=9, n_div=13, n_S=7):
+    """The sample of (phi, div u, ||S||) on which roots and closed forms are checked.
+
+    phi uniform inside `phi_range` (ends excluded), div u in [-2, 2] (0 included),
+    ||S|| log-uniform in [1e-3, 10]. Returns three flat arrays.
+    """
+    lo, hi = phi_range
+    phis = np.linspace(lo, hi, n_phi + 2)[1:-1]
+    divs = np.linspace(-2.0, 2.0, n_div)
+    Ss = np.logspace(-3, 1, n_S)
+    P, D, S = np.meshgrid(phis, divs, Ss, indexing="ij")
+    return P.ravel(), D.ravel(), S.ravel()
+
+
+# --- the stable rewriting ----------------------------------------------------------------
+
+def cancellation_free(expr):
+    """Rewrite sqrt(A) - B (B > 0, cancelling) as (A - B^2)/(sqrt(A) + B): the same function.
+
+    Applied to every sum of one square root and other terms whose square cancels the
+    leading part of A (checked: A - B^2 has fewer terms than A).
+    """
+    import sympy as sp
+
+    def rewrite(e):
+        if not e.is_Add:
+            return e
+        roots = [t for t in e.args if t.is_Pow and t.exp == sp.S.Half]
+        if len(roots) != 1:
+            return e
+        r = roots[0]
+        rest = e - r
+        diff = sp.expand(r.base - rest**2)
+        if len(sp.Add.make_args(diff)) >= len(sp.Add.make_args(sp.expand(r.base))):
+            return e
+        return sp.Piecewise((diff / (r - rest), rest < 0), (e, True))
+
+    return expr.replace(lambda e: e.is_Add, rewrite)
+
+
+# --- CIDR laws ----------------------------------------------------------------------------
+
+def _mro_source(cls) -> str:
+    """Text the kernels of `cls` depend on: the modules of every Rheology class it inherits from."""
+    from .codegen import _module_source
+
+    modules = dict.fromkeys(k.__module__ for k in cls.__mro__ if isinstance(k, type) and issubclass(k, Rheology))
+    return "\n".join(_module_source(m) for m in modules if not m.startswith("__")) + cls.__qualname__
+
+
+class CIDRLaw(Rheology):
+    """A CIDR law (4.1)-(4.2) from Y(p, I, phi) and f(p, I, phi); see the module docstring.
+
+    Subclasses implement :meth:`yield_function` and :meth:`dilatancy_function` (sympy, in
+    terms of M = mu(Psi(phi)), Psi = Psi(phi) and the parameters `prm`), optionally
+    :meth:`closed_form`, and set ``name``/``label``.
+    """
+
+    kind = "cidr"
+
+    def yield_function(self, p, I, phi, M, Psi, prm):  # noqa: E741
+        """Y(p, I, phi) of (4.1), a sympy expression."""
+        raise NotImplementedError
+
+    def dilatancy_function(self, p, I, phi, M, Psi, prm):  # noqa: E741
+        """f(p, I, phi) of (4.2), a sympy expression."""
+        raise NotImplementedError
+
+    def closed_form(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
+        """Optional (p, c) in closed form (checked by :meth:`verify_closed_form`); None: derive."""
+        return None
+
+    @classmethod
+    def definition_key(cls) -> str:
+        return _mro_source(cls)
+
+    # --- derivation, in placeholders ----------------------------------------------------
+
+    def _placeholders(self):
+        from . import symbols as s
+
+        return s.phi, s.div_u, s.norm_S, s.M, s.Psi, self.material.values(symbolic=True)
+
+    def _derived(self):
+        """(q, c) = (sqrt(p), ||tau||/||S||) solving the flow rule, in placeholder symbols (cached)."""
+        cache = type(self).__dict__.get("_derivation_cache")
+        if cache is None:
+            cache = {}
+            type(self)._derivation_cache = cache
+        key = type(self.material.friction), type(self.material.dilatancy)
+        if key not in cache:
+            cache[key] = self._derive()
+        return cache[key]
+
+    def _derive(self):
+        import sympy as sp
+
+        phi, div, S, M, Psi, prm = self._placeholders()
+        q = _sqrt_p_symbol()
+        I = 2 * S / q  # noqa: E741  (2.9) with d = rho_* = 1
+        f = sp.sympify(self.dilatancy_function(q**2, I, phi, M, Psi, prm))
+        Y = sp.sympify(self.yield_function(q**2, I, phi, M, Psi, prm))
+        flow = sp.together(div - 2 * f * S)
+        numerator = sp.numer(flow)
+        try:
+            roots = sp.solve(numerator, q)
+        except NotImplementedError:
+            roots = []
+        roots = [r for r in roots if not r.has(sp.I)]
+        if not roots:
+            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no closed-form solution for p "
+                           "(sympy finds none); give closed_form() or rewrite the law")
+        q_root = self._positive_root(roots, flow)
+        c = sp.simplify(Y.subs(q, q_root) / S) if not Y.has(q) else sp.simplify((Y / S).subs(q, q_root))
+        return q_root, c
+
+    def _numeric_placeholders(self):
+        """Values of the placeholders on the sample (M, Psi from the material)."""
+        phis, divs, Ss = sample_states(self.material.phi_range)
+        return phis, divs, Ss, self.material.M(phis), self.material.Psi(phis)
+
+    def _lambdify(self, expr):
+        import sympy as sp
+
+        phi, div, S, M, Psi, prm = self._placeholders()
+        names = self.material.parameter_names()
+        f = sp.lambdify((phi, div, S, M, Psi, *[prm[k] for k in names]), expr, modules="numpy")
+        phis, divs, Ss, Ms, Psis = self._numeric_placeholders()
+        with np.errstate(all="ignore"):
+            out = f(phis, divs, Ss, Ms, Psis, *self.material.params)
+        return np.broadcast_to(np.asarray(out, dtype=complex), phis.shape)
+
+    def _positive_root(self, roots, flow):
+        best, best_count = None, -1
+        for r in roots:
+            v = self._lambdify(r)
+            count = int(np.sum((np.abs(v.imag) <= 1e-12 * np.abs(v)) & (v.real > 0)))
+            if count > best_count:
+                best, best_count = r, count
+        if best_count <= 0:
+            phis, divs, Ss, _, _ = self._numeric_placeholders()
+            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no positive solution for p",
+                           {"phi": phis[0], "div_u": divs[0], "norm_S": Ss[0]})
+        return best
+
+    def admissibility(self):
+        """None, or a state (dict) of the sample where the flow rule has no positive solution for p."""
+        q, _ = self._derived()
+        v = self._lambdify(q)
+        bad = ~((np.abs(v.imag) <= 1e-12 * np.maximum(np.abs(v), 1e-300)) & (v.real > 0))
+        _, divs, Ss, _, _ = self._numeric_placeholders()
+        bad &= ~((Ss == Ss.min()) & (divs >= 0) & (np.abs(v) < 1e-12))  # p = 0 where allowed (4.13)
+        if not np.any(bad):
+            return None
+        phis, divs, Ss, _, _ = self._numeric_placeholders()
+        i = int(np.argmax(bad))
+        return {"phi": float(phis[i]), "div_u": float(divs[i]), "norm_S": float(Ss[i])}
+
+    def check_runnable(self) -> None:
+        """Raise LawError (naming a state) if the flow rule has no positive p somewhere on the sample.
+
+        A law with a given closed form is checked by :meth:`verify_closed_form` (tests, ``law check``);
+        here only derived roots are examined, so running iCIDR costs no sympy work.
+        """
+        phi, div, S, M, Psi, prm = self._placeholders()
+        if self.closed_form(phi, div, S, M, Psi, prm) is not None:
+            return
+        bad = self.admissibility()
+        if bad is not None:
+            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no positive solution for p, so the "
+                           "law cannot be run (use it in the stability analysis only)", bad)
+
+    def verify_closed_form(self, rtol: float = 1e-10) -> None:
+        """Raise LawError unless :meth:`closed_form` equals the derived (p, c) on the sample."""
+        phi, div, S, M, Psi, prm = self._placeholders()
+        given = self.closed_form(phi, div, S, M, Psi, prm)
+        if given is None:
+            return
+        q, c = self._derived()
+        for name, mine, theirs in (("p", given[0], q**2), ("c", given[1], c)):
+            a, b = self._lambdify(mine), self._lambdify(theirs)
+            ok = np.abs(a - b) <= rtol * np.maximum(np.abs(b), 1e-300) + 1e-300
+            ok |= ~np.isfinite(b)
+            if not np.all(ok):
+                phis, divs, Ss, _, _ = self._numeric_placeholders()
+                i = int(np.argmin(ok))
+                raise LawError(self.name, f"closed_form() {name} does not solve the flow rule (4.2) with (2.9) "
+                               "and (4.1)", {"phi": phis[i], "div_u": divs[i], "norm_S": Ss[i]},
+                               f"given {a[i].real:.6g}, derived {b[i].real:.6g}")
+
+    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
+        given = self.closed_form(phi, div_u, norm_S, M, Psi, prm, stable=stable)
+        if given is not None:
+            return given
+        q, c = self._derived()
+        if stable:
+            q, c = cancellation_free(q), cancellation_free(c)
+        from . import symbols as s
+
+        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
+        own = self.material.values(symbolic=True)
+        subs.update({own[k]: v for k, v in prm.items() if k in own})
+        return (q**2).xreplace(subs), c.xreplace(subs)
+
+    def symbolic_yield(self, symbolic_material: bool = True):
+        """(Y, f) in the symbols p, I, phi and placeholders M, Psi (parameters symbolic if asked)."""
+        from . import symbols as s
+
+        prm = self.material.values(symbolic=symbolic_material)
+        p = pressure_symbol()
+        return (self.yield_function(p, s.I, s.phi, s.M, s.Psi, prm),
+                self.dilatancy_function(p, s.I, s.phi, s.M, s.Psi, prm))
+
+
+class DirectLaw(Rheology):
+    """A law given directly as p and ||tau|| on invariants; (4.3)-(4.5) do not apply.
+
+    Subclasses implement :meth:`pressure` and :meth:`shear_stress` (||tau||), or override
+    :meth:`law` with (p, c) directly.
+    """
+
+    kind = "direct"
+
+    @classmethod
+    def definition_key(cls) -> str:
+        return _mro_source(cls)
+
+    def pressure(self, phi, div_u, norm_S, M, Psi, prm):
+        raise NotImplementedError
+
+    def shear_stress(self, phi, div_u, norm_S, M, Psi, prm):
+        raise NotImplementedError
+
+    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
+        import sympy as sp
+
+        from . import symbols as s
+
+        # c = ||tau||/||S||, cancelled in the placeholder symbols (so c stays finite at ||S|| = 0
+        # where ||tau|| vanishes like ||S||), then evaluated at the arguments
+        own = self.material.values(symbolic=True)
+        p = sp.sympify(self.pressure(s.phi, s.div_u, s.norm_S, s.M, s.Psi, own))
+        c = sp.cancel(sp.sympify(self.shear_stress(s.phi, s.div_u, s.norm_S, s.M, s.Psi, own)) / s.norm_S)
+        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
+        subs.update({own[k]: v for k, v in prm.items() if k in own})
+        return p.xreplace(subs), c.xreplace(subs)
+
+
+# --- laws built at run time -----------------------------------------------------------------
+
+def _as_function(spec, argnames):
+    """A callable of `argnames` from a callable or a sympy expression in the placeholder symbols."""
+    if callable(spec):
+        return spec
+    import sympy as sp
+
+    from . import symbols as s
+
+    expr = sp.sympify(spec)
+    table = {"p": pressure_symbol(), "I": s.I, "phi": s.phi, "div_u": s.div_u, "norm_S": s.norm_S,
+             "M": s.M, "Psi": s.Psi}
+
+    def function(*args):
+        *values, prm = args
+        subs = {table[n]: v for n, v in zip(argnames, values)}
+        subs.update({s.MATERIAL_SYMBOLS[k]: v for k, v in prm.items() if k in s.MATERIAL_SYMBOLS})
+        return expr.xreplace(subs)
+
+    function.source = sp.srepr(expr)
+    return function
+
+
+def _key_of(*functions, extra=""):
+    import inspect
+
+    parts = [extra]
+    for f in functions:
+        parts.append(getattr(f, "source", None) or inspect.getsource(f))
+    return "\n".join(parts)
+
+
+def _register(name, cls, register):
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-]*", name):
+        raise ValueError(f"`name` must start with a letter and contain letters, digits, '_' or '-'; got {name!r}")
+    cls.name = name
+    if register:
+        RHEOLOGIES[name] = cls
+    return cls
+
+
+def define_cidr_law(name: str, yield_function, dilatancy_function, *, label=None, material: Material | None = None,
+                    register: bool = True, key: str | None = None) -> type:
+    """A :class:`CIDRLaw` class from Y and f (callables of (p, I, phi, M, Psi, prm) or sympy
+    expressions in the symbols p, I, phi, M, Psi and material parameters); registered as `name`."""
+    Y = _as_function(yield_function, ("p", "I", "phi", "M", "Psi"))
+    f = _as_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"))
+    definition = key or _key_of(Y, f, extra=name)
+    body = {
+        "yield_function": lambda self, p, I, phi, M, Psi, prm: Y(p, I, phi, M, Psi, prm),  # noqa: E741
+        "dilatancy_function": lambda self, p, I, phi, M, Psi, prm: f(p, I, phi, M, Psi, prm),  # noqa: E741
+        "definition_key": classmethod(lambda cls: definition + _mro_source(CIDRLaw)),
+        "label": label or name, "__doc__": f"CIDR law {name!r} defined at run time.",
+    }
+    if material is not None:
+        body["default_material"] = classmethod(lambda cls: material)
+    return _register(name, type(f"CIDRLaw_{_ident(name)}", (CIDRLaw,), body), register)
+
+
+def define_direct_law(name: str, pressure, shear_stress, *, label=None, material: Material | None = None,
+                      register: bool = True, key: str | None = None) -> type:
+    """A :class:`DirectLaw` class from p and ||tau|| (callables of (phi, div_u, norm_S, M, Psi, prm)
+    or sympy expressions in phi, div_u, norm_S, M, Psi and material parameters)."""
+    P = _as_function(pressure, ("phi", "div_u", "norm_S", "M", "Psi"))
+    T = _as_function(shear_stress, ("phi", "div_u", "norm_S", "M", "Psi"))
+    definition = key or _key_of(P, T, extra=name)
+    body = {
+        "pressure": lambda self, phi, div_u, norm_S, M, Psi, prm: P(phi, div_u, norm_S, M, Psi, prm),
+        "shear_stress": lambda self, phi, div_u, norm_S, M, Psi, prm: T(phi, div_u, norm_S, M, Psi, prm),
+        "definition_key": classmethod(lambda cls: definition + _mro_source(DirectLaw)),
+        "label": label or name, "__doc__": f"Direct law {name!r} defined at run time.",
+    }
+    if material is not None:
+        body["default_material"] = classmethod(lambda cls: material)
+    return _register(name, type(f"DirectLaw_{_ident(name)}", (DirectLaw,), body), register)
+
+
+def _ident(name: str) -> str:
+    return re.sub(r"\W", "_", name)
+
+
+def is_file_law(spec) -> bool:
+    """True if `spec` names a Python file (a law written by the user) rather than a registered law."""
+    return isinstance(spec, (str, pathlib.Path)) and str(spec).endswith(".py")
+
+
+def load_law_file(path) -> type:
+    """The law class of a Python file defining (Y, f) or (p, ||tau||); registered under the file's stem.
+
+    The file defines ``yield_function(p, I, phi, M, Psi, prm)`` and
+    ``dilatancy_function(p, I, phi, M, Psi, prm)`` (a CIDR law), or ``pressure`` and
+    ``shear_stress`` of (phi, div_u, norm_S, M, Psi, prm) (a direct law), with sympy
+    expressions; optional ``name``, ``label``, ``material`` (a dict of Material arguments).
+    """
+    import runpy
+
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
+    text = path.read_text()
+    namespace = runpy.run_path(str(path))
+    name = namespace.get("name", path.stem)
+    label = namespace.get("label")
+    material = namespace.get("material")
+    if isinstance(material, dict):
+        material = Material(**material)
+    key = f"file {name}\n{text}"
+    if "yield_function" in namespace and "dilatancy_function" in namespace:
+        return define_cidr_law(name, namespace["yield_function"], namespace["dilatancy_function"], label=label,
+                               material=material, key=key)
+    if "pressure" in namespace and "shear_stress" in namespace:
+        return define_direct_law(name, namespace["pressure"], namespace["shear_stress"], label=label,
+                                 material=material, key=key)
+    raise ValueError(f"`rheology` file {str(path)!r} must define yield_function and dilatancy_function "
+                     "(a CIDR law) or pressure and shear_stress (a direct law)")
