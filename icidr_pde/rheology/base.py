@@ -159,9 +159,14 @@ def chi(phi, uz, wz, material: Material | None = None) -> np.ndarray:
 
 
 def get_rheology(name, material: Material | None = None) -> Rheology:
-    """The rheology registered as `name` (see :data:`RHEOLOGIES`), or `name` if it is one."""
+    """The rheology registered as `name` (see :data:`RHEOLOGIES`), a law file ``*.py``
+    (:func:`~icidr_pde.rheology.cidr.load_law_file`), or `name` if it is a Rheology."""
     if isinstance(name, Rheology):
         return name
+    if isinstance(name, str) and name.endswith(".py"):   # a law written in a file (rheology workbench)
+        from .cidr import load_law_file
+
+        return load_law_file(name)(material)
     try:
         cls = RHEOLOGIES[name]
     except (KeyError, TypeError):

@@ -160,3 +160,17 @@ def test_sampled_condition_reports_a_counterexample_and_region():
     c44 = c["(4.4)"]
     assert c44.method == "sampled" and c44.status == "fails" and c44.counterexample["value"] < 0
     assert 0 < c44.region["fraction_of_sample"] < 0.5
+
+
+@pytest.mark.parametrize("name", ["icidr-nonmonotonic", "mui", "icidr-blended", "mu-psi"])
+def test_plane_gamma_agrees_with_the_directional_toolkit(name):
+    """2-D Lambda_max(theta) from the generated invariant kernels = stability.directional's (sympy principal part)."""
+    from stability.directional import directional_stability
+
+    r = get_rheology(name)
+    angles = np.arange(0.0, 180.0, 15.0)
+    for phi, div, s in ((0.8, 0.0, 0.4), (0.75, -0.1, 0.2)):
+        L = (div / 2, s, s, div / 2)                      # grad u = [[d/2, s], [s, d/2]]: S = s [[0,1],[1,0]]
+        ref = directional_stability(r, phi, L, angles_deg=angles, material=r.material)
+        lp, _ = wb._eig_minus_gamma(wb.plane_gamma(r, np.array([phi]), np.array([div]), np.array([s]), angles))
+        np.testing.assert_allclose(lp[0].real, ref.lambda_max, rtol=1e-9, atol=1e-12 * np.abs(ref.lambda_max).max())
