@@ -34,6 +34,13 @@ def discretization_options() -> dict[str, tuple]:
     return out
 
 
+def rheology_name(text):
+    """argparse type: a registered rheology or a law file ``*.py`` (checked when the law is built)."""
+    if text in RHEOLOGIES or text.endswith(".py"):
+        return text
+    raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.py, got {text!r}")
+
+
 def positive_int(text):
     """argparse type: an integer >= 1."""
     value = int(text)
@@ -44,7 +51,8 @@ def positive_int(text):
 
 def add_run_parser(subparsers):
     p = subparsers.add_parser("run", help="run one scene with one rheology")
-    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="icidr")
+    p.add_argument("--rheology", type=rheology_name, default="icidr", metavar="NAME|FILE",
+                   help=f"one of {', '.join(sorted(RHEOLOGIES))}, or a law file *.py (see `law check`)")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
                    help="preset for discretization, N, method and tolerances (measured: see README)")
