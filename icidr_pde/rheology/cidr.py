@@ -140,6 +140,11 @@ class CIDRLaw(Rheology):
         return None
 
     @classmethod
+    def has_closed_form(cls) -> bool:
+        """True if the law gives its own closed form (decided without sympy: a cached run imports none)."""
+        return cls.closed_form is not CIDRLaw.closed_form
+
+    @classmethod
     def definition_key(cls) -> str:
         return _mro_source(cls)
 
@@ -231,8 +236,7 @@ class CIDRLaw(Rheology):
         A law with a given closed form is checked by :meth:`verify_closed_form` (tests, ``law check``);
         here only derived roots are examined, so running iCIDR costs no sympy work.
         """
-        phi, div, S, M, Psi, prm = self._placeholders()
-        if self.closed_form(phi, div, S, M, Psi, prm) is not None:
+        if self.has_closed_form():
             return
         bad = self.admissibility()
         if bad is not None:

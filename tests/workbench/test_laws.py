@@ -191,3 +191,25 @@ def test_invariant_kernels_of_every_shipped_law_are_finite_where_shearing():
         for div in (-1.0, 0.0, 1.0):
             out = r.kernels(INVARIANTS).stress_jacobian_numpy(phi, div + 0 * phi, 0.3 + 0 * phi, r.material.params)
             assert all(np.all(np.isfinite(o)) for o in out), name
+
+
+def test_derived_icidr_run_reproduces_the_max_w_series(derived_icidr):
+    """The whole run path with the derived law: max|w|(t) equal to today's iCIDR to round-off."""
+    from icidr_pde import run
+
+    kw = dict(N=41, t_end=2.0, times=[0, 0.5, 1, 2], method="BDF", rtol=1e-8, atol=1e-11)
+    a = run("icidr-derived-test", "shear", **kw)
+    b = run("icidr", "shear", **kw)
+    np.testing.assert_allclose(a.max_w, b.max_w, rtol=1e-7, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_mui_through_the_workbench_reproduces_t_star():
+    """mu(I),Phi(I) as a direct (p, ||tau||) law: Chebyshev N = 201 fails at the anchor t* = 0.01058."""
+    from icidr_pde import run
+
+    p = (2 * s.norm_S / s.Psi) ** 2
+    define_direct_law("mui-direct-tstar-test", p, s.M * p)
+    kw = dict(N=201, t_end=0.05, discretization="cheb", method="BDF", rtol=1e-6, atol=1e-9)
+    a, b = run("mui-direct-tstar-test", "shear", **kw), run("mui", "shear", **kw)
+    assert a.blew_up and a.t_star == b.t_star and round(a.t_star, 5) == 0.01058
