@@ -46,3 +46,12 @@ def test_bad_rheology_argument_names_the_choices(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--rheology", "nope"])
     assert "or a law file *.py" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_user_law_file_runs_in_the_2d_cell(tmp_path):
+    out = tmp_path / "run2d.json"
+    assert main(["run", "--scene", "bump2d", "--rheology", str(EXAMPLE), "--Nx", "8", "--Nz", "8", "--t-end", "1",
+                 "--times", "0.5", "1", "--no-progress", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["blew_up"] is False and abs(data["mass_drift"]) < 1e-10
