@@ -1,0 +1,414 @@
+"""End to end: the time from pressing Enter to the answer, against a plain numpy+scipy script.
+
+    python benchmarks/end_to_end.py [--repeats 3] [--cases shear-fd sine-fd tstar-cheb sine-cheb]
+                                    [--no-cold] [--json out.json]
+
+Four reference cases (issue 13), each run as whole processes, interleaved in one run:
+
+* ``shear-fd``: iCIDR, scene shear (3.16), finite volumes N = 201, t = 10;
+* ``sine-fd``: iCIDR, scene sine (5.7), finite volumes N = 201, t = 20;
+* ``tstar-cheb``: mu(I),Phi(I), scene shear, Chebyshev N = 201, failure time t*;
+* ``sine-cheb``: iCIDR, scene sine, Chebyshev N = 201, t = 15.
+
+**Baseline**: the same discretization written as a plain script in this file
+(:func:`baseline_main`, run as ``python benchmarks/end_to_end.py --baseline CASE``; it imports
+numpy and scipy only): the stress law in closed form, a vectorised numpy right-hand side and
+a chain-rule Jacobian (sparse for finite volumes, dense for Chebyshev) whose pointwise stress
+derivatives are complex-step derivatives (exact to round-off, no difference quotient),
+integrated by ``scipy.integrate.solve_ivp(method="BDF")``.
+
+**Project**: ``python -m icidr_pde.cli run ...`` of this tree, its default integrator (CVODE)
+at the tolerance given in :data:`CASES`. The first invocation uses a fresh, empty kernel cache
+(NUMBA_CACHE_DIR in a temporary directory: generation and compilation as after installation,
+"cold"); the repeated invocations find the cache ("warm").
+
+Printed per case: whole-process wall time (median and range over --repeats, interleaved
+baseline/project), the in-process solve time (the baseline's solve; the project's ``wall_s``),
+the ratios baseline/project, and beside each the accuracy: the largest over the snapshot
+times t in {3, 5, 10, 15, 20} (those <= t_end) of |max|w|(t) - ref(t)|/ref(t), with ref the
+converged reference of data/reference (finite volumes N = 3201, CVODE rtol 1e-10) taken at
+the run's own nodes; for t*, |t* - t*_ref|/t*_ref against data/reference (BDF rtol 1e-10).
+
+Every process runs with OPENBLAS_NUM_THREADS=1 (``--blas-threads``, 0 inherits): on this
+2-core machine under a load of ~14, OpenBLAS's two threads made a 603 x 603 LU (Chebyshev
+N = 201) take 0.62-0.72 s against 0.028-0.035 s single-threaded (measured), which turns the
+Chebyshev cases into a measurement of thread contention for both sides.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TIMES = (3.0, 5.0, 10.0, 15.0, 20.0)
+
+#: case -> what runs; 'project' are the extra CLI options, 'baseline' the script's tolerances
+CASES = {
+    "shear-fd": dict(rheology="icidr", scene="shear", disc="fd", N=201, t_end=10.0, ref="icidr-shear",
+                     project=[], baseline=dict(rtol=1e-5, atol=1e-8)),
+    "sine-fd": dict(rheology="icidr", scene="sine", disc="fd", N=201, t_end=20.0, ref="icidr-sine",
+                    project=[], baseline=dict(rtol=1e-5, atol=1e-8)),
+    "tstar-cheb": dict(rheology="mui", scene="shear", disc="cheb", N=201, t_end=1.0, ref="mui-shear-tstar-cheb",
+                       project=["--rtol", "1e-7", "--atol", "1e-10"], baseline=dict(rtol=1e-7, atol=1e-10)),
+    "sine-cheb": dict(rheology="icidr", scene="sine", disc="cheb", N=201, t_end=15.0, ref="icidr-sine",
+                      project=["--rtol", "1e-5", "--atol", "1e-8"], baseline=dict(rtol=1e-5, atol=1e-8)),
+}
+# Table 1 and the scenes' defaults (the baseline writes them out, as a script would)
+TABLE1 = dict(mu_s=0.248, mu_d=0.588, I0=0.145, phi_c=0.817, a=0.314)
+SCENES = {"shear": dict(H=30.0, phi0=0.78, eps=0.05), "sine": dict(H=30.0, phi0=0.78, a=0.16, b=0.1)}
+
+
+# --------------------------------------------------------------------------------------------
+# the baseline: a plain numpy + scipy script
+# --------------------------------------------------------------------------------------------
+
+def stress(rheology, phi, uz, wz):
+    """(p, tau_xz, tau_zz) of the shear cell, closed form: div u = w_z, ||S||^2 = (u_z^2 + w_z^2)/4,
+    Psi = (phi_c - phi)/a, M = mu(Psi); iCIDR p = (2G/(M Psi))^2, c = 4G/Psi^2,
+    G = sqrt(w_z^2 + M^2 ||S||^2) - w_z; mu(I) p = (2||S||/Psi)^2, c = 4 M ||S||/Psi^2; tau = c S."""
+    import numpy as np
+
+    m = TABLE1
+    Psi = (m["phi_c"] - phi) / m["a"]
+    M = m["mu_s"] + (m["mu_d"] - m["mu_s"]) * Psi / (m["I0"] + Psi)
+    s2 = (uz * uz + wz * wz) / 4
+    if rheology == "icidr":
+        m2s2 = M * M * s2
+        R = np.sqrt(wz * wz + m2s2)
+        G = np.where(np.real(wz) > 0, m2s2 / (R + wz), R - wz)  # no cancellation for w_z > 0
+        p = (2 * G / (M * Psi)) ** 2
+        c = 4 * G / Psi**2
+    else:
+        s = np.sqrt(s2)
+        p = (2 * s / Psi) ** 2
+        c = 4 * M * s / Psi**2
+    return p, c * uz / 2, c * wz / 2
+
+
+def fluxes_and_partials(rheology, phi, uz, wz):
+    """F_u = tau_xz, F_w = tau_zz - p and their partials by (phi, u_z, w_z) (complex step)."""
+    import numpy as np
+
+    p, txz, tzz = stress(rheology, phi, uz, wz)
+    step = 1e-30
+    partials = []
+    for k in range(3):
+        args = [phi.astype(complex), uz.astype(complex), wz.astype(complex)]
+        args[k] = args[k] + 1j * step
+        pc, txc, tzc = stress(rheology, *args)
+        partials.append((np.imag(txc) / step, np.imag(tzc - pc) / step))
+    return txz, tzz - p, [d[0] for d in partials], [d[1] for d in partials]
+
+
+def fd_system(rheology, N, H, V0=1.0):
+    """Finite volumes as in icidr_pde/discretizations/fd.py: fluxes on faces, upwind advection,
+    ghost cells phi: zero gradient, u: 0 and V0, w: 0. Returns (rhs, jac, nodes)."""
+    import numpy as np
+    from scipy import sparse
+
+    h = H / N
+    z = (np.arange(N) + 0.5) * h
+
+    def pad(y):
+        phi, u, w = y[:N], y[N:2 * N], y[2 * N:]
+        return (np.concatenate(([phi[0]], phi, [phi[-1]])), np.concatenate(([-u[0]], u, [2 * V0 - u[-1]])),
+                np.concatenate(([-w[0]], w, [-w[-1]])))
+
+    def faces(y):
+        pg, ug, wg = pad(y)
+        return pg, ug, wg, 0.5 * (pg[1:] + pg[:-1]), 0.5 * (wg[1:] + wg[:-1]), np.diff(ug) / h, np.diff(wg) / h
+
+    def rhs(t, y):
+        pg, ug, wg, phi_f, w_f, uz, wz = faces(y)
+        p, txz, tzz = stress(rheology, phi_f, uz, wz)
+        fw = tzz - p
+        mass = np.where(w_f > 0, pg[:-1], pg[1:]) * w_f
+        phi, w = pg[1:-1], wg[1:-1]
+        du = np.where(w > 0, ug[1:-1] - ug[:-2], ug[2:] - ug[1:-1]) / h
+        dw = np.where(w > 0, wg[1:-1] - wg[:-2], wg[2:] - wg[1:-1]) / h
+        return np.concatenate((-np.diff(mass) / h, np.diff(txz) / (h * phi) - w * du,
+                               np.diff(fw) / (h * phi) - w * dw))
+
+    # linear maps: valid values -> ghost-padded (E), faces average/gradient, face -> cell divergence
+    def extension(alpha_left, alpha_right):
+        rows = np.concatenate(([0], np.arange(1, N + 1), [N + 1]))
+        cols = np.concatenate(([0], np.arange(N), [N - 1]))
+        return sparse.csr_matrix((np.concatenate(([alpha_left], np.ones(N), [alpha_right])), (rows, cols)),
+                                 shape=(N + 2, N))
+
+    E_phi, E_u = extension(1.0, 1.0), extension(-1.0, -1.0)
+    avg = sparse.diags([0.5, 0.5], [0, 1], shape=(N + 1, N + 2), format="csr")
+    grad = sparse.diags([-1 / h, 1 / h], [0, 1], shape=(N + 1, N + 2), format="csr")
+    div = sparse.diags([-1 / h, 1 / h], [0, 1], shape=(N, N + 1), format="csr")
+    A_phi, A_w, G_u = avg @ E_phi, avg @ E_u, grad @ E_u  # w has the same ghost map as u's slope
+    D = sparse.diags
+
+    def jac(t, y):
+        pg, ug, wg, phi_f, w_f, uz, wz = faces(y)
+        fu, fw, dfu, dfw = fluxes_and_partials(rheology, phi_f, uz, wz)
+        phi, w = pg[1:-1], wg[1:-1]
+        i = np.arange(N)
+        shift = np.where(w > 0, 0, 1)  # upwind cell difference: columns i + shift, i + shift + 1 of padded
+        conv = sparse.csr_matrix((np.concatenate((-np.ones(N), np.ones(N))) / h,
+                                  (np.concatenate((i, i)), np.concatenate((i + shift, i + shift + 1)))),
+                                 shape=(N, N + 2))
+        du, dw = conv @ ug, conv @ wg
+        inv_phi = D(1 / phi)
+        rows = []
+        for flux, dflux in ((fu, dfu), (fw, dfw)):
+            rows.append([inv_phi @ div @ D(dflux[0]) @ A_phi - D(div @ flux / phi**2),
+                         inv_phi @ div @ D(dflux[1]) @ G_u, inv_phi @ div @ D(dflux[2]) @ G_u])
+        rows[0][1] = rows[0][1] - D(w) @ conv @ E_u
+        rows[0][2] = rows[0][2] - D(du)
+        rows[1][2] = rows[1][2] - D(w) @ conv @ E_u - D(dw)
+        up = sparse.csr_matrix((np.ones(N + 1), (np.arange(N + 1), np.arange(N + 1) + (w_f <= 0))),
+                               shape=(N + 1, N + 2))
+        mass = [-div @ D(w_f) @ up @ E_phi, None, -div @ D(up @ pg) @ A_w]
+        return sparse.bmat([mass, *rows], format="csc")
+
+    return rhs, jac, z
+
+
+def cheb_system(rheology, N, H):
+    """Chebyshev-Gauss-Lobatto collocation as in icidr_pde/discretizations/cheb.py (Trefethen's
+    cheb on z = H (1 - x)/2, u and w Dirichlet with zero wall rates). Returns (rhs, jac, nodes)."""
+    import numpy as np
+
+    n = N - 1
+    j = np.arange(N)
+    x = np.cos(np.pi * j / n)
+    c = np.where((j == 0) | (j == n), 2.0, 1.0) * (-1.0) ** j
+    Dx = np.outer(c, 1.0 / c) / (x[:, None] - x[None, :] + np.eye(N))
+    Dx -= np.diag(Dx.sum(axis=1))
+    Dm = -2.0 / H * Dx
+    z = H * (1 - x) / 2
+    walls = [N, 2 * N - 1, 2 * N, 3 * N - 1]
+
+    def rhs(t, y):
+        phi, u, w = y[:N], y[N:2 * N], y[2 * N:]
+        uz, wz = Dm @ u, Dm @ w
+        p, txz, tzz = stress(rheology, phi, uz, wz)
+        out = np.concatenate((-Dm @ (phi * w), Dm @ txz / phi - w * uz, Dm @ (tzz - p) / phi - w * wz))
+        out[walls] = 0.0
+        return out
+
+    def jac(t, y):
+        phi, u, w = y[:N], y[N:2 * N], y[2 * N:]
+        uz, wz = Dm @ u, Dm @ w
+        fu, fw, dfu, dfw = fluxes_and_partials(rheology, phi, uz, wz)
+        J = np.empty((3 * N, 3 * N))
+        J[:N, :N] = -Dm * w[None, :]
+        J[:N, N:2 * N] = 0.0
+        J[:N, 2 * N:] = -Dm * phi[None, :]
+        for r, (flux, d) in enumerate(((fu, dfu), (fw, dfw)), start=1):
+            rows = slice(r * N, (r + 1) * N)
+            J[rows, :N] = Dm * d[0][None, :] / phi[:, None] - np.diag(Dm @ flux / phi**2)
+            J[rows, N:2 * N] = (Dm * d[1][None, :]) @ Dm / phi[:, None]
+            J[rows, 2 * N:] = (Dm * d[2][None, :]) @ Dm / phi[:, None]
+        J[N:2 * N, N:2 * N] -= w[:, None] * Dm
+        J[N:2 * N, 2 * N:] -= np.diag(uz)
+        J[2 * N:, 2 * N:] -= w[:, None] * Dm + np.diag(wz)
+        J[walls] = 0.0
+        return J
+
+    return rhs, jac, z
+
+
+def initial_state(scene, z):
+    import numpy as np
+
+    s = SCENES[scene]
+    H = s["H"]
+    if scene == "shear":
+        zc = z - H / 2
+        u, w = z / H, s["eps"] * zc * np.exp(-zc**2)
+    else:
+        u, w = z / H + s["a"] * np.sin(2 * np.pi * z / H), -s["b"] * np.sin(2 * np.pi * z / H)
+    return np.concatenate((np.full_like(z, s["phi0"]), u, w))
+
+
+def baseline_main(case: str) -> dict:
+    """Solve `case` with the plain script; returns max|w| at the snapshot times, t*, solve time."""
+    import numpy as np
+    from scipy.integrate import solve_ivp
+
+    spec = CASES[case]
+    N, H = spec["N"], SCENES[spec["scene"]]["H"]
+    rhs, jac, z = (fd_system if spec["disc"] == "fd" else cheb_system)(spec["rheology"], N, H)
+    y0 = initial_state(spec["scene"], z)
+    if spec["disc"] == "cheb":
+        y0[[N, 2 * N - 1, 2 * N, 3 * N - 1]] = (0.0, 1.0, 0.0, 0.0)
+    times = [t for t in TIMES if t <= spec["t_end"]]
+    start = time.perf_counter()
+    sol = solve_ivp(rhs, (0.0, spec["t_end"]), y0, method="BDF", jac=jac, t_eval=times, **spec["baseline"])
+    solve_s = time.perf_counter() - start
+    return dict(case=case, solve_s=solve_s, success=bool(sol.success), t_final=float(sol.t[-1]) if sol.t.size else 0.0,
+                t_star=None if sol.success else float(sol.t[-1] if sol.t.size else 0.0), message=sol.message,
+                max_w={f"{t:g}": float(np.abs(sol.y[2 * N:, k]).max()) for k, t in enumerate(sol.t)},
+                n_rhs=int(sol.nfev), n_jac=int(sol.njev), n_lu=int(sol.nlu))
+
+
+def baseline_tstar(case: str) -> dict:
+    """t* of the baseline: solve_ivp returns no failure time, so step a BDF solver by hand."""
+    import numpy as np
+    from scipy.integrate import BDF
+
+    spec = CASES[case]
+    N, H = spec["N"], SCENES[spec["scene"]]["H"]
+    rhs, jac, z = cheb_system(spec["rheology"], N, H)
+    y0 = initial_state(spec["scene"], z)
+    y0[[N, 2 * N - 1, 2 * N, 3 * N - 1]] = (0.0, 1.0, 0.0, 0.0)
+    start = time.perf_counter()
+    solver = BDF(rhs, 0.0, y0, spec["t_end"], jac=jac, **spec["baseline"])
+    t_good, message = 0.0, "reached t_end"
+    while solver.status == "running":
+        message = solver.step() or message
+        if solver.status == "failed" or not np.all(np.isfinite(solver.y)) or solver.y[:N].max() >= TABLE1["phi_c"]:
+            break
+        t_good = solver.t
+    return dict(case=case, solve_s=time.perf_counter() - start, t_star=t_good, message=message,
+                n_rhs=int(solver.nfev), n_jac=int(solver.njev), n_lu=int(solver.nlu), max_w={})
+
+
+# --------------------------------------------------------------------------------------------
+# measuring
+# --------------------------------------------------------------------------------------------
+
+def accuracy(case: str, max_w: dict, t_star) -> float:
+    """The case's error (see the module docstring)."""
+    import numpy as np
+
+    spec = CASES[case]
+    if spec["ref"].startswith("mui-shear-tstar"):
+        ref = json.loads((ROOT / "data" / "reference" / f"{spec['ref']}.json").read_text())["t_star"]
+        return float("inf") if t_star is None else abs(t_star - ref) / ref
+    ref = np.load(ROOT / "data" / "reference" / f"{spec['ref']}.npz")
+    N, H = spec["N"], SCENES[spec["scene"]]["H"]
+    z = (np.arange(N) + 0.5) * H / N if spec["disc"] == "fd" else H * (1 - np.cos(np.pi * np.arange(N) / (N - 1))) / 2
+    errors = []
+    for t in TIMES:
+        if t > spec["t_end"]:
+            continue
+        key = f"{t:g}"
+        if key not in max_w:
+            return float("inf")
+        k = int(np.argmin(np.abs(ref["series_t"] - t)))
+        ref_max = np.abs(np.interp(z, ref["z_series"], ref["w_series"][k])).max()
+        errors.append(abs(max_w[key] - ref_max) / ref_max)
+    return float(max(errors))
+
+
+def timed(args, env):
+    start = time.perf_counter()
+    proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, args))} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    return wall, proc
+
+
+def run_baseline(case, env, workdir):
+    out = workdir / f"baseline-{case}.json"
+    wall, _ = timed([sys.executable, __file__, "--baseline", case, "--json", str(out)], env)
+    data = json.loads(out.read_text())
+    return dict(wall_s=wall, solve_s=data["solve_s"], error=accuracy(case, data["max_w"], data["t_star"]),
+                n_rhs=data["n_rhs"], n_jac=data["n_jac"])
+
+
+def run_project(case, env, workdir):
+    spec = CASES[case]
+    out = workdir / f"project-{case}.json"
+    times = ["0"] + [f"{t:g}" for t in TIMES if t <= spec["t_end"]]
+    args = [sys.executable, "-m", "icidr_pde.cli", "run", "--rheology", spec["rheology"], "--scene", spec["scene"],
+            "--discretization", spec["disc"], "--N", str(spec["N"]), "--t-end", f"{spec['t_end']:g}",
+            "--times", *times, *spec["project"], "--json", str(out), "--no-progress"]
+    wall, proc = timed(args, env)
+    data = json.loads(out.read_text())
+    return dict(wall_s=wall, solve_s=data["wall_s"], compile_s=data["compile_s"],
+                error=accuracy(case, data["max_w"], data["t_star"] if data["blew_up"] else None),
+                n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_steps=data["n_steps"],
+                compiled="compiling kernels" in proc.stderr)
+
+
+def summary(runs: list[dict]) -> dict:
+    out = {}
+    for key, value in runs[0].items():
+        values = [r[key] for r in runs]
+        if isinstance(value, float):
+            out[key] = statistics.median(values)
+            out[key + "_range"] = [min(values), max(values)]
+        else:
+            out[key] = value if len(set(map(str, values))) == 1 else values
+    return out
+
+
+def measure(cases, repeats: int, cold: bool, blas_threads: int = 1) -> dict:
+    workdir = Path(tempfile.mkdtemp(prefix="icidr_e2e_"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(workdir / "cache"), PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    if blas_threads:
+        env.update(OPENBLAS_NUM_THREADS=str(blas_threads), OMP_NUM_THREADS=str(blas_threads))
+    results = {}
+    for case in cases:
+        first = run_project(case, env, workdir)  # the first case of a law compiles it
+        first = first if cold else None
+        base_runs, proj_runs = [], []
+        for _ in range(repeats):  # interleaved A/B
+            base_runs.append(run_baseline(case, env, workdir))
+            proj_runs.append(run_project(case, env, workdir))
+        results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs))
+        report_case(case, results[case], repeats)
+    return results
+
+
+def fmt(row, key):
+    lo, hi = row[key + "_range"]
+    return f"{row[key]:7.3f} s [{lo:.3f}-{hi:.3f}]"
+
+
+def report_case(case, res, repeats):
+    b, p, first = res["baseline"], res["project"], res["first"]
+    print(f"\n{case}: {CASES[case]['rheology']} {CASES[case]['scene']} {CASES[case]['disc']} N = {CASES[case]['N']}, "
+          f"t_end = {CASES[case]['t_end']:g} (median [range] of {repeats}, interleaved)", flush=True)
+    if first is not None:
+        print(f"  project first invocation, cold cache: {first['wall_s']:7.3f} s  (compile {first['compile_s']:.2f} s,"
+              f" solve {first['solve_s']:.3f} s; compiled: {first['compiled']}), error {first['error']:.2e}")
+    print(f"  baseline whole process: {fmt(b, 'wall_s')}   solve {fmt(b, 'solve_s')}   error {b['error']:.2e}"
+          f"  (BDF {CASES[case]['baseline']}, {b['n_rhs']} RHS, {b['n_jac']} Jacobians)")
+    print(f"  project  whole process: {fmt(p, 'wall_s')}   solve {fmt(p, 'solve_s')}   error {p['error']:.2e}"
+          f"  (compile/load {p['compile_s']:.2f} s, {p['n_rhs']} RHS, {p['n_jac']} Jacobians)")
+    print(f"  ratio baseline/project: whole process warm {b['wall_s'] / p['wall_s']:.2f}x"
+          + (f", first cold {b['wall_s'] / first['wall_s']:.2f}x" if first else "")
+          + f"; in process {b['solve_s'] / p['solve_s']:.1f}x", flush=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", choices=sorted(CASES), help="run the plain script for one case (internal)")
+    parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=list(CASES))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--no-cold", action="store_true", help="do not report the first invocation (empty cache)")
+    parser.add_argument("--blas-threads", type=int, default=1,
+                        help="OPENBLAS_NUM_THREADS of every process (0: inherit); see the module docstring")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    if args.baseline:
+        data = (baseline_tstar if args.baseline.startswith("tstar") else baseline_main)(args.baseline)
+        Path(args.json).write_text(json.dumps(data))
+        return 0
+    print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
+    results = measure(args.cases, args.repeats, not args.no_cold, args.blas_threads)
+    if args.json:
+        Path(args.json).write_text(json.dumps(dict(load=os.getloadavg(), cases=results), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
