@@ -120,7 +120,17 @@ class ShearCellPDE(ShearCellBase):
         ``c[k, s, 0] * edge + c[k, s, 1]``, read off py-pde's boundary setters.
 
         Raises if a setter is not affine in the edge value alone (then it cannot be used here).
+        Memoised per grid (building py-pde's boundary setters costs ~4 ms, and the chi
+        tracker asks at every interrupt through :meth:`strain_rates`).
         """
+        cached = getattr(self, "_ghost_cache", None)
+        if cached is not None and cached[0] == grid:
+            return cached[1].copy()
+        coeffs = self._ghost_coefficients(grid)
+        self._ghost_cache = (grid, coeffs)
+        return coeffs.copy()
+
+    def _ghost_coefficients(self, grid) -> np.ndarray:
         n = grid.shape[0]
         coeffs = np.empty((3, 2, 2))
         for k, setter in enumerate(self._setters(grid)):
