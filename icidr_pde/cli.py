@@ -68,7 +68,7 @@ def add_run_parser(subparsers):
     p.add_argument("--atol", type=float, default=None, help="default: from --accuracy")
     p.add_argument("--method", choices=METHODS, default=None, help="default: from --accuracy")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
-                   help="default: the method's best (analytic for BDF/Radau, banded-fd for LSODA/CVODE)")
+                   help="default: the method's best (analytic for BDF/Radau/CVODE, banded-fd for LSODA)")
     for key, valid in discretization_options().items():
         p.add_argument(f"--{key}", choices=valid, default=None,
                        help=f"option of {', '.join(n for n, c in DISCRETIZATIONS.items() if key in c.options)} "

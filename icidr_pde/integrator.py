@@ -70,12 +70,16 @@ class JacobianSpec:
     (colored finite differences 'sparse-fd', 'colored-fd'; the fixed pattern of 'sparse');
     band: (lower, upper) bandwidths of the engine's ordering ('banded-fd'); nothing for
     'krylov' (matrix-free) and 'none' (dense finite differences).
+    band_jac: analytic jac_into(y, J) filling the band of a dense array in the banded
+    ordering (mode 'analytic' for an engine with ``banded_analytic``, when the
+    discretization offers one; then `band` is set too and `jac` is None).
     """
 
     mode: str
     jac: object = None
     sparsity: object = None
     band: tuple[int, int] | None = None
+    band_jac: object = None
 
 
 class Engine:
@@ -99,6 +103,8 @@ class Engine:
 
     methods: tuple[str, ...] = ()
     jacobian_modes: dict[str, tuple[str, ...]] = {}
+    #: the engine takes an analytic Jacobian in the banded ordering (JacobianSpec.band_jac)
+    banded_analytic: bool = False
 
     def advance(self, t_end, check):
         raise NotImplementedError
@@ -165,15 +171,20 @@ class CvodeEngine(Engine):
 
     CVODE runs in compiled code from one interrupt to the next; leaving the valid state
     space is caught exactly by CVODE's root finding on the `margins` (terminal events),
-    other checks run at the interrupts. With the banded linear solver the Jacobian comes
-    from CVODE's banded difference quotients (2 * band + 1 RHS calls); an analytic
-    Jacobian is factored by LAPACK's dense solver. On 2-D grids ('krylov') GMRES solves
+    other checks run at the interrupts. 'analytic' on a banded discretization (the
+    default where the discretization offers ``make_band_jacobian``): the compiled
+    analytic Jacobian written into CVODE's band matrix and its band LU (no difference
+    quotients; exact column sums of the conservative rows, so the Newton corrections
+    conserve mass to round-off); 'analytic' otherwise (Chebyshev): the dense analytic
+    Jacobian and LAPACK's dense LU; 'banded-fd': CVODE's banded difference quotients
+    (2 * band + 1 RHS calls per Jacobian). On 2-D grids ('krylov') GMRES solves
     the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
     analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md).
     """
 
     methods = ("CVODE",)
-    jacobian_modes = {"CVODE": ("banded-fd", "analytic", "krylov", "sparse", "none")}
+    jacobian_modes = {"CVODE": ("analytic", "banded-fd", "krylov", "sparse", "none")}
+    banded_analytic = True
 
     def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
                  jacobian: JacobianSpec, margins=None):
@@ -196,6 +207,13 @@ class CvodeEngine(Engine):
                 JJ[:] = values(t, np.array(y))
 
             kwargs.update(linsolver="sparse", sparsity=jacobian.sparsity, jacfn=jacfn)
+        elif jacobian.mode == "analytic" and jacobian.band_jac is not None:
+            jac_into = jacobian.band_jac
+
+            def jacfn(t, y, yp, JJ):  # JJ: (n, n), CVODE copies its band
+                jac_into(y, JJ)
+
+            kwargs.update(linsolver="band", lband=jacobian.band[0], uband=jacobian.band[1], jacfn=jacfn)
         elif jacobian.mode == "analytic":
             dense_jac = _dense(jacobian.jac)
 
@@ -328,6 +346,12 @@ class StiffSolver(SolverBase):
     def _jacobian_spec(self, state):
         """The JacobianSpec of the chosen mode and the permutation into the engine's ordering."""
         mode, pde = self.jacobian, self.pde
+        banded = getattr(pde, "interleaving", lambda state: None)(state) is not None
+        if mode == "analytic" and self.engine.banded_analytic and banded and hasattr(pde, "make_band_jacobian"):
+            perm, lband, uband = pde.interleaving(state)
+            return JacobianSpec(mode, band=(lband, uband), band_jac=pde.make_band_jacobian(state)), perm
+        if mode == "analytic" and self._default_jacobian and self.engine.banded_analytic:
+            mode = self.jacobian = "banded-fd"  # no analytic band: difference quotients, or below
         if mode == "banded-fd":
             ordering = getattr(pde, "interleaving", lambda state: None)(state)
             if ordering is not None:
@@ -361,11 +385,11 @@ class StiffSolver(SolverBase):
         start = time.perf_counter()
         rhs = self._rates(state)
         rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
+        spec, perm = self._jacobian_spec(state)  # a compiled Jacobian is loaded here
         self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
         shape, stats = state.data.shape, self.stats
         check_state = getattr(self.pde, "check_state", lambda data: None)
         pde_margins = getattr(self.pde, "validity_margins", None)
-        spec, perm = self._jacobian_spec(state)
         inverse = None if perm is None else np.argsort(perm)
 
         def to_native(y):  # integrator ordering -> state data

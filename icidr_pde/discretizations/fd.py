@@ -231,6 +231,24 @@ class ShearCellPDE(ShearCellBase):
         perm = (np.arange(n)[:, None] + n * np.arange(3)[None, :]).ravel()
         return perm, 5, 5
 
+    def make_band_jacobian(self, state) -> Callable:
+        """jac_into(y, J): the analytic Jacobian in the ordering of :meth:`interleaving`
+        (`y` interleaved), written by the compiled kernel into the band of the dense (3N, 3N)
+        array `J` (entries outside the cells' 3 x 3 blocks are left untouched)."""
+        self.check_grid(state.grid)
+        n, h = self._spacing(state.grid)
+        kernel = self._loops().jacobian_interleaved
+        ghost = self.ghost_coefficients(state.grid)
+        upwind = self.advection == "upwind"
+        params = self.material.params
+
+        def jac_into(y, J):  # a fresh C copy (CVODE's y is read-only): one compiled signature
+            kernel(np.array(y, dtype=float).reshape(n, 3).T, ghost, h, upwind, params, J)
+
+        perm = self.interleaving(state)[0]
+        jac_into(np.ravel(state.data)[perm], np.zeros((3 * n, 3 * n)))  # compile or load now
+        return jac_into
+
     def make_jacobian(self, state) -> Callable:
         """Analytic sparse Jacobian jac(t, y) of the flattened right-hand side."""
         self.check_grid(state.grid)

@@ -60,3 +60,106 @@ def rates(data, ghost, h, upwind, params, out):
         out[0, i] = -(mass[i + 1] - mass[i]) / h
         out[1, i] = (flux_u[i + 1] - flux_u[i]) / (h * phi) - w * du
         out[2, i] = (flux_w[i + 1] - flux_w[i]) / (h * phi) - w * dw
+
+
+@njit(cache=True, error_model="numpy")
+def _add(J, n, ghost, i, k, j, m, value):
+    """J[row of (cell i, field k), column of (cell j, field m)] += value in the interleaved
+    ordering 3 * cell + field; a ghost cell j = -1 or n maps onto its edge cell by alpha."""
+    if j < 0:
+        j = 0
+        value *= ghost[m, 0, 0]
+    elif j >= n:
+        j = n - 1
+        value *= ghost[m, 1, 0]
+    J[3 * i + k, 3 * j + m] += value
+
+
+@njit(cache=True, error_model="numpy")
+def jacobian_interleaved(data, ghost, h, upwind, params, J):
+    """Analytic Jacobian of :func:`rates` into the (3n, 3n) array `J`, interleaved ordering
+    (phi_0, u_0, w_0, phi_1, ...), band (5, 5). Only the 3 x 3 blocks of cells i, i +- 1 are
+    written (zeroed, then accumulated); entries outside them are left as they are.
+
+    Chain rule through the face stencil with the law's exact partials (``law.stress_jacobian``),
+    so the phi rows are exact differences of face fluxes: every column of the phi rows sums
+    to zero, as the mass flux does."""
+    n = data.shape[1]
+    g = padded(data, ghost)
+    for i in range(n):
+        for j in range(max(i - 1, 0), min(i + 2, n)):
+            for k in range(3):
+                for m in range(3):
+                    J[3 * i + k, 3 * j + m] = 0.0
+    for f in range(n + 1):  # face f: left cell f - 1, right cell f (either may be a ghost)
+        left = f - 1
+        right = f
+        phi_f = 0.5 * (g[0, f + 1] + g[0, f])
+        w_f = 0.5 * (g[2, f + 1] + g[2, f])
+        uz = (g[1, f + 1] - g[1, f]) / h
+        wz = (g[2, f + 1] - g[2, f]) / h
+        d = law.stress_jacobian(phi_f, uz, wz, params)
+        # partials of F_u = tau_xz and F_w = tau_zz - p by (phi_f, u_z, w_z)
+        fu = (d[3], d[4], d[5])
+        fw = (d[6] - d[0], d[7] - d[1], d[8] - d[2])
+        if upwind:
+            up = left if w_f > 0 else right
+            phi_up = g[0, f] if w_f > 0 else g[0, f + 1]
+        else:
+            up = -2
+            phi_up = phi_f
+        # cell i receives +F(face i + 1)/h - F(face i)/h: face f enters cell f - 1 with +, cell f with -
+        for cell, sign in ((left, 1.0), (right, -1.0)):
+            if cell < 0 or cell >= n:
+                continue
+            s = sign / h
+            inv_phi = 1.0 / g[0, cell + 1]
+            # mass: -(mass[i + 1] - mass[i])/h
+            if up == -2:
+                _add(J, n, ghost, cell, 0, left, 0, -s * 0.5 * w_f)
+                _add(J, n, ghost, cell, 0, right, 0, -s * 0.5 * w_f)
+            else:
+                _add(J, n, ghost, cell, 0, up, 0, -s * w_f)
+            _add(J, n, ghost, cell, 0, left, 2, -s * 0.5 * phi_up)
+            _add(J, n, ghost, cell, 0, right, 2, -s * 0.5 * phi_up)
+            for k, dflux in ((1, fu), (2, fw)):
+                c = s * inv_phi
+                _add(J, n, ghost, cell, k, left, 0, c * 0.5 * dflux[0])
+                _add(J, n, ghost, cell, k, right, 0, c * 0.5 * dflux[0])
+                _add(J, n, ghost, cell, k, left, 1, -c * dflux[1] / h)
+                _add(J, n, ghost, cell, k, right, 1, c * dflux[1] / h)
+                _add(J, n, ghost, cell, k, left, 2, -c * dflux[2] / h)
+                _add(J, n, ghost, cell, k, right, 2, c * dflux[2] / h)
+    for i in range(n):  # 1/phi factor and advection -w d_z
+        c = i + 1
+        p, txz_r, tzz_r = law.stress(0.5 * (g[0, c + 1] + g[0, c]), (g[1, c + 1] - g[1, c]) / h,
+                                     (g[2, c + 1] - g[2, c]) / h, params)
+        p_l, txz_l, tzz_l = law.stress(0.5 * (g[0, c] + g[0, c - 1]), (g[1, c] - g[1, c - 1]) / h,
+                                       (g[2, c] - g[2, c - 1]) / h, params)
+        phi = g[0, c]
+        w = g[2, c]
+        J[3 * i + 1, 3 * i] -= (txz_r - txz_l) / (h * phi * phi)
+        J[3 * i + 2, 3 * i] -= ((tzz_r - p) - (tzz_l - p_l)) / (h * phi * phi)
+        if upwind:
+            if w > 0:
+                lo = i - 1
+                hi = i
+                du = (g[1, c] - g[1, c - 1]) / h
+                dw = (g[2, c] - g[2, c - 1]) / h
+            else:
+                lo = i
+                hi = i + 1
+                du = (g[1, c + 1] - g[1, c]) / h
+                dw = (g[2, c + 1] - g[2, c]) / h
+            scale = 1.0 / h
+        else:
+            lo = i - 1
+            hi = i + 1
+            du = (g[1, c + 1] - g[1, c - 1]) / (2 * h)
+            dw = (g[2, c + 1] - g[2, c - 1]) / (2 * h)
+            scale = 0.5 / h
+        for k in (1, 2):
+            _add(J, n, ghost, i, k, hi, k, -w * scale)
+            _add(J, n, ghost, i, k, lo, k, w * scale)
+        J[3 * i + 1, 3 * i + 2] -= du
+        J[3 * i + 2, 3 * i + 2] -= dw
