@@ -306,6 +306,68 @@ def accuracy(case: str, max_w: dict, t_star) -> float:
     return float(max(errors))
 
 
+def _best(call, repeats=200, budget=0.5):
+    """Smallest time of `call` (seconds) over up to `repeats` calls within ~`budget` seconds."""
+    best, spent = float("inf"), 0.0
+    for _ in range(repeats):
+        start = time.perf_counter()
+        call()
+        elapsed = time.perf_counter() - start
+        best, spent = min(best, elapsed), spent + elapsed
+        if spent > budget:
+            break
+    return best
+
+
+def roofline(case: str, n_rhs: int, n_jac: int) -> dict:
+    """Compiled-code limit of the project's solve: what its counted work costs in compiled code.
+
+    Measured here, in process, each the best of repeated calls: one compiled right-hand side
+    (t_rhs), one Jacobian into the engine's matrix (t_jac), one LU of that matrix (t_lu:
+    LAPACK dgbtrf on the band (5, 5) for finite volumes, dgetrf dense for Chebyshev) and one
+    back-substitution (t_solve). CVODE reports no step count, so every RHS call is charged
+    one back-substitution (a Newton iteration is one of each) and every Jacobian one LU:
+    limit = n_rhs (t_rhs + t_solve) + n_jac (t_jac + t_lu). CVODE refactors without a new
+    Jacobian when its step changes, so the LU term is a lower bound.
+    """
+    import numpy as np
+    from scipy.linalg import lapack
+
+    from icidr_pde.case import build_case
+
+    spec = CASES[case]
+    c = build_case(spec["rheology"], spec["scene"], spec["disc"], spec["N"])
+    pde, state = c.pde, c.state
+    rhs = pde.make_rates(state)
+    data = np.array(state.data)
+    t_rhs = _best(lambda: rhs(data, 0.0))
+    n = data.size
+    if spec["disc"] == "fd":
+        perm, lband, uband = pde.interleaving(state)
+        J = np.zeros((n, n))
+        jac_into, y = pde.make_band_jacobian(state), data.ravel()[perm]
+        t_jac = _best(lambda: jac_into(y, J))
+        J[np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > 5] = 0.0
+        J += np.eye(n)
+        ab = np.zeros((2 * lband + uband + 1, n))
+        for k in range(-uband, lband + 1):  # LAPACK band storage with lband extra rows for pivoting
+            ab[lband + uband + k, max(0, -k):n - max(0, k)] = np.diagonal(J, -k)
+        t_lu = _best(lambda: lapack.dgbtrf(ab.copy(), lband, uband))
+        lu, piv, _ = lapack.dgbtrf(ab.copy(), lband, uband)
+        t_solve = _best(lambda: lapack.dgbtrs(lu, lband, uband, y, piv))
+    else:
+        jac = pde.make_jacobian(state)
+        y = data.ravel()
+        t_jac = _best(lambda: jac(0.0, y), repeats=20)
+        J = np.asarray(jac(0.0, y)) + np.eye(n)
+        t_lu = _best(lambda: lapack.dgetrf(J), repeats=20)
+        lu, piv, _ = lapack.dgetrf(J)
+        t_solve = _best(lambda: lapack.dgetrs(lu, piv, y))
+    limit = n_rhs * (t_rhs + t_solve) + n_jac * (t_jac + t_lu)
+    return dict(t_rhs=t_rhs, t_jac=t_jac, t_lu=t_lu, t_solve=t_solve, limit_s=limit,
+                lu_share=n_jac * t_lu / limit)
+
+
 def timed(args, env):
     start = time.perf_counter()
     proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=ROOT)
@@ -364,6 +426,9 @@ def measure(cases, repeats: int, cold: bool, blas_threads: int = 1) -> dict:
             base_runs.append(run_baseline(case, env, workdir))
             proj_runs.append(run_project(case, env, workdir))
         results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs))
+        p = results[case]["project"]
+        results[case]["roofline"] = roofline(case, int(statistics.median(r["n_rhs"] for r in proj_runs)),
+                                             int(statistics.median(r["n_jac"] for r in proj_runs)))
         report_case(case, results[case], repeats)
     return results
 
@@ -387,6 +452,10 @@ def report_case(case, res, repeats):
     print(f"  ratio baseline/project: whole process warm {b['wall_s'] / p['wall_s']:.2f}x"
           + (f", first cold {b['wall_s'] / first['wall_s']:.2f}x" if first else "")
           + f"; in process {b['solve_s'] / p['solve_s']:.1f}x", flush=True)
+    r = res["roofline"]
+    print(f"  roofline: RHS {r['t_rhs'] * 1e6:.1f} us, Jacobian {r['t_jac'] * 1e6:.0f} us, LU {r['t_lu'] * 1e6:.0f} us,"
+          f" back-substitution {r['t_solve'] * 1e6:.1f} us -> compiled limit {r['limit_s']:.3f} s"
+          f" (LU {100 * r['lu_share']:.0f} %); project solve / limit = {p['solve_s'] / r['limit_s']:.1f}", flush=True)
 
 
 def main(argv=None) -> int:
