@@ -472,6 +472,8 @@ def main(argv=None) -> int:
         data = (baseline_tstar if args.baseline.startswith("tstar") else baseline_main)(args.baseline)
         Path(args.json).write_text(json.dumps(data))
         return 0
+    if args.blas_threads:  # this process measures the roofline: same BLAS threads as the runs
+        os.environ.update(OPENBLAS_NUM_THREADS=str(args.blas_threads), OMP_NUM_THREADS=str(args.blas_threads))
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
     results = measure(args.cases, args.repeats, not args.no_cold, args.blas_threads)
     if args.json:
