@@ -11,7 +11,7 @@ import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from pde import FileStorage, MemoryStorage
+from pde import MemoryStorage
 from pde.solvers import Controller
 from pde.trackers.base import FinishedSimulation
 from pde.trackers.trackers import CallbackTracker
@@ -24,7 +24,9 @@ from .presets import resolve
 from .result import Result
 from .rheology import Material
 from .scenes import SCENES, Scene
+from .snapshots import SnapshotFile
 from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker, dense_times
+from .validation import ParameterError, real, shown
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
@@ -32,10 +34,16 @@ __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "
 
 def _time_labels(times, t_end):
     labels, values = [], []
+    wanted = f"numbers in [0, t_end] = [0, {t_end:g}]"
+    if isinstance(times, (str, bytes)) or not np.iterable(times):
+        raise ParameterError(f"`times` must be a list of {wanted}; got {shown(times)}")
     for t in times:
-        value = float(t)
+        try:
+            value = float(t) if isinstance(t, str) else real("times", t)
+        except (ValueError, TypeError):
+            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}") from None
         if not (np.isfinite(value) and 0 <= value <= t_end):
-            raise ValueError(f"`times` must lie in [0, t_end] = [0, {t_end}]; got {t!r}")
+            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}")
         labels.append(t if isinstance(t, str) else f"{value:g}")
         values.append(value)
     order = np.argsort(values, kind="stable")
@@ -78,7 +86,8 @@ def make_trackers(case: Case, t_end: float, times=None, *, series_times=None, ch
         chi_tracker = ChiTracker(case.pde, interrupts=list(chi_times))  # a few samples: a diagnostic
         trackers.append(chi_tracker)
     if save:
-        trackers.append(FileStorage(save, write_mode="truncate").tracker(interrupts=list(snap_times)))
+        snapshot_file = SnapshotFile(save, case.nodes(), list(snap_times))  # never half-written
+        trackers.append(snapshot_file.tracker())
     view = _view_trackers(case, t_end, progress, live_plot, movie, frame_dt)
     trackers += view
     if max_wall is not None:
@@ -152,6 +161,8 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
         stop = controller.info.get("stop_reason", "Reached final time")
         if stop != "Reached final time":  # a tracker ended the run (e.g. the wall-clock limit)
             reason, t_final = stop, float(controller.info.get("t_final", t_end))
+        if stop == "User interrupted simulation":  # py-pde's Controller swallows KeyboardInterrupt
+            reason = f"interrupted at t = {t_final:.6g}"
     except SimulationFailed as failure:
         blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
         final = failure.state_data
@@ -257,7 +268,8 @@ def run(
         progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.trackers.ProgressBarTracker`)
         live_plot: one figure of the fields updated in place while they evolve, redrawn within
             ~10 % of the wall time (:class:`~icidr_pde.trackers.LivePlotTracker`), Jupyter or a window
-        save: optional HDF5 file for the snapshots (py-pde FileStorage)
+        save: optional HDF5 file for the snapshots (py-pde FileStorage layout plus the node
+            positions `z`; read it with :func:`icidr_pde.snapshots.read_snapshots`)
         movie: optional .mp4 (or .gif) file: a movie of the run (:mod:`icidr_pde.movies`)
         frame_dt: interval of simulated time between movie frames, independent of `times`
             (None: 40 log-spaced frames up to t_end/200, then every t_end/200)
@@ -268,8 +280,8 @@ def run(
     A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
     """
-    if not (np.isfinite(t_end) and t_end > 0):
-        raise ValueError(f"`t_end` must be > 0; got {t_end}")
+    # every argument is checked before any work and before any output file is touched
+    t_end = real("t_end", t_end, 0)
     if discretization is None:  # a scene of the 2-D cell names its scheme
         discretization = getattr(scene if isinstance(scene, Scene) else SCENES.get(scene), "discretization", None)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
@@ -280,11 +292,16 @@ def run(
         options["advection"] = advection
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
                       options=options, scene_params=scene_params)
-    recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
-                              live_plot=live_plot, max_wall=max_wall, movie=movie, frame_dt=frame_dt)
     solver = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
                          jacobian=jacobian, backend=backend)
-    outcome = integrate(case, solver, t_end, recorders.trackers)
+    recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
+                              live_plot=live_plot, max_wall=max_wall, movie=movie, frame_dt=frame_dt)
+    try:
+        outcome = integrate(case, solver, t_end, recorders.trackers)
+    finally:  # a run that raised leaves an existing snapshot file as it was
+        for tracker in recorders.trackers:
+            if hasattr(tracker, "snapshot_file"):
+                tracker.snapshot_file.discard()
     if recorders.movie is not None:  # after the timing: wall_s is the solve and the trackers
         recorders.movie.write()
     return collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)

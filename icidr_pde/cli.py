@@ -1,12 +1,21 @@
-"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures}``."""
+"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law}``.
+
+Exit status of every subcommand: 0 success; 2 bad input (nothing was run or written);
+3 the run failed (blow-up, non-finite state, phi left (0, phi_c)), results written;
+4 a result could not be written (the others were); 130 interrupted by SIGINT (Ctrl-C),
+143 by SIGTERM, with what was computed up to then written.
+"""
 
 from __future__ import annotations
 
 import argparse
 import importlib
 import json
+import os
+import signal
 import sys
 import time
+from pathlib import Path
 
 from .discretizations import DISCRETIZATIONS
 from .integrator import JACOBIAN_MODES, METHODS
@@ -41,19 +50,152 @@ def rheology_name(text):
     raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.py, got {text!r}")
 
 
+EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
+EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
+PREFIX = "icidr-pde: error:"
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one error prefix for every subcommand and defaults shown in --help."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", DefaultsFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_BAD_INPUT, f"{PREFIX} {message}\n")
+
+
+class DefaultsFormatter(argparse.RawDescriptionHelpFormatter):
+    """Append '(default: ...)' to every option help that has a meaningful default."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        default = action.default
+        if "default" in text or default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return text
+        shown = " ".join(map(str, default)) if isinstance(default, (list, tuple)) else default
+        return f"{text} (default: {shown})".strip()
+
+
 def positive_int(text):
     """argparse type: an integer >= 1."""
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive integer; got {text!r}") from None
     if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+        raise argparse.ArgumentTypeError(f"must be a positive integer; got {text}")
     return value
 
 
+def number(text):
+    """argparse type: a float (range checks are the API's, named after the option)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number; got {text!r}") from None
+
+
+def time_value(text):
+    """argparse type of --times: a number, kept as spelled (the label of the JSON max_w)."""
+    number(text)
+    return text
+
+
+def check_output_path(option: str, path) -> None:
+    """Refuse, before any work, an output path that cannot be written."""
+    if path is None:
+        return
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
+    if target.is_dir():
+        reason = "is a directory"
+    elif not parent.is_dir():
+        reason = f"directory {str(parent)!r} does not exist"
+    elif target.exists() and not os.access(target, os.W_OK):
+        reason = "is not writable"
+    elif not target.exists() and not os.access(parent, os.W_OK | os.X_OK):
+        reason = f"directory {str(parent)!r} is not writable"
+    else:
+        return
+    raise ValueError(f"`{option}` {str(path)!r} {reason}")
+
+
+def figure_path(option: str, path):
+    """The file a figure is written to: a supported suffix, '.png' appended if none."""
+    if path is None:
+        return None
+    from matplotlib.figure import Figure
+
+    if Path(path).is_dir():
+        raise ValueError(f"`{option}` {str(path)!r} is a directory")
+    supported = Figure().canvas.get_supported_filetypes()
+    suffix = Path(path).suffix.lstrip(".").lower()
+    if not suffix:
+        path = f"{path}.png"
+    elif suffix not in supported:
+        raise ValueError(f"`{option}` must end in one of {sorted('.' + s for s in supported)}; got {path!r}")
+    check_output_path(option, path)
+    return str(path)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that the run stops cleanly and keeps its results."""
+
+
+class interrupt_signals:
+    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came."""
+
+    def __enter__(self):
+        self.received = None
+        self._previous = {}
+        for sig in EXIT_INTERRUPTED:
+            try:
+                self._previous[sig] = signal.signal(sig, self._handle)
+            except ValueError:  # not the main thread
+                pass
+        return self
+
+    def _handle(self, signum, frame):
+        self.received = signal.Signals(signum)
+        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+    def __exit__(self, *exc):
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        return False
+
+
+def write_outputs(writers) -> int:
+    """Call each (option, path, write) in turn; report failures; EXIT_WRITE_FAILED if any."""
+    status = EXIT_OK
+    for option, path, write in writers:
+        if path is None:
+            continue
+        try:
+            write(path)
+        except (OSError, ValueError) as err:
+            print(f"{PREFIX} could not write {option} {path}: {err}", file=sys.stderr)
+            status = EXIT_WRITE_FAILED
+        else:
+            print(f"{option.lstrip('-')} written to {path}")
+    return status
+
+
 def add_run_parser(subparsers):
-    p = subparsers.add_parser("run", help="run one scene with one rheology")
+    p = subparsers.add_parser(
+        "run", help="run one scene with one rheology",
+        description="Integrate the 1-D shear cell (3.9) with one rheology from one initial condition; "
+                    "print the outcome and optionally write a JSON summary, a figure and the snapshots.\n"
+                    "exit status: 0 reached --t-end; 2 bad input; 3 failed (blow-up, state left "
+                    "(0, phi_c)); 4 an output could not be written; 130/143 interrupted (SIGINT/SIGTERM).")
     p.add_argument("--rheology", type=rheology_name, default="icidr", metavar="NAME|FILE",
-                   help=f"one of {', '.join(sorted(RHEOLOGIES))}, or a law file *.py (see `law check`)")
-    p.add_argument("--scene", choices=sorted(SCENES), default="shear")
+                   help=f"one of {', '.join(sorted(RHEOLOGIES))} (mui: mu(I),Phi(I) (3.13)-(3.15); "
+                        "icidr: inertial CIDR (5.3)-(5.5)), or a law file *.py (see `law check`)")
+    p.add_argument("--scene", choices=sorted(SCENES), default="shear",
+                   help="initial condition: shear (3.16) or sine (5.7)")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
                    help="preset for discretization, N, method and tolerances (measured: see README)")
     p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
@@ -62,68 +204,91 @@ def add_run_parser(subparsers):
                    help="grid cells (fd) or collocation points (cheb) (default: from --accuracy)")
     p.add_argument("--Nx", type=positive_int, default=None, help="cells along x (2-D scenes; default: Nz)")
     p.add_argument("--Nz", type=positive_int, default=None, help="cells along z (2-D scenes; default: Nx or --N)")
-    p.add_argument("--t-end", type=float, default=10.0)
-    p.add_argument("--times", nargs="+", default=None, help="snapshot times (labels of the JSON max_w)")
-    p.add_argument("--rtol", type=float, default=None, help="default: from --accuracy")
-    p.add_argument("--atol", type=float, default=None, help="default: from --accuracy")
-    p.add_argument("--method", choices=METHODS, default=None, help="default: from --accuracy")
+    p.add_argument("--t-end", type=number, default=10.0, help="final time")
+    p.add_argument("--times", type=time_value, nargs="+", default=None,
+                   help="snapshot times in [0, --t-end] (labels of the JSON max_w; default: the scene's)")
+    p.add_argument("--rtol", type=number, default=None, help="relative tolerance (default: from --accuracy)")
+    p.add_argument("--atol", type=number, default=None, help="absolute tolerance (default: from --accuracy)")
+    p.add_argument("--method", choices=METHODS, default=None, help="integrator (default: from --accuracy)")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
-                   help="default: the method's best (analytic for BDF/Radau/CVODE, banded-fd for LSODA)")
+                   help="Jacobian of the implicit solves (default: the method's best: analytic for "
+                        "BDF/Radau/CVODE, banded-fd for LSODA)")
     for key, valid in discretization_options().items():
         p.add_argument(f"--{key}", choices=valid, default=None,
                        help=f"option of {', '.join(n for n, c in DISCRETIZATIONS.items() if key in c.options)} "
                             f"(default {valid[0]})")
     for name, help_text in scene_parameters().items():
-        p.add_argument(f"--{name}", type=float, default=None, help=f"scene parameter: {help_text}")
-    p.add_argument("--json", default=None, help="write the result summary here")
-    p.add_argument("--plot", default=None, help="write a PNG of profiles and max|w|(t)")
-    p.add_argument("--save", default=None, help="write the snapshots to this HDF5 file")
+        p.add_argument(f"--{name}", type=number, default=None,
+                       help=f"scene parameter: {help_text} (default: the scene's)")
+    p.add_argument("--json", default=None, help="write the result summary to this file")
+    p.add_argument("--plot", default=None, help="write a figure of profiles and max|w|(t) (PNG if no suffix)")
+    p.add_argument("--save", default=None, help="write the snapshots to this HDF5 file (z, times, data)")
     p.add_argument("--movie", default=None, help="write a movie of the run (.mp4, or .gif)")
-    p.add_argument("--frame-dt", type=float, default=None,
+    p.add_argument("--frame-dt", type=number, default=None,
                    help="simulated time between movie frames, independent of --times "
                         "(default: 40 log-spaced frames up to t_end/200, then every t_end/200)")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
 
 def cmd_run(args) -> int:
     from .api import run
 
+    check_output_path("--json", args.json)
+    check_output_path("--save", args.save)
+    check_output_path("--movie", args.movie)
+    plot = figure_path("--plot", args.plot)
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
     N = args.N
     if args.Nx is not None or args.Nz is not None:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
-    result = run(
-        args.rheology, args.scene, N, args.t_end, args.times,
-        accuracy=args.accuracy, discretization=args.discretization, method=args.method, rtol=args.rtol,
-        atol=args.atol, jacobian=args.jacobian, advection=args.advection,
-        progress=not args.no_progress, save=args.save, movie=args.movie, frame_dt=args.frame_dt,
-        **scene_params,
-    )
+    with interrupt_signals() as signals:
+        try:
+            result = run(
+                args.rheology, args.scene, N, args.t_end, args.times,
+                accuracy=args.accuracy, discretization=args.discretization, method=args.method,
+                rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
+                progress=not args.no_progress, save=args.save, movie=args.movie,
+                frame_dt=args.frame_dt, **scene_params,
+            )
+        except KeyboardInterrupt:  # before the integration started: nothing computed
+            print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
+            return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
     print(result)
     print(json.dumps({k: v for k, v in result.to_dict().items()
-                      if k in ("blew_up", "t_star", "reason", "max_w", "mass_drift", "wall_s")}, indent=1))
-    if args.json:
-        result.save_json(args.json)
-    if args.plot:
+                      if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
+                     indent=1))
+
+    def write_plot(path):
         from .plotting import plot_result
 
         if result.measures is not None:
             from .studies2d import plot_fields as plot_result
-        plot_result(result, args.plot)
-        print(f"plot written to {args.plot}")
-    if args.movie:
+        plot_result(result, path)
+
+    status = write_outputs([("--json", args.json, result.save_json), ("--plot", plot, write_plot)])
+    if args.save and not Path(args.save).is_file():
+        print(f"{PREFIX} could not write --save {args.save}", file=sys.stderr)
+        status = EXIT_WRITE_FAILED
+    if args.movie and Path(args.movie).is_file():
         print(f"movie written to {args.movie}")
-    return 0
+    if status:
+        return status
+    if result.reason.startswith("interrupted"):
+        return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
+    return EXIT_RUN_FAILED if result.blew_up else EXIT_OK
 
 
 def add_demo_parser(subparsers):
     p = subparsers.add_parser(
-        "demo", help="the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges")
-    p.add_argument("--plot", default="icidr_demo.png")
-    p.add_argument("--coarse", type=positive_int, default=47)
-    p.add_argument("--fine", type=positive_int, default=201)
+        "demo", help="the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges",
+        description="Run scene shear (3.16) with mu(I),Phi(I) and iCIDR on a coarse and a fine grid "
+                    "(finite volumes, BDF rtol 1e-6, atol 1e-9, as the paper's ode15s) and draw figs "
+                    "3(a), 4(a) and 6 in one figure.")
+    p.add_argument("--plot", default="icidr_demo.png", help="figure file (PNG if no suffix)")
+    p.add_argument("--coarse", type=positive_int, default=47, help="coarse grid: cells N (well resolved)")
+    p.add_argument("--fine", type=positive_int, default=201, help="fine grid: cells N (mu(I) fails here)")
     p.set_defaults(func=cmd_demo)
 
 
@@ -131,6 +296,7 @@ def cmd_demo(args) -> int:
     from .api import run
     from .plotting import demo_figure
 
+    args.plot = figure_path("--plot", args.plot)
     start = time.perf_counter()
     runs = {}
     jobs = [
@@ -145,8 +311,9 @@ def cmd_demo(args) -> int:
         result = run(rheology, "shear", n, t_end, times, method="BDF", rtol=1e-6, atol=1e-9)
         runs[(rheology, n)] = result
         print("   ", result)
-    demo_figure(runs[("mui", args.coarse)], runs[("mui", args.fine)],
-                runs[("icidr", args.coarse)], runs[("icidr", args.fine)], args.plot)
+    figure_args = (runs[("mui", args.coarse)], runs[("mui", args.fine)],
+                   runs[("icidr", args.coarse)], runs[("icidr", args.fine)])
+    status = write_outputs([("--plot", args.plot, lambda path: demo_figure(*figure_args, path))])
     fine = runs[("mui", args.fine)]
     print(f"\nmu(I),Phi(I): N = {args.coarse} "
           f"{'fails' if runs[('mui', args.coarse)].blew_up else 'decays to steady shear'}; "
@@ -154,19 +321,40 @@ def cmd_demo(args) -> int:
     a, b = runs[("icidr", args.coarse)], runs[("icidr", args.fine)]
     print(f"iCIDR: max|w| at t = 1: N = {args.coarse}: {a.max_w_at_times()['1']:.3e}, "
           f"N = {args.fine}: {b.max_w_at_times()['1']:.3e} (no failure: {not (a.blew_up or b.blew_up)})")
-    print(f"figure written to {args.plot} ({time.perf_counter() - start:.0f} s)")
-    return 0
+    print(f"done in {time.perf_counter() - start:.0f} s")
+    return status
 
 
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the 1-D shear cell (Schaeffer et al. 2019)")
-    subparsers = parser.add_subparsers(dest="command", required=True)
+    parser = Parser(
+        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the 1-D shear cell (Schaeffer et al. 2019)",
+        epilog="exit status: 0 success, 2 bad input, 3 run failed, 4 output not written, "
+               "130/143 interrupted")
+    subparsers = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     add_demo_parser(subparsers)
     add_run_parser(subparsers)
     for module_name, function in _PLUGINS:
         getattr(importlib.import_module(module_name), function)(subparsers)
+    _describe_subcommands(parser)
     return parser
+
+
+def _describe_subcommands(parser) -> None:
+    """Every subcommand's --help opens with its one-line description."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            helps = {a.dest: a.help for a in action._choices_actions}
+            for name, sub in action.choices.items():
+                if not sub.description:
+                    sub.description = helps.get(name)
+                _describe_subcommands(sub)
+
+
+def _option_names(message: str, args) -> str:
+    """Name the command-line option where the API names its parameter (`t_end` -> `--t-end`)."""
+    for dest in vars(args):
+        message = message.replace(f"`{dest}`", f"`--{dest.replace('_', '-')}`")
+    return message
 
 
 def main(argv=None) -> int:
@@ -175,8 +363,8 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except ValueError as err:
-        print(f"icidr-pde: error: {err}", file=sys.stderr)
-        return 2
+        print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

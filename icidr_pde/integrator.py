@@ -18,12 +18,18 @@ from dataclasses import dataclass
 
 import time
 
+import io
+import sys
+
 import numpy as np
 from pde.solvers.base import SolverBase
 import scipy.integrate
 from scipy import sparse
 
 from .colored_fd import colored_fd_jacobian
+
+from .conservative_jacobian import ConservativeDifferenceQuotients
+from .validation import ParameterError, choice, real
 
 __all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
            "ENGINES", "METHODS", "JACOBIAN_MODES", "check_tolerances"]
@@ -55,11 +61,8 @@ class StepStatistics:
     n_lu: int = 0
 
 
-def check_tolerances(rtol: float, atol: float) -> None:
-    if not (np.isfinite(rtol) and 1e-14 <= rtol < 1):
-        raise ValueError(f"`rtol` must lie in [1e-14, 1); got {rtol}")
-    if not (np.isfinite(atol) and atol > 0):
-        raise ValueError(f"`atol` must be > 0; got {atol}")
+def check_tolerances(rtol: float, atol: float) -> tuple[float, float]:
+    return (real("rtol", rtol, 1e-14, 1, low_open=False), real("atol", atol, 0))
 
 
 @dataclass
@@ -73,6 +76,9 @@ class JacobianSpec:
     band_jac: analytic jac_into(y, J) filling the band of a dense array in the banded
     ordering (mode 'analytic' for an engine with ``banded_analytic``, when the
     discretization offers one; then `band` is set too and `jac` is None).
+    weights, anchor: the conserved quantity c . y (the mass of phi) and, per column, the row
+    that absorbs the column's sum, for difference quotients that keep it conserved
+    (:mod:`icidr_pde.conservative_jacobian`); None if the PDE has no quadrature weights.
     """
 
     mode: str
@@ -80,6 +86,8 @@ class JacobianSpec:
     sparsity: object = None
     band: tuple[int, int] | None = None
     band_jac: object = None
+    weights: np.ndarray | None = None
+    anchor: np.ndarray | None = None
 
 
 class Engine:
@@ -139,10 +147,19 @@ class ScipyEngine(Engine):
             options["first_step"] = first_step
         if jacobian.mode == "analytic":
             options["jac"] = _dense(jacobian.jac) if method == "LSODA" else jacobian.jac  # Fortran: dense
+        elif jacobian.mode == "sparse-fd" and jacobian.weights is not None:
+            # colored difference quotients that keep the Newton updates conservative (scipy's
+            # own drift the mass by 6e-11 with Radau, scene sine, N = 47)
+            dq = ConservativeDifferenceQuotients(fun, jacobian.weights, jacobian.anchor,
+                                                 floor=atol / rtol, sparsity=jacobian.sparsity)
+            options["jac"] = dq.sparse
         elif jacobian.mode == "sparse-fd":
             options["jac_sparsity"] = jacobian.sparsity
         elif jacobian.mode == "colored-fd":
             options["jac"] = colored_fd_jacobian(fun, jacobian.sparsity, 1.0)
+        elif jacobian.mode == "none" and jacobian.weights is not None and 8 * len(y0) ** 2 <= 2**28:
+            dq = ConservativeDifferenceQuotients(fun, jacobian.weights, jacobian.anchor, floor=atol / rtol)
+            options["jac"] = lambda t, y: dq.sparse(t, y).toarray()
         elif jacobian.mode == "banded-fd":
             options.update(lband=jacobian.band[0], uband=jacobian.band[1])
         self.solver = getattr(scipy.integrate, method)(fun, t0, y0, np.inf, **options)
@@ -163,7 +180,53 @@ class ScipyEngine(Engine):
         return self.y if t == self.t else self.solver.dense_output()(t)
 
     def counts(self):
-        return self.n_steps, self.solver.njev, self.solver.nlu
+        return self.n_steps, int(self.solver.njev), int(self.solver.nlu)
+
+
+MIN_STEP_FRACTION = 1e-11  # of the fastest time scale: 9e-15 for mu(I), fd N = 201 (was 1e-14)
+
+
+def fastest_time_scale(fun, t0: float, y0: np.ndarray, iterations: int = 20) -> float:
+    """1/rho(J) at (t0, y0): the inverse spectral radius of the Jacobian, estimated by power
+    iteration on difference quotients J v (within 1 % of the largest |eigenvalue| for the
+    shear cell). Measured: 1.5e-5 (iCIDR, fd N = 201), 8.8e-4 (mu(I), fd N = 201),
+    4.5e-15 (iCIDR, phi0 = 0.816999), 1.1e-13 (iCIDR, H = 0.01, N = 47)."""
+    y0 = np.asarray(y0, dtype=float)
+    f0 = fun(t0, y0)
+    v = np.cos(np.arange(y0.size) * 2.0) + 0.5  # a fixed start: runs are reproducible
+    v /= np.linalg.norm(v)
+    e = 1e-7 * max(np.linalg.norm(y0), 1e-300)
+    rho = 0.0
+    for _ in range(iterations):
+        jv = (fun(t0, y0 + e * v) - f0) / e
+        rho = float(np.linalg.norm(jv))
+        if not np.isfinite(rho) or rho == 0:
+            break
+        v = jv / rho
+    return 1.0 / rho if np.isfinite(rho) and rho > 0 else 1.0
+
+
+class _CapturedOutput:
+    """Collect what scikit-sundae prints (its SUNDIALS error handler calls Python's print)."""
+
+    def __init__(self):
+        self.buffer = io.StringIO()
+
+    def __enter__(self):
+        self.saved, sys.stdout = sys.stdout, self.buffer
+        return self
+
+    def __exit__(self, *exc):
+        sys.stdout = self.saved
+        return False
+
+    def take(self) -> str:
+        """The text printed so far (and forget it)."""
+        text = self.buffer.getvalue()
+        if text:
+            self.buffer.seek(0)
+            self.buffer.truncate()
+        return " ".join(text.split())
 
 
 class CvodeEngine(Engine):
@@ -176,10 +239,14 @@ class CvodeEngine(Engine):
     analytic Jacobian written into CVODE's band matrix and its band LU (no difference
     quotients; exact column sums of the conservative rows, so the Newton corrections
     conserve mass to round-off); 'analytic' otherwise (Chebyshev): the dense analytic
-    Jacobian and LAPACK's dense LU; 'banded-fd': CVODE's banded difference quotients
-    (2 * band + 1 RHS calls per Jacobian). On 2-D grids ('krylov') GMRES solves
+    Jacobian and LAPACK's dense LU; 'banded-fd': banded difference quotients (2 * band + 1 RHS calls
+    per Jacobian) computed here with exact mass-row column sums, so that the Newton updates
+    conserve mass to round-off (SUNDIALS' own quotients drift it by 2.6e-11 at N = 7; kept
+    above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
     the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
     analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md).
+    SUNDIALS' messages are captured into the failure reason. The minimum step is relative
+    to the problem's fastest time scale (:func:`fastest_time_scale`).
     """
 
     methods = ("CVODE",)
@@ -190,13 +257,31 @@ class CvodeEngine(Engine):
                  jacobian: JacobianSpec, margins=None):
         from sksundae.cvode import CVODE
 
-        # min_step: like scipy's "step size below the spacing of numbers" test; without it
-        # CVODE halves h down to 1e-165 before giving up on a blow-up (seconds of work)
-        kwargs = dict(method="BDF", rtol=rtol, atol=atol, max_num_steps=1_000_000, min_step=1e-14,
+        # min_step: without one CVODE halves h down to 1e-165 before giving up on a blow-up
+        # (seconds of work). It is relative to the problem's fastest time scale, as scipy's
+        # spacing test is relative to t: a fixed 1e-14 stopped iCIDR at t* = 0 near jamming
+        # and in tiny cells, whose time scales are 1e-14 to 1e-13.
+        self.time_scale = fastest_time_scale(fun, t0, y0)
+        kwargs = dict(method="BDF", rtol=rtol, atol=atol, max_num_steps=1_000_000,
+                      min_step=MIN_STEP_FRACTION * self.time_scale,
                       max_step=max_step if np.isfinite(max_step) else 1e300)  # 0 ("none") < min_step
         if first_step is not None:
             kwargs["first_step"] = first_step
-        if jacobian.mode == "banded-fd":
+        n = len(y0)
+        conserving = (jacobian.mode in ("banded-fd", "none") and jacobian.weights is not None
+                      and 8 * n * n <= 2**28)
+        if conserving:
+            band = jacobian.band if jacobian.mode == "banded-fd" else None
+            dq = ConservativeDifferenceQuotients(fun, jacobian.weights, jacobian.anchor, band,
+                                                 floor=atol / rtol)
+
+            def jacfn(t, y, yp, JJ):  # scikit-sundae hands a dense n x n array, even for 'band'
+                dq.fill(t, y, JJ)
+
+            kwargs["jacfn"] = jacfn
+            if band is not None:
+                kwargs.update(linsolver="band", lband=band[0], uband=band[1])
+        elif jacobian.mode == "banded-fd":
             kwargs.update(linsolver="band", lband=jacobian.band[0], uband=jacobian.band[1])
         elif jacobian.mode == "krylov":  # GMRES, Jacobian-vector products by CVODE's difference quotients
             kwargs.update(linsolver="gmres", krylov_dim=20)
@@ -231,21 +316,36 @@ class CvodeEngine(Engine):
             eventsfn.direction = [-1] * n_events
             kwargs.update(eventsfn=eventsfn, num_events=n_events)
 
+        self.interrupt = None
+        self.output = _CapturedOutput()
+        self.log: list[str] = []
+
         def rhsfn(t, y, yp):
-            yp[:] = fun(t, y)
+            try:
+                yp[:] = fun(t, y)
+            except KeyboardInterrupt as interrupt:  # re-raised once CVODE has returned
+                self.interrupt = interrupt
+                raise
 
         self.solver = CVODE(rhsfn, **kwargs)
         self.solver.init_step(t0, y0)
         self.t, self.y, self.njev = t0, np.array(y0), 0
 
     def advance(self, t_end, check):
-        result = self.solver.step(t_end, method="normal")
+        with self.output:  # SUNDIALS' messages belong in the result, not on the terminal
+            result = self.solver.step(t_end, method="normal")
+        printed = self.output.take()
+        if printed:
+            self.log.append(printed)
+        if self.interrupt is not None:
+            raise self.interrupt
         self.njev = getattr(result, "njev", self.njev)
         y = np.array(result.y, dtype=float).ravel()
         if not result.success:
             if np.all(np.isfinite(y)) and float(result.t) > self.t:
                 self.t, self.y = float(result.t), y
-            return self.t, self.y, f"integrator failed ({result.message})"
+            detail = f"; SUNDIALS: {printed}" if printed else ""
+            return self.t, self.y, f"integrator failed ({result.message}{detail})"
         self.t, self.y = float(result.t), y
         if self.t < t_end:  # stopped at a terminal event: the state reached the boundary
             return self.t, self.y, check(y) or "state reached the boundary of its valid range"
@@ -323,18 +423,15 @@ class StiffSolver(SolverBase):
         backend: str = "numba",
     ):
         super().__init__(pde, backend=backend)
-        if method not in ENGINES:
-            raise ValueError(f"`method` must be one of {METHODS}; got {method!r}")
-        self.engine = ENGINES[method]
+        self.engine = ENGINES[choice("method", method, ENGINES)]
         valid = self.engine.jacobian_modes[method]
         self._default_jacobian = jacobian is None
         if jacobian is None:
             jacobian = valid[0]
         if jacobian not in valid:
-            raise ValueError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
-        check_tolerances(rtol, atol)
-        if not max_step > 0:
-            raise ValueError(f"`max_step` must be > 0; got {max_step}")
+            raise ParameterError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
+        rtol, atol = check_tolerances(rtol, atol)
+        max_step = real("max_step", max_step, 0) if np.isfinite(max_step) else np.inf
         self.method = method
         self.rtol = float(rtol)
         self.atol = float(atol)
@@ -342,6 +439,18 @@ class StiffSolver(SolverBase):
         self.max_step = max_step
         self.stats = StepStatistics()
         self.last_good: tuple[float, np.ndarray] | None = None
+
+    def _conserved(self, state, perm):
+        """(weights, anchor) of the mass of phi in the engine's ordering, or (None, None)."""
+        weights = getattr(self.pde, "quadrature_weights", None)
+        if weights is None:
+            return None, None
+        n = state.data[0].size
+        c = np.zeros(state.data.size)
+        c[:n] = np.ravel(weights(state.grid))
+        native = np.arange(c.size) if perm is None else np.asarray(perm)
+        position = np.argsort(native)
+        return c[native], position[native % n]  # a column's anchor: phi at its own node
 
     def _jacobian_spec(self, state):
         """The JacobianSpec of the chosen mode and the permutation into the engine's ordering."""
@@ -356,7 +465,8 @@ class StiffSolver(SolverBase):
             ordering = getattr(pde, "interleaving", lambda state: None)(state)
             if ordering is not None:
                 perm, lband, uband = ordering
-                return JacobianSpec(mode, band=(lband, uband)), perm
+                weights, anchor = self._conserved(state, perm)
+                return JacobianSpec(mode, band=(lband, uband), weights=weights, anchor=anchor), perm
             if not self._default_jacobian:
                 raise ValueError("`jacobian`='banded-fd' needs a discretization with a banded "
                                  "ordering (finite differences); use 'analytic' or 'none'")
@@ -369,8 +479,14 @@ class StiffSolver(SolverBase):
         if mode == "sparse":
             return JacobianSpec(mode, jac=pde.make_jacobian(state), sparsity=pde.jacobian_sparsity(state)), None
         if mode in ("sparse-fd", "colored-fd"):
-            return JacobianSpec(mode, sparsity=pde.jacobian_sparsity(state)), None
-        return JacobianSpec(mode), None
+            sparsity = pde.jacobian_sparsity(state)
+            if sparsity is None:  # it would run dense differences labelled as colored ones
+                raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
+                                     "discretization's is dense: use 'analytic' or 'none'")
+            weights, anchor = self._conserved(state, None) if mode == "sparse-fd" else (None, None)
+            return JacobianSpec(mode, sparsity=sparsity, weights=weights, anchor=anchor), None
+        weights, anchor = self._conserved(state, None)
+        return JacobianSpec(mode, weights=weights, anchor=anchor), None
 
     def _rates(self, state):
         """The right-hand side: the discretization's cached kernels, else py-pde's backend."""

@@ -3,12 +3,32 @@
 from __future__ import annotations
 
 import json
+import os
+import tempfile
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Result"]
+__all__ = ["Result", "write_atomically"]
+
+
+def write_atomically(path, write, mode: str = "w") -> None:
+    """Call write(file) on a temporary file beside `path`, then move it into place.
+
+    A crash or a full disk leaves `path` as it was (absent or the previous complete file).
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, mode) as fh:
+            write(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 @dataclass
@@ -18,8 +38,10 @@ class Result:
     Attributes:
         blew_up: True if the run failed before `t_end`
         t_star: last accepted time of a failed run (None otherwise)
-        reason: why the run stopped ('reached t_end' or the failure)
-        t_final: time of the last state (t_end, or t_star on failure)
+        reason: why the run stopped: 'reached t_end', 'interrupted at t = ...' (Ctrl-C or
+            SIGTERM; not a failure) or the failure
+        t_final: time of the last state (t_end, t_star on failure, the time reached when
+            interrupted)
         z: positions of the unknowns
         times, phi, u, w: snapshots at the requested times that were reached
         final: (phi, u, w) at t_final
@@ -108,11 +130,23 @@ class Result:
                 out[key] = {label: m[key] for label, m in zip(self.time_labels, self.measures)}
         return out
 
+    @property
+    def interrupted(self) -> bool:
+        """True if the run was stopped by the user (Ctrl-C, SIGTERM) before t_end."""
+        return self.reason.startswith("interrupted")
+
     def save_json(self, path) -> None:
-        with open(path, "w") as fh:
-            json.dump(self.to_dict(), fh, indent=2)
+        """Write :meth:`to_dict` as JSON; the file appears complete or not at all."""
+        text = json.dumps(self.to_dict(), indent=2)
+        write_atomically(path, lambda fh: fh.write(text))
 
     def __repr__(self) -> str:
-        state = f"failed at t*={self.t_star:.6g} ({self.reason})" if self.blew_up else "reached t_end"
+        if self.blew_up:
+            state = f"failed at t*={self.t_star:.6g} ({self.reason})"
+        elif self.interrupted:
+            state = self.reason
+        else:
+            state = "reached t_end"
+        steps = f"{self.n_steps} steps" if self.n_steps is not None else f"{self.n_rhs} RHS evaluations"
         return (f"Result({self.rheology}, {self.scene}, {self.discretization} N={self.N}: {state}; "
-                f"{self.n_steps} steps, {self.wall_s:.2f} s)")
+                f"{steps}, {self.wall_s:.2f} s)")

@@ -17,6 +17,8 @@ from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
+from .validation import real
+
 __all__ = ["Scene", "ShearScene", "SineScene", "SCENES", "get_scene", "scene_parameters"]
 
 #: name -> Scene subclass; filled by the subclasses themselves
@@ -40,10 +42,8 @@ class Scene:
             SCENES[cls.name] = cls
 
     def __post_init__(self):
-        if not (np.isfinite(self.H) and self.H > 0):
-            raise ValueError(f"`H` must be > 0; got {self.H}")
-        if not (np.isfinite(self.phi0) and 0 < self.phi0 < 1):
-            raise ValueError(f"`phi0` must lie in (0, 1) (and below phi_c); got {self.phi0}")
+        real("H", self.H, 0)
+        real("phi0", self.phi0, 0, 1, what="a finite number (below phi_c)")
 
     def initial_condition(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         raise NotImplementedError
@@ -62,8 +62,7 @@ class ShearScene(Scene):
 
     def __post_init__(self):
         super().__post_init__()
-        if not np.isfinite(self.eps):
-            raise ValueError(f"`eps` must be finite; got {self.eps}")
+        real("eps", self.eps)
 
     def initial_condition(self, z):
         zc = z - self.H / 2
@@ -83,8 +82,7 @@ class SineScene(Scene):
     def __post_init__(self):
         super().__post_init__()
         for name in ("a", "b"):
-            if not np.isfinite(getattr(self, name)):
-                raise ValueError(f"`{name}` must be finite; got {getattr(self, name)}")
+            real(name, getattr(self, name))
 
     def initial_condition(self, z):
         s = np.sin(2 * np.pi * z / self.H)

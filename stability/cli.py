@@ -86,7 +86,7 @@ def _stability(args) -> int:
             angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
             ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"icidr-pde: error: {e}", file=sys.stderr)
         return 2
     out = {}
     if sn is not None:

@@ -75,7 +75,7 @@ def test_icidr_sine_converges_with_local_maximum_near_3(icidr_sine):
 def test_cli_run_json_contract(tmp_path):
     out = tmp_path / "out.json"
     assert main(["run", "--rheology", "mui", "--scene", "shear", "--N", "201", "--t-end", "1",
-                 "--times", "0", "0.005", "0.50", "--json", str(out), "--no-progress"]) == 0
+                 "--times", "0", "0.005", "0.50", "--json", str(out), "--no-progress"]) == 3  # failed run
     data = json.loads(out.read_text())
     for key in ("rheology", "scene", "discretization", "N", "t_end", "rtol", "atol", "blew_up",
                 "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s", "n_steps",

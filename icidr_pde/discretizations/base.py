@@ -23,7 +23,9 @@ Methods (all must be implemented unless marked optional)
     unknowns, shape ``grid.shape`` (1-D) or ``(*grid.shape, dim)``; ``make_state(grid,
     phi, u, w)`` -- fields sampled at the nodes from callables of the node positions or
     arrays; ``integral(values, grid)`` -- the scheme's quadrature of a field over the cell
-    (it conserves the mass integral of phi); ``strain_rates(data, grid)`` -- ``(positions,
+    (it conserves the mass integral of phi); ``quadrature_weights(grid)`` (optional) -- its
+    weights c, integral = c . values (the integrator keeps c . phi conserved by its Newton
+    updates with them); ``strain_rates(data, grid)`` -- ``(positions,
     phi, *rates)`` where the stresses are evaluated, rates in ``kinematics.rates`` order;
     ``make_rates(state)`` -- ``rhs(data, t) -> rates`` evaluated by compiled kernels cached
     on disk (no per-process compilation, see :mod:`icidr_pde.rheology.codegen`);
@@ -47,6 +49,7 @@ from pde import CartesianGrid, FieldCollection, ScalarField
 from pde.pdes.base import PDEBase
 
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
+from ..validation import ParameterError, format_bytes, integer, memory_bytes, real
 
 __all__ = ["ShearCellBase", "DISCRETIZATIONS", "get_discretization"]
 
@@ -106,14 +109,31 @@ class ShearCellBase(PDEBase):
 
     # --- grid and state -------------------------------------------------------------------
 
+    #: documented largest N, and what a run on N points needs (bytes, roughly)
+    max_N: ClassVar[int] = 100_000
+    memory_note: ClassVar[str] = "state, Jacobian and work vectors"
+
+    @staticmethod
+    def memory_estimate(N: int) -> float:
+        return 4000.0 * N
+
+    @classmethod
+    def check_N(cls, N) -> int:
+        """N as an int in [4, max_N] whose memory estimate fits into half this machine's memory."""
+        N = integer("N", N, 4)
+        need, have = cls.memory_estimate(N), memory_bytes()
+        if N > cls.max_N or (have is not None and need > 0.5 * have):
+            raise ParameterError(
+                f"`N` = {N} is too large for discretization {cls.name!r}: the maximum is {cls.max_N}, "
+                f"and N = {N} needs about {format_bytes(need)} of memory ({cls.memory_note}); "
+                f"this machine has {format_bytes(have) if have is not None else 'an unknown amount'}")
+        return N
+
     @classmethod
     def make_grid(cls, N: int, H: float = 30.0) -> CartesianGrid:
         """The grid CartesianGrid([[0, H]], N) holding N values per field."""
-        if int(N) != N or N < 4:
-            raise ValueError(f"`N` must be an integer >= 4; got {N}")
-        if not (np.isfinite(H) and H > 0):
-            raise ValueError(f"`H` must be > 0; got {H}")
-        return CartesianGrid([[0.0, float(H)]], int(N))
+        N = cls.check_N(N)
+        return CartesianGrid([[0.0, real("H", H, 0)]], N)
 
     def check_grid(self, grid) -> None:
         if not isinstance(grid, CartesianGrid) or grid.num_axes != 1 or grid.periodic[0]:
@@ -163,6 +183,14 @@ class ShearCellBase(PDEBase):
 
     def interleaving(self, state):
         raise NotImplementedError
+
+    def solve(self, state, t_range, dt=None, tracker="auto", *, solver="stiff", **kwargs):
+        """py-pde's ``solve`` with the stiff solver as the default (``solver="stiff"``).
+
+        py-pde's own default, explicit Euler, is stable here only for steps ~h^2/p: 158 s
+        for t = 1 at N = 101. Any py-pde solver can still be named.
+        """
+        return super().solve(state, t_range, dt, tracker, solver=solver, **kwargs)
 
     def check_state(self, data: np.ndarray) -> str | None:
         """Reason why `data` is outside the inertial regime, or None if it is valid."""

@@ -163,6 +163,12 @@ class ChebyshevShearCellPDE(ShearCellBase):
     name = "cheb"
     label = "Chebyshev"
     default_N = 65
+    max_N = 4001  # the dense 3N x 3N Jacobian and its LU: ~2.5 GB at N = 4001
+    memory_note = "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix"
+
+    @staticmethod
+    def memory_estimate(N: int) -> float:
+        return 8.0 * (3 * 9 * N**2 + 2 * N**2)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, **options):
@@ -200,6 +206,10 @@ class ChebyshevShearCellPDE(ShearCellBase):
     def integral(self, values: np.ndarray, grid) -> float:
         """Clenshaw-Curtis integral over 0 < z < H of values at the collocation points."""
         return float(np.dot(self.operators(grid)[2], values))
+
+    def quadrature_weights(self, grid) -> np.ndarray:
+        """Clenshaw-Curtis weights c of :meth:`integral` (integral = c . values)."""
+        return self.operators(grid)[2].copy()
 
     def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
         """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays.

@@ -91,6 +91,8 @@ class ShearCellPDE(ShearCellBase):
     label = "finite volumes"
     default_N = 201
     options = {"advection": ADVECTION_SCHEMES}
+    max_N = 100_000  # memory ~4 kB per cell; the run time grows like N^2
+    memory_note = "banded Jacobian and work vectors"
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):
@@ -269,6 +271,10 @@ class ShearCellPDE(ShearCellBase):
         """Integral over 0 < z < H of cell-centred values (midpoint rule, exact for mass)."""
         return float(np.sum(values) * grid.discretization[0])
 
+    def quadrature_weights(self, grid) -> np.ndarray:
+        """Weights c of :meth:`integral` (integral = c . values)."""
+        return np.full(grid.shape[0], float(grid.discretization[0]))
+
 
 def _ghost_extension(n: int, alpha_left: float, alpha_right: float):
     """Sparse E with full = E @ valid + const for one ghost cell per side."""
@@ -322,8 +328,10 @@ def _fd_jacobian(pde: ShearCellPDE, grid: CartesianGrid):
         phi_g, u_g, w_g = pde._padded(data, coeffs)
         phi_f, w_f = avg @ phi_g, avg @ w_g
         uz_f, wz_f = grad @ u_g, grad @ w_g
-        p, txz, tzz = rheology.stress(phi_f, uz_f, wz_f)
-        d = rheology.stress_jacobian(phi_f, uz_f, wz_f)
+        # the kernels themselves: the public stress() refuses results outside the float range
+        kernels, params = rheology.kernels(), rheology.material.params
+        p, txz, tzz = kernels.stress_numpy(phi_f, uz_f, wz_f, params)
+        d = kernels.stress_jacobian_numpy(phi_f, uz_f, wz_f, params)
         dfu = d[3:6]
         dfw = [d[6 + k] - d[k] for k in range(3)]
         inv_phi = diag(1 / phi)

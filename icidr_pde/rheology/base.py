@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..validation import ParameterError
+
 from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
 from .material import Material
 
@@ -104,6 +106,9 @@ class Rheology:
 
         return law_kernels(self, kinematics)
 
+    #: p and tau are homogeneous of degree 2 in the strain rate (rate-independent laws)
+    rate_homogeneous: bool = False
+
     def _inputs(self, phi, uz, wz):
         phi, uz, wz = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (phi, uz, wz)))
         self.material.check_phi(phi)
@@ -113,9 +118,38 @@ class Rheology:
         return phi, uz, wz
 
     def stress(self, phi, uz, wz):
-        """Shear-cell (p, tau_xz, tau_zz) for arrays of phi in the inertial range, u_z, w_z."""
+        """Shear-cell (p, tau_xz, tau_zz) for arrays of phi in the inertial range, u_z, w_z.
+
+        For a rate-independent law (``rate_homogeneous``: p and tau of degree 2 in the
+        strain rate) the kernel is evaluated at the rates scaled by a power of two to order 1
+        and the result scaled back exactly, so no intermediate overflows or underflows; a
+        result outside the normal float range (|rates| beyond ~1e150, or so small that p
+        underflows) is refused by name instead of returned as nan, inf or a spurious 0.
+        """
         phi, uz, wz = self._inputs(phi, uz, wz)
-        return self.kernels().stress_numpy(phi, uz, wz, self.material.params)
+        kernel = self.kernels().stress_numpy
+        if not self.rate_homogeneous:
+            return self._in_float_range(kernel(phi, uz, wz, self.material.params), uz, wz)
+        _, e = np.frexp(np.maximum(np.abs(uz), np.abs(wz)))
+        unit = np.ldexp(1.0, e)
+        scaled = kernel(phi, uz / unit, wz / unit, self.material.params)
+        with np.errstate(over="ignore", under="ignore"):  # judged by _in_float_range
+            out = tuple(np.ldexp(x, 2 * e) for x in scaled)
+        return self._in_float_range(out, uz, wz)
+
+    def _in_float_range(self, out, uz, wz):
+        p = out[0]
+        moving = (uz != 0) | (wz != 0)
+        bad = ~np.all([np.isfinite(x) for x in out], axis=0)
+        if self.rate_homogeneous:
+            bad |= moving & (np.abs(p) < np.finfo(float).tiny)
+        if np.any(bad):
+            i = np.flatnonzero(np.ravel(bad))[0]
+            u, w = float(np.ravel(uz)[i]), float(np.ravel(wz)[i])
+            raise ParameterError(f"strain rates u_z = {u:g}, w_z = {w:g} give a pressure outside the "
+                                 f"float range (|p| in [{np.finfo(float).tiny:.3g}, {np.finfo(float).max:.3g}]); "
+                                 "rescale the problem")
+        return out
 
     def stress_jacobian(self, phi, uz, wz):
         """The nine partial derivatives of (p, tau_xz, tau_zz) by (phi, u_z, w_z)."""

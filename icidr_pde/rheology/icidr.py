@@ -34,6 +34,7 @@ class ICIDR(CIDRLaw):
     """Inertial CIDR, (4.7)-(4.8), with local pressure (4.12) and stress (4.14)."""
 
     name = "icidr"
+    rate_homogeneous = True  # p, tau of degree 2 in the strain rate: I is rate-independent
     label = "iCIDR"
 
     def yield_function(self, p, I, phi, M, Psi, prm):  # noqa: E741

@@ -17,6 +17,7 @@ class MuIPhiI(DirectLaw):
     """The compressible mu(I),Phi(I)-rheology, (2.6)-(2.8); shear cell (3.6), (3.8)."""
 
     name = "mui"
+    rate_homogeneous = True  # p, tau of degree 2 in the strain rate: I is rate-independent
     label = r"$\mu(I),\Phi(I)$"
 
     def pressure(self, phi, div_u, norm_S, M, Psi, prm):

@@ -42,17 +42,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "tstar", help="failure time t*(N) sweep (fig 4b)",
         description="Sweep N and record the failure time t* (null: no failure by --t-end).")
-    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="mui")
-    p.add_argument("--scene", choices=sorted(SCENES), default="shear")
+    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="mui", help="constitutive law")
+    p.add_argument("--scene", choices=sorted(SCENES), default="shear", help="initial condition")
     p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=["fd"],
                    help="one or both of fd (default) and cheb")
     p.add_argument("--N", default=None,
                    help="start:stop:step with stop included, e.g. 21:201:2 (default), "
                         "or a comma-separated list")
-    p.add_argument("--t-end", type=float, default=20.0)
-    p.add_argument("--method", choices=sorted(METHODS), default="BDF")
-    p.add_argument("--rtol", type=float, default=1e-6)
-    p.add_argument("--atol", type=float, default=1e-9)
+    p.add_argument("--t-end", type=float, default=20.0, help="a run that reaches it did not fail")
+    p.add_argument("--method", choices=sorted(METHODS), default="BDF", help="integrator")
+    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
+    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
