@@ -46,7 +46,7 @@ def wait_for_progress(proc, timeout=900):
             seen += os.read(fd, 65536).decode(errors="replace")
         except BlockingIOError:
             pass
-        if any(float(t) > 0 for t in re.findall(r"\|\s*([0-9.]+(?:e[+-]?\d+)?)/", seen)):
+        if any(float(t) > 0 for t in re.findall(r"([0-9.]+(?:e[+-]?\d+)?)/[0-9.e+]+ \[", seen)):
             return seen  # the integration is under way (not only compiling)
         if proc.poll() is not None:
             raise AssertionError(f"process ended early: {seen}")
