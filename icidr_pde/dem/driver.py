@@ -119,16 +119,7 @@ class ShearCell:
                 f"set type {k} diameter {d!r}",
                 f"set type {k} density/disc {p.rho!r}",
             ]
-        lines += [
-            "neighbor 0.3 bin",
-            "neigh_modify delay 0 every 1 check yes",
-            f"timestep {p.dt!r}",
-            "compute s all stress/atom NULL pair",
-            "compute p all reduce sum c_s[1] c_s[2] c_s[4]",
-            "thermo_style custom step c_p[1] c_p[2] c_p[3]",
-            "thermo 1000000000",
-            "fix en all enforce2d",
-        ]
+        lines += self._run_settings()
         self._cmd("\n".join(lines))
         if self.preparation == "minimize":
             self._relax()
@@ -136,6 +127,20 @@ class ShearCell:
             self._relax_rescale()
         self._cmd(self._contact_commands())
         self._start_shear()
+
+    def _run_settings(self) -> list[str]:
+        """Neighbour lists, time step, the pair-stress reduction and the 2-D constraint,
+        the same for a new cell and for one continued from a restart file."""
+        return [
+            "neighbor 0.3 bin",
+            "neigh_modify delay 0 every 1 check yes",
+            f"timestep {self.params.dt!r}",
+            "compute s all stress/atom NULL pair",
+            "compute p all reduce sum c_s[1] c_s[2] c_s[4]",
+            "thermo_style custom step c_p[1] c_p[2] c_p[3]",
+            "thermo 1000000000",
+            "fix en all enforce2d",
+        ]
 
     def _contact_commands(self) -> str:
         """The appendix-C frictional spring-dashpot contact (pair granular)."""
@@ -154,14 +159,7 @@ class ShearCell:
             # keeps its instance and the contact-history fix
             self._contact_commands(),
             "comm_modify vel yes",
-            "neighbor 0.3 bin",
-            "neigh_modify delay 0 every 1 check yes",
-            f"timestep {p.dt!r}",
-            "compute s all stress/atom NULL pair",
-            "compute p all reduce sum c_s[1] c_s[2] c_s[4]",
-            "thermo_style custom step c_p[1] c_p[2] c_p[3]",
-            "thermo 1000000000",
-            "fix en all enforce2d",
+            *self._run_settings(),
             "fix nv all nve/sphere disc",
             f"fix le all deform 1 xy erate {p.shear_rate!r} remap v flip yes",
             "run 0",
