@@ -1,15 +1,29 @@
 """icidr-pde: the mu(I),Phi(I) and iCIDR rheologies of dense granular flow on py-pde.
 
 Schaeffer, Barker, Tsuji, Gremaud, Shearer & Gray (2019), J. Fluid Mech. 874, 926-951.
+
+The public names are loaded on first use (PEP 562): ``import icidr_pde`` alone imports
+neither py-pde nor numba, so that the command line's ``--help`` and the subcommands that
+need neither start fast; ``icidr_pde.run`` imports what a run needs the first time it is
+looked up.
 """
 
-from .api import run
-from .case import build_case, make_pde
-from .discretizations import DISCRETIZATIONS, ChebyshevShearCellPDE, ShearCellPDE
-from .integrator import SimulationFailed, StiffSolver
-from .result import Result
-from .rheology import ICIDR, RHEOLOGIES, Material, MuIPhiI, define_rheology, get_rheology
-from .scenes import SCENES, get_scene
+from __future__ import annotations
+
+import importlib
+
+# public name -> submodule that defines it
+_EXPORTS = {
+    "run": "api",
+    "build_case": "case", "make_pde": "case",
+    "DISCRETIZATIONS": "discretizations", "ChebyshevShearCellPDE": "discretizations",
+    "ShearCellPDE": "discretizations",
+    "SimulationFailed": "integrator", "StiffSolver": "integrator",
+    "Result": "result",
+    "ICIDR": "rheology", "RHEOLOGIES": "rheology", "Material": "rheology", "MuIPhiI": "rheology",
+    "define_rheology": "rheology", "get_rheology": "rheology",
+    "SCENES": "scenes", "get_scene": "scenes",
+}
 
 __all__ = [
     "run", "build_case", "make_pde", "Result", "Material", "MuIPhiI", "ICIDR", "get_rheology",
@@ -17,3 +31,16 @@ __all__ = [
     "StiffSolver", "SimulationFailed", "SCENES", "get_scene",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

