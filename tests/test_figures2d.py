@@ -1,0 +1,91 @@
+"""The 2-D gallery entries (dims="2d") at draft resolution, against independent truth.
+
+Truth used: the closed forms of docs/plane_waves.md written out here from Material's M and Psi
+(the ill-posed interval |theta - beta| < arccos(M)/2, the worst-angle value 4 s (1 - M)/(phi Psi^2)),
+the 1-D toolkit's Lambda_+ (stability.numeric, a separate code path) at theta = 90 deg, mass
+conservation, and the findings of docs/sim2d.md (mu(I) fails on bump2d with t* falling under
+refinement, the x-independent 1-D run decays, iCIDR decays).
+"""
+
+import numpy as np
+import pytest
+
+from icidr_pde.figures import FIGURES, RunCache, bump2d_pair, make_figures, spectrum_fraction, write_gallery
+from icidr_pde.rheology import Material
+
+NAMES_2D = ("polar2d", "bump2d", "tstar2d")
+
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory):
+    out = tmp_path_factory.mktemp("figures2d")
+    runs = RunCache(draft=True)
+    numbers = make_figures(list(NAMES_2D), out, draft=True, runs=runs, verbose=False)
+    return out, runs, numbers
+
+
+def test_2d_entries_are_registered_as_2d_and_drawn(drawn, tmp_path):
+    out, _, numbers = drawn
+    for name in NAMES_2D:
+        assert FIGURES[name].dims == "2d"
+        assert (out / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    page = write_gallery(numbers, tmp_path).read_text()
+    for name in NAMES_2D:
+        assert f"icidr-pde figures --only {name}" in page and f"({name}.png)" in page
+
+
+def test_polar_ill_posed_interval_is_the_closed_form(drawn):
+    """Steady shear u = z/30: beta = 45 deg, the interval 45 -+ arccos(M)/2 with M = mu(Psi(0.78))."""
+    n = drawn[2]["polar2d"]
+    m, phi0, s = Material(), 0.78, 0.5 / 30.0
+    M, Psi = float(m.M(phi0)), float(m.Psi(phi0))
+    half = np.degrees(np.arccos(M)) / 2
+    [[a, b]] = n["mui_ill_posed_intervals_deg"]
+    assert a == pytest.approx(45.0 - half, abs=1e-9) and b == pytest.approx(45.0 + half, abs=1e-9)
+    assert n["mui_worst_angle_deg"] == pytest.approx(45.0, abs=1e-6)
+    assert n["mui_max_lambda"] == pytest.approx(4 * s * (1 - M) / (phi0 * Psi**2), rel=1e-10)
+    assert n["icidr_well_posed"] and n["icidr_max_lambda"] < 0
+
+
+def test_polar_1d_direction_is_the_1d_toolkits_lambda_plus(drawn):
+    from stability.numeric import stability_numbers
+
+    one_d = stability_numbers("mui", 0.78, 1 / 30, 0.0).lambda_plus.real
+    assert drawn[2]["polar2d"]["mui_lambda_at_90_deg"] == pytest.approx(one_d, rel=1e-10)
+    assert one_d < 0  # the 1-D cell sees a stable direction of an ill-posed law
+
+
+def test_bump2d_mui_fails_icidr_decays_at_the_same_time_mass_conserved(drawn):
+    _, runs, numbers = drawn
+    n = numbers["bump2d"]
+    pair = bump2d_pair(runs)  # the runs the figure drew (cached in `runs`)
+    mui, icidr = pair["mui"], pair["icidr"]
+    assert mui.blew_up and not icidr.blew_up
+    assert 0.9 < n["t_shown_over_t_star"] < 1.0
+    assert np.any(np.isclose(icidr.times, n["t_shown"], rtol=0, atol=1e-12))
+    assert abs(n["mass_drift_mui"]) < 1e-12 and abs(n["mass_drift_icidr"]) < 1e-12
+    w0 = 0.05 / np.sqrt(2 * np.e)  # max|w(x, z, 0)| = eps max_s s exp(-s^2), at s = 1/sqrt(2)
+    assert n["max_abs_w_icidr"] < w0 < n["max_abs_w_mui"]
+
+
+def test_bump2d_growth_lies_in_the_closed_form_ill_posed_cone(drawn):
+    """The mu(I) failure concentrates phi's energy in wave vectors inside |theta - 45| < arccos(M)/2."""
+    n = drawn[2]["bump2d"]
+    assert n["mui_phi_spectrum_fraction_in_ill_posed_cone"] > max(0.5, 1.5 * n["cone_share_of_angles"])
+
+
+def test_spectrum_fraction_of_a_single_plane_wave():
+    x = (np.arange(32) + 0.5) * 30 / 32
+    X, Z = np.meshgrid(x, x, indexing="ij")
+    wave = np.cos(2 * np.pi * (3 * X + 3 * Z) / 30)  # wave vector at 45 degrees
+    assert spectrum_fraction(wave, 30, 30, 40, 50) == pytest.approx(1.0)
+    assert spectrum_fraction(wave, 30, 30, 50, 130) == pytest.approx(0.0, abs=1e-20)
+
+
+def test_tstar2d_findings_and_the_fresh_runs(drawn):
+    n = drawn[2]["tstar2d"]
+    assert n["t_star_2d_falls"]
+    assert n["fresh_1d_decays"] and all(t is not None for t in n["fresh_t_star_2d"].values())
+    fresh = list(n["fresh_t_star_2d"].values())
+    assert all(a > b for a, b in zip(fresh, fresh[1:]))
+    assert n["fresh_vs_committed_rel_max"] < 1e-4  # the committed study is what its code computes today
