@@ -150,9 +150,13 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
     """Integrate `case` to `t_end` with `solver`, calling `trackers` at their interrupts.
 
     A failure is not an exception: the Outcome says blew_up, t* (last accepted time) and why,
-    with the state at t*. wall_s excludes the kernels' set-up time (compile_s).
+    with the state at t*. wall_s excludes the kernels' set-up time (compile_s). A max|w|
+    series with listed times is recorded by the solver inside its loop, not at interrupts.
     """
-    controller = Controller(solver, t_range=(0.0, t_end), tracker=trackers)
+    in_loop = [t for t in trackers if isinstance(t, MaxWTracker) and t.series_times is not None]
+    for tracker in in_loop:
+        solver.record(tracker.series_times, tracker.record)
+    controller = Controller(solver, t_range=(0.0, t_end), tracker=[t for t in trackers if t not in in_loop])
     start = _time.perf_counter()
     try:
         final = controller.run(case.state).data.copy()  # run() works on a copy of the state

@@ -26,6 +26,7 @@ from pde.solvers.base import SolverBase
 import scipy.integrate
 from scipy import sparse
 
+from . import cvode_counters
 from .colored_fd import colored_fd_jacobian
 
 from .conservative_jacobian import ConservativeDifferenceQuotients
@@ -53,12 +54,13 @@ class SimulationFailed(RuntimeError):
 
 @dataclass
 class StepStatistics:
-    """Counts of a run; n_steps is None for CVODE (scikit-sundae does not report it)."""
+    """Counts of a run (CVODE's from its own counters, :mod:`icidr_pde.cvode_counters`;
+    None where they are not available)."""
 
     n_steps: int | None = 0
     n_rhs: int = 0
     n_jac: int = 0
-    n_lu: int = 0
+    n_lu: int | None = 0
 
 
 def check_tolerances(rtol: float, atol: float) -> tuple[float, float]:
@@ -97,16 +99,18 @@ class Engine:
         methods: the method names the engine implements
         jacobian_modes: {method: valid Jacobian modes}; the first is the method's default
 
-    ``Engine(method, fun, t0, y0, *, rtol, atol, max_step, first_step, jacobian, margins)``
-    starts an integration of y' = fun(t, y) at (t0, y0); `jacobian` is a
-    :class:`JacobianSpec`, `margins(y)` (optional) returns numbers that are all positive
-    while the state is valid. Then:
+    ``Engine(method, fun, t0, y0, *, rtol, atol, max_step, first_step, jacobian, margins,
+    fun_into, margins_into)`` starts an integration of y' = fun(t, y) at (t0, y0); `jacobian`
+    is a :class:`JacobianSpec`, `margins(y)` (optional) returns numbers that are all positive
+    while the state is valid; `fun_into(t, y, out)` and `margins_into(y, out)` (optional) are
+    the same written into a given array (an engine whose callbacks hand over their output
+    array uses them: no temporaries). Then:
 
     * ``advance(t_end, check)`` takes accepted steps until the engine has passed t_end;
       `check(y)` returns a failure reason or None for every accepted state. Returns None,
       or (t_good, y_good, reason): the last valid accepted state and why it stopped;
     * ``value_at(t)`` is the state at a t inside the last step (dense output);
-    * ``counts()`` is (steps or None, Jacobian evaluations, LU decompositions).
+    * ``counts()`` is (steps or None, Jacobian evaluations, LU decompositions or None).
     """
 
     methods: tuple[str, ...] = ()
@@ -141,7 +145,7 @@ class ScipyEngine(Engine):
                       "LSODA": ("banded-fd", "analytic", "none")}
 
     def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 jacobian: JacobianSpec, margins=None):
+                 jacobian: JacobianSpec, margins=None, fun_into=None, margins_into=None):
         options = dict(rtol=rtol, atol=atol, max_step=max_step)
         if first_step is not None:
             options["first_step"] = first_step
@@ -254,7 +258,7 @@ class CvodeEngine(Engine):
     banded_analytic = True
 
     def __init__(self, method, fun, t0, y0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 jacobian: JacobianSpec, margins=None):
+                 jacobian: JacobianSpec, margins=None, fun_into=None, margins_into=None):
         from sksundae.cvode import CVODE
 
         # min_step: without one CVODE halves h down to 1e-165 before giving up on a blow-up
@@ -306,7 +310,16 @@ class CvodeEngine(Engine):
                 JJ[:, :] = dense_jac(t, y)
 
             kwargs.update(linsolver="lapackdense", jacfn=jacfn)
-        if margins is not None:
+        if margins_into is not None:  # the root function runs at every step: no temporaries
+            n_events = len(margins(y0))
+
+            def eventsfn(t, y, events):
+                margins_into(y, events)
+
+            eventsfn.terminal = [True] * n_events
+            eventsfn.direction = [-1] * n_events
+            kwargs.update(eventsfn=eventsfn, num_events=n_events)
+        elif margins is not None:
             n_events = len(margins(y0))
 
             def eventsfn(t, y, events):
@@ -320,15 +333,20 @@ class CvodeEngine(Engine):
         self.output = _CapturedOutput()
         self.log: list[str] = []
 
+        if fun_into is None:
+            def fun_into(t, y, yp):
+                yp[:] = fun(t, y)
+
         def rhsfn(t, y, yp):
             try:
-                yp[:] = fun(t, y)
+                fun_into(t, y, yp)
             except KeyboardInterrupt as interrupt:  # re-raised once CVODE has returned
                 self.interrupt = interrupt
                 raise
 
         self.solver = CVODE(rhsfn, **kwargs)
-        self.solver.init_step(t0, y0)
+        start = self.solver.init_step(t0, y0)
+        self.counters = cvode_counters.attach(self.solver, start.nfev)
         self.t, self.y, self.njev = t0, np.array(y0), 0
 
     def advance(self, t_end, check):
@@ -356,7 +374,9 @@ class CvodeEngine(Engine):
         return self.y
 
     def counts(self):
-        return None, self.njev, 0
+        if self.counters is None:
+            return None, self.njev, None
+        return self.counters.get("steps"), self.counters.get("jac"), self.counters.get("lu")
 
 
 def _pattern_values(jac, pattern):
@@ -439,6 +459,7 @@ class StiffSolver(SolverBase):
         self.max_step = max_step
         self.stats = StepStatistics()
         self.last_good: tuple[float, np.ndarray] | None = None
+        self._records: list = []
 
     def _conserved(self, state, perm):
         """(weights, anchor) of the mass of phi in the engine's ordering, or (None, None)."""
@@ -496,6 +517,38 @@ class StiffSolver(SolverBase):
         self._select_backend(state)
         return self.backend.make_pde_rhs(self.pde, state)
 
+    def record(self, times, callback) -> None:
+        """Call `callback(t, data)` with the state data at each of `times` (sorted), from inside
+        the stepping loop: the integrator stops at these output times as it would at py-pde
+        interrupts (the same sequence of output requests, so the same numbers), without the
+        Controller's and trackers' round trip per output time. `data` is valid only
+        during the call. Times before the start are given the initial state."""
+        self._records.append((np.asarray(times, dtype=float), callback))
+
+    def _validity(self, shape, perm):
+        """(check(y), margins_into(y, out)) on the engine's vector without reordering it, or
+        None where the discretization has no validity_bounds (then the generic ones are used)."""
+        bounds = getattr(self.pde, "validity_bounds", None)
+        if bounds is None:
+            return None
+        lo, hi = bounds()
+        n_phi = int(np.prod(shape[1:]))
+        phi_at = np.arange(n_phi) if perm is None else np.argsort(perm)[:n_phi]
+        step = int(phi_at[1] - phi_at[0]) if n_phi > 1 else 1
+        if n_phi > 1 and step > 0 and np.array_equal(phi_at, phi_at[0] + step * np.arange(n_phi)):
+            phi_at = slice(int(phi_at[0]), int(phi_at[0]) + step * n_phi, step)  # a view, no copy
+
+        def margins_into(y, out):
+            phi = y[phi_at]
+            out[0] = phi.min() - lo
+            out[1] = hi - phi.max()
+
+        def inside(y) -> bool:
+            phi = y[phi_at]
+            return bool(np.isfinite(y).all() and phi.min() > lo and phi.max() < hi)
+
+        return inside, margins_into
+
     def make_stepper(self, state, dt: float | None = None):
         """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
         start = time.perf_counter()
@@ -507,6 +560,8 @@ class StiffSolver(SolverBase):
         check_state = getattr(self.pde, "check_state", lambda data: None)
         pde_margins = getattr(self.pde, "validity_margins", None)
         inverse = None if perm is None else np.argsort(perm)
+        native = np.empty(shape)  # reused by fun_into
+        native_flat = native.reshape(-1)
 
         def to_native(y):  # integrator ordering -> state data
             # always a fresh writable C array (CVODE passes read-only views)
@@ -517,13 +572,31 @@ class StiffSolver(SolverBase):
             rate = rhs(to_native(y), t).ravel()
             return rate if perm is None else rate[perm]
 
-        def check(y):
+        def fun_into(t, y, out):  # the same numbers as fun, without its temporaries
+            stats.n_rhs += 1
+            if perm is None:
+                native_flat[:] = y
+                out[:] = rhs(native, t).reshape(-1)
+            else:
+                np.take(y, inverse, out=native_flat)
+                np.take(rhs(native, t).reshape(-1), perm, out=out)
+
+        def generic_check(y):
             return "state became non-finite" if not np.all(np.isfinite(y)) else check_state(to_native(y))
 
         margins = None if pde_margins is None else (lambda y: pde_margins(to_native(y)))
+        margins_into, check = None, generic_check
+        validity = self._validity(shape, perm) if pde_margins is not None else None
+        if validity is not None:
+            inside, margins_into = validity
+
+            def check(y):  # the message, only for a state outside
+                return None if inside(y) else generic_check(y)
+
         self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
                          dt=None, steps=0)
         engines: list = []  # created at the first call, at its t_start
+        pending = [[times, callback, 0] for times, callback in self._records]
 
         def fail(reason: str):
             if engines:
@@ -531,8 +604,37 @@ class StiffSolver(SolverBase):
             t_good, y_good = self.last_good
             raise SimulationFailed(t_good, reason, to_native(y_good).copy())
 
+        def advance(engine, t):
+            failure = engine.advance(t, check)
+            if failure is not None:
+                self.last_good = failure[:2]
+                fail(failure[2])
+
+        def record_before(engine, t_end):
+            """Advance to and record every output time before t_end (py-pde fires an
+            interrupt within 1e-8 of the current time: a time that close to t_end is t_end's)."""
+            while True:
+                due = [entry[0][entry[2]] for entry in pending if entry[2] < entry[0].size]
+                t = min(due, default=np.inf)
+                if not t < t_end - 1e-8:
+                    return
+                advance(engine, t)
+                record_at(t, to_native(engine.value_at(t)))
+
+        def record_at(t, data):
+            for entry in pending:
+                times, callback, k = entry
+                if k < times.size and times[k] < t + 1e-8:
+                    callback(t, data)
+                    while k < times.size and times[k] < t + 1e-8:
+                        k += 1
+                    entry[2] = k
+
         def stepper(state, t_start: float, t_end: float) -> float:
             if not engines:
+                for entry in pending:  # as py-pde's FixedInterrupts: earlier times are skipped
+                    entry[2] = int(np.searchsorted(entry[0], t_start, side="left"))
+                record_at(t_start, state.data)
                 y0 = np.array(state.data, dtype=float).ravel()
                 y0 = y0 if perm is None else y0[perm]
                 self.last_good = (t_start, y0.copy())
@@ -541,13 +643,14 @@ class StiffSolver(SolverBase):
                     fail(f"initial state invalid: {reason}")
                 engines.append(self.engine(self.method, fun, t_start, y0, rtol=self.rtol, atol=self.atol,
                                            max_step=self.max_step, first_step=dt, jacobian=spec,
-                                           margins=margins))
+                                           margins=margins, fun_into=fun_into, margins_into=margins_into))
             engine = engines[0]
-            failure = engine.advance(t_end, check)
-            if failure is not None:
-                self.last_good = failure[:2]
-                fail(failure[2])
+            if pending:
+                record_before(engine, t_end)
+            advance(engine, t_end)
             state.data[...] = to_native(engine.value_at(t_end))
+            if pending:
+                record_at(t_end, state.data)
             stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
             self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs)
             return t_end

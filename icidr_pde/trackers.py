@@ -40,6 +40,11 @@ def dense_times(t_end: float, n_log: int = 120, n_lin: int = 400, t_min: float =
 class MaxWTracker(TrackerBase):
     """Record max|w|(t), the maximum over the nodes, at the interrupts.
 
+    Given a list of times, the tracker can instead be recorded by the stiff solver inside
+    its stepping loop (:meth:`icidr_pde.integrator.StiffSolver.record` with `times` and
+    :meth:`record`, as :func:`icidr_pde.api.integrate` does): the same numbers at the same
+    times, without one py-pde interrupt per time.
+
     Args:
         interrupts: when to record (py-pde interrupt data, e.g. a list of times)
     """
@@ -50,10 +55,17 @@ class MaxWTracker(TrackerBase):
         super().__init__(interrupts=interrupts)
         self.times: list[float] = []
         self.values: list[float] = []
+        listed = np.iterable(interrupts) and not isinstance(interrupts, str)
+        #: the times as a sorted array where they were given as a list, else None
+        self.series_times = np.sort(np.asarray(interrupts, dtype=float)) if listed else None
 
     def handle(self, field, t: float) -> None:
+        self.record(t, field.data)
+
+    def record(self, t: float, data: np.ndarray) -> None:
+        """Record max|w| of the state `data` (fields first) at time t."""
         self.times.append(float(t))
-        self.values.append(float(np.max(np.abs(field.data[2]))))
+        self.values.append(float(np.max(np.abs(data[2]))))
 
 
 class ChiTracker(TrackerBase):

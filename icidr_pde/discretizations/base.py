@@ -195,7 +195,7 @@ class ShearCellBase(PDEBase):
     def check_state(self, data: np.ndarray) -> str | None:
         """Reason why `data` is outside the inertial regime, or None if it is valid."""
         phi = data[0]
-        lo, hi = self.material.phi_range
+        lo, hi = self.validity_bounds()
         if np.all(phi > lo) and np.all(phi < hi):
             return None
         lo_name, hi_name = self.material.dilatancy.range_names()
@@ -205,8 +205,15 @@ class ShearCellBase(PDEBase):
     def validity_margins(self, data: np.ndarray) -> np.ndarray:
         """Distances of phi from the ends of its inertial range; all positive while valid."""
         phi = data[0]
-        lo, hi = self.material.phi_range
+        lo, hi = self.validity_bounds()
         return np.array([phi.min() - lo, hi - phi.max()])
+
+    def validity_bounds(self) -> tuple[float, float]:
+        """(lo, hi) of :meth:`validity_margins` and :meth:`check_state`: the state is valid
+        while lo < phi < hi at every node (the stiff integrator evaluates this on its own
+        vector, at every step, without reordering it). A subclass that redefines validity
+        redefines this too, or sets it to None."""
+        return self.material.phi_range
 
 
 def get_discretization(name) -> type:
