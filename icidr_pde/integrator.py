@@ -187,6 +187,12 @@ class ScipyEngine(Engine):
         return self.n_steps, int(self.solver.njev), int(self.solver.nlu)
 
 
+#: refactor CVODE's dense Newton matrix when gamma = h/l0 changed by more than this (SUNDIALS: 0.3).
+#: Measured, mu(I) shear t* and iCIDR sine, Chebyshev N = 201: 138 -> 100 and 130 -> 97 LU
+#: decompositions, t* error against the converged t* 3.5e-5 -> 9.9e-6, max|w| error 6.4e-5 -> 5.1e-5
+#: (0.6: 160 and 113 LUs; 1.5: 138 and 109)
+DENSE_LU_DELTA_GAMMA = 1.0
+
 MIN_STEP_FRACTION = 1e-11  # of the fastest time scale: 9e-15 for mu(I), fd N = 201 (was 1e-14)
 
 
@@ -243,7 +249,7 @@ class CvodeEngine(Engine):
     analytic Jacobian written into CVODE's band matrix and its band LU (no difference
     quotients; exact column sums of the conservative rows, so the Newton corrections
     conserve mass to round-off); 'analytic' otherwise (Chebyshev): the dense analytic
-    Jacobian and LAPACK's dense LU; 'banded-fd': banded difference quotients (2 * band + 1 RHS calls
+    Jacobian and LAPACK's dense LU, kept until gamma has changed by :data:`DENSE_LU_DELTA_GAMMA`; 'banded-fd': banded difference quotients (2 * band + 1 RHS calls
     per Jacobian) computed here with exact mass-row column sums, so that the Newton updates
     conserve mass to round-off (SUNDIALS' own quotients drift it by 2.6e-11 at N = 7; kept
     above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
@@ -347,6 +353,10 @@ class CvodeEngine(Engine):
         self.solver = CVODE(rhsfn, **kwargs)
         start = self.solver.init_step(t0, y0)
         self.counters = cvode_counters.attach(self.solver, start.nfev)
+        if kwargs.get("linsolver") == "lapackdense" and self.counters is not None:
+            # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
+            # I - gamma J until gamma has doubled (modified Newton), not only changed by 30 %
+            self.counters.set_lsetup_reuse(delta_gamma=DENSE_LU_DELTA_GAMMA)
         self.t, self.y, self.njev = t0, np.array(y0), 0
 
     def advance(self, t_end, check):
@@ -526,27 +536,32 @@ class StiffSolver(SolverBase):
         self._records.append((np.asarray(times, dtype=float), callback))
 
     def _validity(self, shape, perm):
-        """(check(y), margins_into(y, out)) on the engine's vector without reordering it, or
-        None where the discretization has no validity_bounds (then the generic ones are used)."""
+        """(inside(y), margins_into(y, out)) on the engine's vector without reordering it
+        (compiled, :mod:`icidr_pde.state_bounds`), or None where the discretization has no
+        validity_bounds or its phi entries are not evenly spaced in the engine's ordering."""
         bounds = getattr(self.pde, "validity_bounds", None)
-        if bounds is None:
+        if bounds is None or bounds() is None:
             return None
-        lo, hi = bounds()
-        n_phi = int(np.prod(shape[1:]))
-        phi_at = np.arange(n_phi) if perm is None else np.argsort(perm)[:n_phi]
-        step = int(phi_at[1] - phi_at[0]) if n_phi > 1 else 1
-        if n_phi > 1 and step > 0 and np.array_equal(phi_at, phi_at[0] + step * np.arange(n_phi)):
-            phi_at = slice(int(phi_at[0]), int(phi_at[0]) + step * n_phi, step)  # a view, no copy
+        from . import state_bounds
+
+        lo, hi = (float(b) for b in bounds())
+        n = int(np.prod(shape[1:]))
+        phi_at = np.arange(n) if perm is None else np.argsort(perm)[:n]
+        start, stride = int(phi_at[0]), int(phi_at[1] - phi_at[0]) if n > 1 else 1
+        if stride <= 0 or not np.array_equal(phi_at, start + stride * np.arange(n)):
+            return None
 
         def margins_into(y, out):
-            phi = y[phi_at]
-            out[0] = phi.min() - lo
-            out[1] = hi - phi.max()
+            state_bounds.margins_into(y, start, stride, n, lo, hi, out)
 
         def inside(y) -> bool:
-            phi = y[phi_at]
-            return bool(np.isfinite(y).all() and phi.min() > lo and phi.max() < hi)
+            return state_bounds.inside(y, start, stride, n, lo, hi)
 
+        probe = np.zeros(int(np.prod(shape)))
+        inside(probe)  # compile or load both signatures now (scipy's y is writable, CVODE's read-only)
+        probe.flags.writeable = False
+        margins_into(probe, np.empty(2))
+        inside(probe)
         return inside, margins_into
 
     def make_stepper(self, state, dt: float | None = None):
@@ -555,10 +570,11 @@ class StiffSolver(SolverBase):
         rhs = self._rates(state)
         rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
         spec, perm = self._jacobian_spec(state)  # a compiled Jacobian is loaded here
+        pde_margins = getattr(self.pde, "validity_margins", None)
+        validity = self._validity(state.data.shape, perm) if pde_margins is not None else None
         self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
         shape, stats = state.data.shape, self.stats
         check_state = getattr(self.pde, "check_state", lambda data: None)
-        pde_margins = getattr(self.pde, "validity_margins", None)
         inverse = None if perm is None else np.argsort(perm)
         native = np.empty(shape)  # reused by fun_into
         native_flat = native.reshape(-1)
@@ -586,7 +602,6 @@ class StiffSolver(SolverBase):
 
         margins = None if pde_margins is None else (lambda y: pde_margins(to_native(y)))
         margins_into, check = None, generic_check
-        validity = self._validity(shape, perm) if pde_margins is not None else None
         if validity is not None:
             inside, margins_into = validity
 

@@ -86,6 +86,8 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
     to zero, as the mass flux does."""
     n = data.shape[1]
     g = padded(data, ghost)
+    flux_u = numpy.empty(n + 1)
+    flux_w = numpy.empty(n + 1)
     for i in range(n):
         for j in range(max(i - 1, 0), min(i + 2, n)):
             for k in range(3):
@@ -99,6 +101,9 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
         uz = (g[1, f + 1] - g[1, f]) / h
         wz = (g[2, f + 1] - g[2, f]) / h
         d = law.stress_jacobian(phi_f, uz, wz, params)
+        p, txz, tzz = law.stress(phi_f, uz, wz, params)
+        flux_u[f] = txz
+        flux_w[f] = tzz - p
         # partials of F_u = tau_xz and F_w = tau_zz - p by (phi_f, u_z, w_z)
         fu = (d[3], d[4], d[5])
         fw = (d[6] - d[0], d[7] - d[1], d[8] - d[2])
@@ -132,14 +137,10 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
                 _add(J, n, ghost, cell, k, right, 2, c * dflux[2] / h)
     for i in range(n):  # 1/phi factor and advection -w d_z
         c = i + 1
-        p, txz_r, tzz_r = law.stress(0.5 * (g[0, c + 1] + g[0, c]), (g[1, c + 1] - g[1, c]) / h,
-                                     (g[2, c + 1] - g[2, c]) / h, params)
-        p_l, txz_l, tzz_l = law.stress(0.5 * (g[0, c] + g[0, c - 1]), (g[1, c] - g[1, c - 1]) / h,
-                                       (g[2, c] - g[2, c - 1]) / h, params)
         phi = g[0, c]
         w = g[2, c]
-        J[3 * i + 1, 3 * i] -= (txz_r - txz_l) / (h * phi * phi)
-        J[3 * i + 2, 3 * i] -= ((tzz_r - p) - (tzz_l - p_l)) / (h * phi * phi)
+        J[3 * i + 1, 3 * i] -= (flux_u[i + 1] - flux_u[i]) / (h * phi * phi)
+        J[3 * i + 2, 3 * i] -= (flux_w[i + 1] - flux_w[i]) / (h * phi * phi)
         if upwind:
             if w > 0:
                 lo = i - 1
