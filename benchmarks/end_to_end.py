@@ -19,12 +19,15 @@ integrated by ``scipy.integrate.solve_ivp(method="BDF")``.
 
 **Project**: ``python -m icidr_pde.cli run ...`` of this tree, its default integrator (CVODE)
 at the tolerance given in :data:`CASES`. The first invocation uses a fresh, empty kernel cache
-(NUMBA_CACHE_DIR in a temporary directory: generation and compilation as after installation,
-"cold"); the repeated invocations find the cache ("warm").
+(NUMBA_CACHE_DIR in a temporary directory, removed at the end: generation and compilation as
+after installation, "cold"); the repeated invocations find the cache ("warm"). With
+``--no-cold`` the installed cache is used (one unreported warm-up invocation per case).
 
 Printed per case: whole-process wall time (median and range over --repeats, interleaved
 baseline/project), the in-process solve time (the baseline's solve; the project's ``wall_s``),
-the ratios baseline/project, and beside each the accuracy: the largest over the snapshot
+the ratios baseline/project, the integrators' counts (CVODE: steps, RHS calls, Jacobians and
+LU decompositions from its own counters), the roofline of :func:`roofline` with
+measured/limit, and beside each timing the accuracy: the largest over the snapshot
 times t in {3, 5, 10, 15, 20} (those <= t_end) of |max|w|(t) - ref(t)|/ref(t), with ref the
 converged reference of data/reference (finite volumes N = 3201, CVODE rtol 1e-10) taken at
 the run's own nodes; for t*, |t* - t*_ref|/t*_ref against data/reference (BDF rtol 1e-10).
@@ -319,16 +322,17 @@ def _best(call, repeats=200, budget=0.5):
     return best
 
 
-def roofline(case: str, n_rhs: int, n_jac: int) -> dict:
+def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None) -> dict:
     """Compiled-code limit of the project's solve: what its counted work costs in compiled code.
 
     Measured here, in process, each the best of repeated calls: one compiled right-hand side
     (t_rhs), one Jacobian into the engine's matrix (t_jac), one LU of that matrix (t_lu:
     LAPACK dgbtrf on the band (5, 5) for finite volumes, dgetrf dense for Chebyshev) and one
-    back-substitution (t_solve). CVODE reports no step count, so every RHS call is charged
-    one back-substitution (a Newton iteration is one of each) and every Jacobian one LU:
-    limit = n_rhs (t_rhs + t_solve) + n_jac (t_jac + t_lu). CVODE refactors without a new
-    Jacobian when its step changes, so the LU term is a lower bound.
+    back-substitution (t_solve). With CVODE's own counts (steps, Newton iterations = RHS
+    calls in its corrector, Jacobians, LU decompositions = linear-solver set-ups):
+    limit = n_rhs (t_rhs + t_solve) + n_jac t_jac + n_lu t_lu, i.e. the run's arithmetic with
+    no interpreter, no wrapper and no per-step bookkeeping. Without an LU count every
+    Jacobian is charged one LU (a lower bound: CVODE refactors when its step changes).
     """
     import numpy as np
     from scipy.linalg import lapack
@@ -363,9 +367,10 @@ def roofline(case: str, n_rhs: int, n_jac: int) -> dict:
         t_lu = _best(lambda: lapack.dgetrf(J), repeats=20)
         lu, piv, _ = lapack.dgetrf(J)
         t_solve = _best(lambda: lapack.dgetrs(lu, piv, y))
-    limit = n_rhs * (t_rhs + t_solve) + n_jac * (t_jac + t_lu)
-    return dict(t_rhs=t_rhs, t_jac=t_jac, t_lu=t_lu, t_solve=t_solve, limit_s=limit,
-                lu_share=n_jac * t_lu / limit)
+    n_lu = n_jac if n_lu is None else n_lu
+    limit = n_rhs * (t_rhs + t_solve) + n_jac * t_jac + n_lu * t_lu
+    return dict(t_rhs=t_rhs, t_jac=t_jac, t_lu=t_lu, t_solve=t_solve, limit_s=limit, n_lu=n_lu,
+                lu_share=n_lu * t_lu / limit)
 
 
 def timed(args, env):
@@ -382,7 +387,7 @@ def run_baseline(case, env, workdir):
     wall, _ = timed([sys.executable, __file__, "--baseline", case, "--json", str(out)], env)
     data = json.loads(out.read_text())
     return dict(wall_s=wall, solve_s=data["solve_s"], error=accuracy(case, data["max_w"], data["t_star"]),
-                n_rhs=data["n_rhs"], n_jac=data["n_jac"])
+                n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_lu=data["n_lu"])
 
 
 def run_project(case, env, workdir):
@@ -396,7 +401,7 @@ def run_project(case, env, workdir):
     data = json.loads(out.read_text())
     return dict(wall_s=wall, solve_s=data["wall_s"], compile_s=data["compile_s"],
                 error=accuracy(case, data["max_w"], data["t_star"] if data["blew_up"] else None),
-                n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_steps=data["n_steps"],
+                n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_steps=data["n_steps"], n_lu=data.get("n_lu"),
                 compiled="compiling kernels" in proc.stderr)
 
 
@@ -413,29 +418,42 @@ def summary(runs: list[dict]) -> dict:
 
 
 def measure(cases, repeats: int, cold: bool, blas_threads: int = 1) -> dict:
-    workdir = Path(tempfile.mkdtemp(prefix="icidr_e2e_"))
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(workdir / "cache"), PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-    if blas_threads:
-        env.update(OPENBLAS_NUM_THREADS=str(blas_threads), OMP_NUM_THREADS=str(blas_threads))
-    results = {}
-    for case in cases:
-        first = run_project(case, env, workdir)  # the first case of a law compiles it
-        first = first if cold else None
-        base_runs, proj_runs = [], []
-        for _ in range(repeats):  # interleaved A/B
-            base_runs.append(run_baseline(case, env, workdir))
-            proj_runs.append(run_project(case, env, workdir))
-        results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs))
-        p = results[case]["project"]
-        results[case]["roofline"] = roofline(case, int(statistics.median(r["n_rhs"] for r in proj_runs)),
-                                             int(statistics.median(r["n_jac"] for r in proj_runs)))
-        report_case(case, results[case], repeats)
+    """Interleaved baseline/project processes per case. `cold`: the project's first invocation
+    runs on an empty kernel cache in a temporary directory (reported as "first, cold");
+    otherwise the installed cache is used and nothing is compiled when it is warm (an
+    unreported warm-up invocation makes sure of it). Temporary files are removed."""
+    with tempfile.TemporaryDirectory(prefix="icidr_e2e_") as tmp:
+        workdir = Path(tmp)
+        env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+        if cold:
+            env["NUMBA_CACHE_DIR"] = str(workdir / "cache")
+        if blas_threads:
+            env.update(OPENBLAS_NUM_THREADS=str(blas_threads), OMP_NUM_THREADS=str(blas_threads))
+        results = {}
+        for case in cases:
+            first = run_project(case, env, workdir)  # cold: the first case of a law compiles it
+            first = first if cold else None
+            base_runs, proj_runs = [], []
+            for _ in range(repeats):  # interleaved A/B
+                base_runs.append(run_baseline(case, env, workdir))
+                proj_runs.append(run_project(case, env, workdir))
+            results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs))
+            counts = {k: int(statistics.median(r[k] for r in proj_runs)) if proj_runs[0][k] is not None else None
+                      for k in ("n_rhs", "n_jac", "n_lu")}
+            results[case]["roofline"] = roofline(case, counts["n_rhs"], counts["n_jac"], counts["n_lu"])
+            report_case(case, results[case], repeats)
     return results
 
 
 def fmt(row, key):
     lo, hi = row[key + "_range"]
     return f"{row[key]:7.3f} s [{lo:.3f}-{hi:.3f}]"
+
+
+def _counts(row):
+    steps = f"{row['n_steps']} steps, " if row.get("n_steps") is not None else ""
+    lu = f", {row['n_lu']} LU" if row.get("n_lu") is not None else ""
+    return f"{steps}{row['n_rhs']} RHS, {row['n_jac']} Jacobians{lu}"
 
 
 def report_case(case, res, repeats):
@@ -446,16 +464,18 @@ def report_case(case, res, repeats):
         print(f"  project first invocation, cold cache: {first['wall_s']:7.3f} s  (compile {first['compile_s']:.2f} s,"
               f" solve {first['solve_s']:.3f} s; compiled: {first['compiled']}), error {first['error']:.2e}")
     print(f"  baseline whole process: {fmt(b, 'wall_s')}   solve {fmt(b, 'solve_s')}   error {b['error']:.2e}"
-          f"  (BDF {CASES[case]['baseline']}, {b['n_rhs']} RHS, {b['n_jac']} Jacobians)")
+          f"  (BDF {CASES[case]['baseline']}; {_counts(b)})")
     print(f"  project  whole process: {fmt(p, 'wall_s')}   solve {fmt(p, 'solve_s')}   error {p['error']:.2e}"
-          f"  (compile/load {p['compile_s']:.2f} s, {p['n_rhs']} RHS, {p['n_jac']} Jacobians)")
+          f"  (compile/load {p['compile_s']:.2f} s; CVODE {_counts(p)})")
     print(f"  ratio baseline/project: whole process warm {b['wall_s'] / p['wall_s']:.2f}x"
           + (f", first cold {b['wall_s'] / first['wall_s']:.2f}x" if first else "")
           + f"; in process {b['solve_s'] / p['solve_s']:.1f}x", flush=True)
     r = res["roofline"]
+    per_step = (f"{1e6 * p['solve_s'] / p['n_steps']:.0f} us per step, " if p.get("n_steps") else "")
     print(f"  roofline: RHS {r['t_rhs'] * 1e6:.1f} us, Jacobian {r['t_jac'] * 1e6:.0f} us, LU {r['t_lu'] * 1e6:.0f} us,"
           f" back-substitution {r['t_solve'] * 1e6:.1f} us -> compiled limit {r['limit_s']:.3f} s"
-          f" (LU {100 * r['lu_share']:.0f} %); project solve / limit = {p['solve_s'] / r['limit_s']:.1f}", flush=True)
+          f" (LU {100 * r['lu_share']:.0f} %); measured {per_step}{1e6 * p['solve_s'] / p['n_rhs']:.0f} us per RHS;"
+          f" project solve / limit = {p['solve_s'] / r['limit_s']:.1f}", flush=True)
 
 
 def main(argv=None) -> int:
@@ -463,7 +483,8 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline", choices=sorted(CASES), help="run the plain script for one case (internal)")
     parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=list(CASES))
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--no-cold", action="store_true", help="do not report the first invocation (empty cache)")
+    parser.add_argument("--no-cold", action="store_true",
+                        help="skip the first invocation on an empty kernel cache; use the installed cache")
     parser.add_argument("--blas-threads", type=int, default=1,
                         help="OPENBLAS_NUM_THREADS of every process (0: inherit); see the module docstring")
     parser.add_argument("--json", default=None)

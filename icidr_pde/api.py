@@ -163,6 +163,8 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
         blew_up, t_star, t_final = False, None, t_end
         reason = "reached t_end"
         stop = controller.info.get("stop_reason", "Reached final time")
+        if solver.interrupted is not None and stop == "Reached final time":  # in the last call's loop
+            stop, controller.info["t_final"] = "User interrupted simulation", solver.interrupted
         if stop != "Reached final time":  # a tracker ended the run (e.g. the wall-clock limit)
             reason, t_final = stop, float(controller.info.get("t_final", t_end))
         if stop == "User interrupted simulation":  # py-pde's Controller swallows KeyboardInterrupt

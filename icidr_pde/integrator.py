@@ -470,6 +470,8 @@ class StiffSolver(SolverBase):
         self.stats = StepStatistics()
         self.last_good: tuple[float, np.ndarray] | None = None
         self._records: list = []
+        #: the time a KeyboardInterrupt stopped the run at inside a stepper call, else None
+        self.interrupted: float | None = None
 
     def _conserved(self, state, perm):
         """(weights, anchor) of the mass of phi in the engine's ordering, or (None, None)."""
@@ -612,6 +614,8 @@ class StiffSolver(SolverBase):
                          dt=None, steps=0)
         engines: list = []  # created at the first call, at its t_start
         pending = [[times, callback, 0] for times, callback in self._records]
+        reached = [None, None]  # the latest time of the current call with a known state (None: state.data's)
+        self.interrupted = None
 
         def fail(reason: str):
             if engines:
@@ -634,7 +638,9 @@ class StiffSolver(SolverBase):
                 if not t < t_end - 1e-8:
                     return
                 advance(engine, t)
-                record_at(t, to_native(engine.value_at(t)))
+                data = to_native(engine.value_at(t))
+                reached[:] = [t, data]
+                record_at(t, data)
 
         def record_at(t, data):
             for entry in pending:
@@ -645,7 +651,18 @@ class StiffSolver(SolverBase):
                         k += 1
                     entry[2] = k
 
+        def run_segment(state, engine, t_end):
+            if pending:
+                record_before(engine, t_end)
+            advance(engine, t_end)
+            state.data[...] = to_native(engine.value_at(t_end))
+            reached[:] = [t_end, None]
+            if pending:
+                record_at(t_end, state.data)
+
         def stepper(state, t_start: float, t_end: float) -> float:
+            if self.interrupted is not None:  # stopped inside the previous call: py-pde ends here
+                raise KeyboardInterrupt
             if not engines:
                 for entry in pending:  # as py-pde's FixedInterrupts: earlier times are skipped
                     entry[2] = int(np.searchsorted(entry[0], t_start, side="left"))
@@ -660,14 +677,19 @@ class StiffSolver(SolverBase):
                                            max_step=self.max_step, first_step=dt, jacobian=spec,
                                            margins=margins, fun_into=fun_into, margins_into=margins_into))
             engine = engines[0]
-            if pending:
-                record_before(engine, t_end)
-            advance(engine, t_end)
-            state.data[...] = to_native(engine.value_at(t_end))
-            if pending:
-                record_at(t_end, state.data)
-            stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
-            self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs)
+            reached[:] = [t_start, None]
+            try:
+                run_segment(state, engine, t_end)
+            except KeyboardInterrupt:
+                # Ctrl-C (or a recorder) inside the loop: end this call at the last time whose
+                # state is known, as py-pde would have at that interrupt; raised again next call
+                self.interrupted = reached[0]
+                if reached[1] is not None:
+                    state.data[...] = reached[1]
+                return reached[0]
+            finally:
+                stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
+                self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs)
             return t_end
 
         return stepper

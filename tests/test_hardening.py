@@ -62,14 +62,14 @@ def test_interrupted_run_is_reported_as_interrupted(monkeypatch):
     reported as 'reached t_end': the result keeps what was computed up to the time reached."""
     from icidr_pde import trackers
 
-    original = trackers.MaxWTracker.handle
+    original = trackers.MaxWTracker.record  # also what its py-pde handle() calls
 
-    def interrupting(self, field, t):
+    def interrupting(self, t, data):
         if t > 0.5:
             raise KeyboardInterrupt
-        original(self, field, t)
+        original(self, t, data)
 
-    monkeypatch.setattr(trackers.MaxWTracker, "handle", interrupting)
+    monkeypatch.setattr(trackers.MaxWTracker, "record", interrupting)
     res = run("icidr", "shear", 21, 10.0, ["0", "0.25", "5", "10"], method="BDF")
     assert res.reason.startswith("interrupted")
     assert not res.blew_up
