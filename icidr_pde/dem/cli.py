@@ -27,13 +27,23 @@ def _fraction(text):
     return v
 
 
+def _seed(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0; got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0; got {text!r}")
+    return v
+
+
 def _common(p, what):
     p.add_argument("--repeats", type=_pos_int, default=10, help="independent runs per phi0")
     p.add_argument("--particles", type=_pos_int, default=1000, help="disks per cell, multiple of 5")
     p.add_argument("--H", type=float, default=30.0, help="cell height (Lees-Edwards direction), d")
     p.add_argument("--k-n", type=float, default=1.0e4,
                    help="normal stiffness; eta_n is scaled by sqrt(k_n/1e4) to keep e = 0.9")
-    p.add_argument("--seed", type=int, default=1, help="base seed")
+    p.add_argument("--seed", type=_seed, default=1, help="base seed (>= 0)")
     p.add_argument("--cache", default=None,
                    help="per-run cache directory (default: $ICIDR_PDE_CACHE or ~/.cache/icidr-pde/dem)")
     p.add_argument("--t-shear", type=float, default=30.0, help="shearing before averaging / before the perturbation")
@@ -182,14 +192,14 @@ def cmd_transient(args) -> int:
     steady = Path(args.steady_json) if args.steady_json else committed("steady.json")
     if not steady.is_file():
         raise ValueError(f"`--steady-json` {str(steady)!r} not found: run `icidr-pde dem steady` first")
+    if not (args.bin_height >= 1 and float(args.bin_height).is_integer() and abs(args.H / args.bin_height - round(args.H / args.bin_height)) < 1e-9):
+        raise ValueError(f"`--bin-height` must be a whole number of d dividing H = {args.H}; got {args.bin_height}")
     fit = json.loads(steady.read_text())["fit"]
     fluct = "drop" if args.drop_fluctuations else args.fluctuations
     params = _params(args)
     base = ensemble.BaseState(phi0=0.78, params=params, preparation=args.preparation, t_shear=args.t_shear)
     pert = ensemble.Perturbation(fluctuations=fluct, t_end=args.t_end,
                                  dt_fraction=args.transient_dt_fraction)
-    if abs(args.H / args.bin_height - round(args.H / args.bin_height)) > 1e-9 or args.bin_height < 1:
-        raise ValueError(f"`--bin-height` must be a whole number of d dividing H = {args.H}; got {args.bin_height}")
     results = []
     for i, seed in enumerate(ensemble.seeds(args.repeats, args.seed, base.phi0)):
         results.append(ensemble.run_ensemble_member(base, seed, [pert], _cache(args))[0])

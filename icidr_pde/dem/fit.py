@@ -29,13 +29,17 @@ def _sigma(std, n):
     return None
 
 
-def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15), return_corr=False):
-    """Fit (2.10); returns (params dict, std dict[, correlation matrix (mu_s, mu_d, I0)])."""
+def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15), return_corr=False,
+           absolute_sigma=False):
+    """Fit (2.10); returns (params dict, std dict[, correlation matrix (mu_s, mu_d, I0)]).
+
+    ``absolute_sigma=True`` takes the errors as known standard errors (the parameter
+    covariance is not rescaled by the reduced chi^2)."""
     I, mu = np.asarray(I, float), np.asarray(mu, float)
     if I.size < 3 or np.any(I <= 0):
         raise ValueError("`I` must hold at least 3 positive inertial numbers to fit (2.10)")
     popt, pcov = curve_fit(
-        mu_of_I, I, mu, p0=p0, sigma=_sigma(mu_std, n_repeats), absolute_sigma=False,
+        mu_of_I, I, mu, p0=p0, sigma=_sigma(mu_std, n_repeats), absolute_sigma=absolute_sigma,
         bounds=([0.0, 0.0, 1e-4], [2.0, 5.0, 10.0]), maxfev=20000,
     )
     perr = np.sqrt(np.abs(np.diag(pcov)))
@@ -46,8 +50,9 @@ def fit_mu(I, mu, mu_std=None, n_repeats=1, p0=(0.25, 0.6, 0.15), return_corr=Fa
     return out
 
 
-def fit_phi(I, phi, I_std=None, n_repeats=1):
-    """Fit (2.11) by regressing I on phi; returns (params dict, std dict)."""
+def fit_phi(I, phi, I_std=None, n_repeats=1, absolute_sigma=False):
+    """Fit (2.11) by regressing I on phi; returns (params dict, std dict).
+    ``absolute_sigma`` as in :func:`fit_mu`."""
     I, phi = np.asarray(I, float), np.asarray(phi, float)
     if I.size < 2:
         raise ValueError("`I` must hold at least 2 points to fit (2.11)")
@@ -55,7 +60,7 @@ def fit_phi(I, phi, I_std=None, n_repeats=1):
     w = None if s is None else 1.0 / s
     # I = c0 + c1 phi with c1 = -1/a, c0 = phi_c/a
     if I.size > 2:
-        coef, cov = np.polyfit(phi, I, 1, w=w, cov=True)
+        coef, cov = np.polyfit(phi, I, 1, w=w, cov="unscaled" if (absolute_sigma and w is not None) else True)
     else:
         coef, cov = np.polyfit(phi, I, 1, w=w), np.zeros((2, 2))
     c1, c0 = coef

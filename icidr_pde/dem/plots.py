@@ -175,30 +175,31 @@ def fig8_audit(summary: dict, c: dict, path):
 
 def fig1_pool(pool: dict, path):
     """Fig 1 as the paper pools it: points of every configuration (marker per
-    configuration, error bars = the standard errors used in the fit), Table 1,
-    the reference fit and the pooled fit."""
+    configuration; error bars = the standard errors used in the fits), (2.10) and
+    (2.11) with Table 1, with the reference sweep's fit and with the pooled fit."""
     plt = _plt()
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
-    markers = "osD^v<>"
-    configs = sorted({p["config"] for p in pool["all_points"]})
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    markers = "os^vD<>Xp"
+    configs = list(dict.fromkeys(p["config"] for p in pool["points"]))
     for j, cfg in enumerate(configs):
-        pts = [p for p in pool["all_points"] if p["config"] == cfg]
+        pts = [p for p in pool["points"] if p["config"] == cfg]
         I = np.array([p["I"] for p in pts])
+        kw = dict(fmt=markers[j % len(markers)], ms=4, capsize=2, mfc="none", color=f"C{j}")
         ax[0].errorbar(I, [p["mu"] for p in pts], xerr=[p["se_I"] for p in pts],
-                       yerr=[p["se_mu"] for p in pts], fmt=markers[j % len(markers)], ms=4, capsize=2,
-                       label=cfg)
-        ax[1].errorbar(I, [p["phi"] for p in pts], xerr=[p["se_I"] for p in pts],
-                       fmt=markers[j % len(markers)], ms=4, capsize=2, label=cfg)
+                       yerr=[p["se_mu"] for p in pts], label=cfg, **kw)
+        ax[1].errorbar(I, [p["phi"] for p in pts], xerr=[p["se_I"] for p in pts], label=cfg, **kw)
     Ig = np.linspace(1e-3, 0.3, 300)
-    for par, style, lab in ((pool["table1"], "-", "Table 1"), (pool["reference_fit"], ":", "reference fit"),
-                            (pool["pooled_fit"], "--", "pooled fit")):
+    for par, style, lab in ((pool["table1"], "-", "Table 1"), (pool["reference_fit"]["fit"], ":", "reference fit"),
+                            (pool["pooled_fit"]["fit"], "--", "pooled fit")):
         ax[0].plot(Ig, mu_of_I(Ig, par["mu_s"], par["mu_d"], par["I0"]), style, color="k", lw=1, label=lab)
         ax[1].plot(Ig, par["phi_c"] - par["a"] * Ig, style, color="k", lw=1, label=lab)
     ax[0].set(xlabel="I", ylabel=r"$\mu$", title="(a) bulk friction, pooled")
     ax[1].set(xlabel="I", ylabel=r"$\phi$", title="(b) packing fraction, pooled")
     for a in ax:
-        a.set_xlim(0, 0.3)
+        a.set_xlim(0, 0.25)
         a.legend(fontsize=6)
+    ax[0].set_ylim(0.3, 0.5)
+    ax[1].set_ylim(0.74, 0.82)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
