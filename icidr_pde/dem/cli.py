@@ -1,4 +1,4 @@
-"""``icidr-pde dem steady|transient|audit``: the LAMMPS DEM validation (appendix C, figs 1 and 8).
+"""``icidr-pde dem steady|transient|pool|audit``: the LAMMPS DEM validation (appendix C, figs 1 and 8).
 
 Outputs go to ``--out`` (default: the current directory), never over the
 committed results; the per-run cache to the user cache (``--cache``).  The
@@ -99,6 +99,16 @@ def add_parser(subparsers):
     tr.add_argument("--fig", default=None, help="figure path (default: OUT/fig8_dem.png; '' for none)")
     tr.set_defaults(func=cmd_transient)
 
+    po = sub.add_parser("pool", help="fig 1 pooled over k_n, H and N: run the pool (resumable) or summarise it",
+                        description="Runs the pooled fig-1 configurations (one LAMMPS process, each run cached "
+                                    "as it finishes) or fits them with the committed reference sweep "
+                                    "(steady_pool.json, fig1_dem.png).", formatter_class=fmt)
+    po.add_argument("action", choices=("run", "summary"))
+    po.add_argument("configs", nargs="*", help="configurations (default: all, in the default order)")
+    po.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
+    po.add_argument("--out", default=".", help="directory for steady_pool.json and fig1_dem.png (summary)")
+    po.set_defaults(func=cmd_pool)
+
     au = sub.add_parser("audit", help="protocol audit of fig 8(d): run factor ensembles or write the report",
                         description="Runs the factor ensembles of the protocol audit (resumable from the cache) "
                                     "or summarises them (audit.json, audit.npz, fig8_audit.png).",
@@ -192,11 +202,12 @@ def cmd_transient(args) -> int:
     steady = Path(args.steady_json) if args.steady_json else committed("steady.json")
     if not steady.is_file():
         raise ValueError(f"`--steady-json` {str(steady)!r} not found: run `icidr-pde dem steady` first")
-    if not (args.bin_height >= 1 and float(args.bin_height).is_integer() and abs(args.H / args.bin_height - round(args.H / args.bin_height)) < 1e-9):
+    params = _params(args)  # validates N, H, k_n, dt before anything else
+    hb = args.bin_height
+    if not (hb >= 1 and float(hb).is_integer() and abs(args.H / hb - round(args.H / hb)) < 1e-9):
         raise ValueError(f"`--bin-height` must be a whole number of d dividing H = {args.H}; got {args.bin_height}")
     fit = json.loads(steady.read_text())["fit"]
     fluct = "drop" if args.drop_fluctuations else args.fluctuations
-    params = _params(args)
     base = ensemble.BaseState(phi0=0.78, params=params, preparation=args.preparation, t_shear=args.t_shear)
     pert = ensemble.Perturbation(fluctuations=fluct, t_end=args.t_end,
                                  dt_fraction=args.transient_dt_fraction)
@@ -237,6 +248,28 @@ def cmd_transient(args) -> int:
     print(f"secondary max|w|: DEM {pk['dem']['max_w']:.4f} at t = {pk['dem']['t']:.1f}, "
           f"iCIDR (Table 1) {pk['table1']['max_w']:.4f} at t = {pk['table1']['t']:.1f}")
     print("wrote " + ", ".join(str(p) for p in (json_path, npz_path, fig_path) if p))
+    return 0
+
+
+def cmd_pool(args) -> int:
+    from . import pool
+
+    unknown = [c for c in args.configs if c not in pool.CONFIGS]
+    if unknown:
+        raise ValueError(f"`configs` must be among {list(pool.CONFIGS)}; got {unknown}")
+    names = args.configs or None
+    if args.action == "run":
+        pool.run(_cache(args), names)
+        return 0
+    from .plots import fig1_pool
+    from .transient import write_json
+
+    out = _writable_dir(args.out)
+    s = pool.summary(_cache(args), names)
+    write_json(s, out / "steady_pool.json")
+    fig1_pool(s, out / "fig1_dem.png")
+    print(pool.markdown(s))
+    print(f"wrote {out / 'steady_pool.json'}, {out / 'fig1_dem.png'}")
     return 0
 
 

@@ -134,7 +134,8 @@ def block_se(series, n_blocks):
 
 def run_row(res, config, block=BLOCK):
     """One cached run as a table row: I, mu, phi, p and their within-run standard
-    errors (block means of the sampled cell-mean p and mu; se_I from I ~ p^-1/2)."""
+    errors (block means of the sampled cell-mean p and mu; se_I from I ~ p^-1/2);
+    ``p_drift`` = ln(mean p of the second half of the window / first half)."""
     t = np.asarray(res["ts_t"], float)
     avg = slice(t.size - int(round(POOL_PROTOCOL.t_avg / POOL_PROTOCOL.sample_every)), None)  # the averaging samples
     n_blocks = max(2, int(round(POOL_PROTOCOL.t_avg / block)))
@@ -144,6 +145,7 @@ def run_row(res, config, block=BLOCK):
     return {"config": config, "phi0": float(res["phi0"]), "seed": int(res["seed"]), "I": I,
             "mu": float(res["mu"]), "phi": float(res["phi_mean"]), "p": p,
             "se_mu_block": block_se(mu_ts, n_blocks), "se_I_block": 0.5 * I * se_p / p,
+            "p_drift": float(np.log(p_ts[p_ts.size // 2:].mean() / p_ts[: p_ts.size // 2].mean())),
             "n_particles": int(res["n_particles"]), "cpu_s": float(res["cpu_total"])}
 
 
@@ -305,6 +307,12 @@ def parameter_differences(a, b):
     return out
 
 
+def _mean_se(x):
+    x = np.asarray(x, float)
+    return {"mean": float(x.mean()), "se": float(x.std(ddof=1) / math.sqrt(x.size)) if x.size > 1 else None,
+            "n": int(x.size)}
+
+
 def summary(cache_dir, names=None):
     """Pooled fig 1 from the cached pool runs and the committed reference sweep:
     per-run rows, points, the error model check, fits per configuration and pooled,
@@ -332,6 +340,7 @@ def summary(cache_dir, names=None):
             "fit": f, "parameters_minus_reference_fit": parameter_differences(f, ref_fit),
             "vs_reference": compare(pts, ref_pts, ref_fit),
             "vs_control": (compare(pts, control, control_fit) if control_fit and name != "H30_N1000" else None),
+            "p_drift": _mean_se([r["p_drift"] for r in rows if r["config"] == name]),
             "cpu_s": sum(r["cpu_s"] for r in rows if r["config"] == name)}
     all_pts = ref_pts + pool_pts
     pooled = fit_points(all_pts, slope_from=ref_fit["fit"])
@@ -350,9 +359,57 @@ def summary(cache_dir, names=None):
         "table1": t1, "reference_fit": ref_fit, "control_fit": control_fit, "pooled_fit": pooled,
         "configs": configs,
         "not_run": [n for n in CONFIGS if n not in configs],
+        "p_drift_all_runs": _mean_se([r["p_drift"] for r in rows]) if rows else None,
         "points": all_pts, "runs": rows,
         "cpu_s_total": float(sum(r["cpu_s"] for r in rows)),
     }
+
+
+def _pm(v, s, nd=3):
+    return f"{v:.{nd}f} ± {s:.{nd}f}" if s is not None and math.isfinite(s) else f"{v:.{nd}f}"
+
+
+PARAM_DIGITS = {"mu_s": 3, "mu_d": 3, "I0": 3, "phi_c": 4, "a": 3}
+
+
+def markdown(s):
+    """The pooled-fit tables of docs/dem.md from a :func:`summary` dict."""
+    keys = list(PARAM_DIGITS)
+    lines = ["| data | runs | " + " | ".join(keys) + " | chi²/dof mu, I |", "|---" * (len(keys) + 3) + "|"]
+
+    def row(label, f, runs):
+        if "fit" not in f:
+            return
+        cells = [_pm(f["fit"][k], f["std"].get(k), PARAM_DIGITS[k]) if k in f["fit"] else "–" for k in keys]
+        c = f.get("chi2_dof", {})
+        chi = ", ".join(f"{c[q]:.1f}" if c.get(q) is not None else "–" for q in ("mu", "phi"))
+        lines.append(f"| {label} | {runs} | " + " | ".join(cells) + f" | {chi} |")
+
+    lines.append("| Table 1 | – | " + " | ".join(str(s["table1"][k]) for k in keys) + " | |")
+    row("pooled (all)", s["pooled_fit"], sum(c["runs"] for c in s["configs"].values()) + 50)
+    row("reference sweep", s["reference_fit"], 50)
+    for name, c in s["configs"].items():
+        row(name, c["fit"], c["runs"])
+    lines += ["", "| configuration | varies | I − I_ref at the same phi0 (relative, weighted mean) "
+              "| χ²/dof, p | mu − reference (2.10) at its own I | χ²/dof, p |", "|---|---|---|---|---|---|"]
+    for name, c in s["configs"].items():
+        v = c["vs_reference"]
+        if not v:
+            continue
+        a, b = v["I_rel_at_same_phi0"], v["mu_minus_baseline_curve"]
+        lines.append(f"| {name} | {c['varies']} | {100 * a['weighted_mean']:+.1f} ± {100 * a['weighted_mean_se']:.1f} % "
+                     f"| {a['chi2'] / a['dof']:.1f}, {a['p_value']:.2g} | {b['weighted_mean']:+.4f} ± "
+                     f"{b['weighted_mean_se']:.4f} | {b['chi2'] / b['dof']:.1f}, {b['p_value']:.2g} |")
+    ctl = [(n, c["vs_control"]) for n, c in s["configs"].items() if c.get("vs_control")]
+    if ctl:
+        lines += ["", "| configuration against the control (same protocol) | I − I_control (relative) | χ²/dof, p "
+                  "| mu − control (2.10) | χ²/dof, p |", "|---|---|---|---|---|"]
+        for name, v in ctl:
+            a, b = v["I_rel_at_same_phi0"], v["mu_minus_baseline_curve"]
+            lines.append(f"| {name} | {100 * a['weighted_mean']:+.1f} ± {100 * a['weighted_mean_se']:.1f} % "
+                         f"| {a['chi2'] / a['dof']:.1f}, {a['p_value']:.2g} | {b['weighted_mean']:+.4f} ± "
+                         f"{b['weighted_mean_se']:.4f} | {b['chi2'] / b['dof']:.1f}, {b['p_value']:.2g} |")
+    return "\n".join(lines)
 
 
 def main(argv=None):
@@ -362,7 +419,7 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(prog="python -m icidr_pde.dem.pool",
                                  description="fig 1 pooled over H, N and k_n (resumable)")
-    ap.add_argument("action", choices=("run", "summary"))
+    ap.add_argument("action", choices=("run", "summary", "tables"))
     ap.add_argument("configs", nargs="*", help=f"configurations (default: all of {list(CONFIGS)})")
     ap.add_argument("--cache", default=None)
     ap.add_argument("--json", default="steady_pool.json")
@@ -375,6 +432,10 @@ def main(argv=None):
         return 0
     from .plots import fig1_pool
     from .transient import write_json
+
+    if a.action == "tables":
+        print(markdown(json.loads(Path(a.json).read_text())))
+        return 0
 
     s = summary(cache_dir, names)
     write_json(s, Path(a.json))

@@ -112,6 +112,16 @@ def test_transient_checks_inputs_before_any_run(tmp_path, capsys):
     assert rc == 2 and "--out" in capsys.readouterr().err
     rc = main(["transient", "--bin-height", "4", "--out", str(tmp_path)])
     assert rc == 2 and "--bin-height" in capsys.readouterr().err
+    for bad in (["--bin-height", "0"], ["--bin-height", "1.5"]):
+        rc = main(["transient", *bad, "--out", str(tmp_path)])
+        assert rc == 2 and "--bin-height" in capsys.readouterr().err
+    for bad, name in ((["--k-n", "-1"], "k_n"), (["--H", "nan"], "H"), (["--t-end", "0"], "t_end"),
+                      (["--t-shear", "-1"], "t_shear"), (["--particles", "7"], "n_particles")):
+        rc = main(["transient", *bad, "--out", str(tmp_path)])
+        err = capsys.readouterr().err
+        assert rc == 2 and f"`{name}`" in err and "got" in err, (bad, err)
+    with pytest.raises(SystemExit):
+        _parse(["dem", "transient", "--seed", "-3"])
     with pytest.raises(SystemExit):
         _parse(["dem", "transient", "--fluctuations", "warm"])
     with pytest.raises(SystemExit):
