@@ -366,7 +366,11 @@ def summary(cache_dir, names=None):
 
 
 def _pm(v, s, nd=3):
-    return f"{v:.{nd}f} ± {s:.{nd}f}" if s is not None and math.isfinite(s) else f"{v:.{nd}f}"
+    if s is None or not math.isfinite(s):
+        return f"{v:.{nd}f}"
+    if s > abs(v):  # the data do not determine it (degenerate (2.10) parameters)
+        return "undetermined"
+    return f"{v:.{nd}f} ± {s:.{nd}f}"
 
 
 PARAM_DIGITS = {"mu_s": 3, "mu_d": 3, "I0": 3, "phi_c": 4, "a": 3}
