@@ -181,7 +181,7 @@ def fmt_fit(f) -> str:
 
 
 def report(data: dict) -> str:
-    lines = [f"whole processes, one at a time, CLI defaults (standard: CVODE rtol 1e-5, atol 1e-8)"
+    lines = ["whole processes, one at a time, CLI defaults (standard: CVODE rtol 1e-5, atol 1e-8)"
              + (f" with {data['cli_options']}" if data.get("cli_options") else "") + ", "
              f"OPENBLAS_NUM_THREADS=1; median of {data['repeats']}; load average "
              f"{data['load'][0]:.1f}-{data['load'][1]:.1f} during the runs",
