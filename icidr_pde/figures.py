@@ -908,16 +908,39 @@ def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, ru
     return numbers
 
 
+def movie2d(runs, path, *, verbose=True, dpi=90, stride=1) -> dict:
+    """The 2-D movie: bump2d, mu(I),Phi(I) up to its failure against iCIDR at the same times
+    (the runs of the ``bump2d`` figure, :func:`bump2d_pair`; every `stride`-th snapshot).
+    Returns what the gallery lists."""
+    from .movies import movie_from_results_2d
+
+    pair = bump2d_pair(runs)
+    mui, icidr = pair["mui"], pair["icidr"]
+    start = time.perf_counter()
+    title = f"bump2d {mui.Nx}x{mui.N}: mu(I),Phi(I) (left) | iCIDR (right)" + (" [draft]" if runs.draft else "")
+    path = movie_from_results_2d({"mu(I),Phi(I)": mui, "iCIDR": icidr}, path, title=title, progress=verbose,
+                                 dpi=dpi, stride=stride)
+    kept = len(set(range(0, len(mui.times), stride)) | {len(mui.times) - 1})
+    info = {"file": path.name, "frame_dt": float(np.mean(np.diff(mui.times))) * stride, "frames": kept + mui.blew_up,
+            "seconds": round(time.perf_counter() - start, 1), "t_star": mui.t_star, "grid": f"{mui.Nx}x{mui.N}"}
+    if verbose:
+        print(f"movie2d: {path} ({info['seconds']} s)")
+    return info
+
+
 def make_movies(only=None, out="docs/figures", *, draft=False, runs: RunCache | None = None, verbose=True,
                 suffix=".mp4") -> dict:
-    """Write the supplementary movies (default: movies 1-6) from the shared runs."""
-    from .movies import MOVIES, movie_from_result
+    """Write the movies (default: supplementary movies 1-6 and movie2d) from the shared runs."""
+    from .movies import MOVIES, MOVIES_2D, movie_from_result
 
-    names = list(MOVIES) if not only else list(only)
+    names = list(MOVIES) + list(MOVIES_2D) if not only else list(only)
     runs = runs or RunCache(draft=draft, verbose=verbose)
     key_of = {spec.movie: key for key, spec in RUNS.items() if spec.movie}
     written = {}
     for name in names:
+        if name in MOVIES_2D:
+            written[name] = movie2d(runs, Path(out) / f"{name}{suffix}", verbose=verbose)
+            continue
         spec = MOVIES[name]
         res = runs[key_of[name]]
         start = time.perf_counter()
@@ -979,12 +1002,16 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
     if movies:
         from .movies import MOVIES
 
-        lines += ["## Supplementary movies 1-6", "", "`icidr-pde figures --movies` (frames at a fixed interval of "
-                  "simulated time; a failed run ends on its state at t*). Movies 7-8 of the paper are DEM "
-                  "renderings and are not reproduced.", "",
+        from .movies import MOVIES_2D
+
+        lines += ["## Supplementary movies 1-6 and the 2-D movie", "", "`icidr-pde figures --movies` (frames at a fixed "
+                  "interval of simulated time; a failed run ends on its state at t*). Movies 7-8 of the paper are DEM "
+                  "renderings and are not reproduced; `2d` (not in the paper) is drawn from the runs of `bump2d`, "
+                  "frames every 1/59 of 98 % of mu(I)'s t* (1/29 in a draft) plus the state at t*.", "",
                   "| movie | content | frame interval | file |", "| --- | --- | --- | --- |"]
         for name, info in movies.items():
-            lines.append(f"| {name[5:]} | {MOVIES[name].caption} | {info['frame_dt']:g} | [{info['file']}]({info['file']}) |")
+            spec = {**MOVIES, **MOVIES_2D}[name]
+            lines.append(f"| {name[5:]} | {spec.caption} | {info['frame_dt']:.4g} | [{info['file']}]({info['file']}) |")
         lines.append("")
     path = out / "README.md"
     path.write_text("\n".join(lines))
@@ -1000,7 +1027,7 @@ def add_parser(subparsers):
     p.add_argument("--out", default="docs/figures", help="output folder (PNGs, numbers.json, README.md)")
     p.add_argument("--draft", action="store_true", help="N = 101 instead of 201 (same findings, a fraction of the cost)")
     p.add_argument("--movies", nargs="*", default=None, metavar="MOVIE",
-                   help="also write the supplementary movies (all, or those named: movie1 ... movie6)")
+                   help="also write the movies (all, or those named: movie1 ... movie6, movie2d)")
     p.add_argument("--gif", action="store_true", help="movies as GIF instead of MP4")
     p.set_defaults(func=cmd_figures)
     return p

@@ -1,4 +1,5 @@
-"""Movies of shear-cell runs: phi, u, w against z and max|w|(t), frame by frame.
+"""Movies of shear-cell runs: phi, u, w against z and max|w|(t), frame by frame (1-D);
+w and phi - phi0 over the cell for runs side by side (2-D, :func:`movie_from_results_2d`).
 
 The paper's supplementary movies 1-6 (:data:`MOVIES`) show the full time evolution
 behind figs 3, 6 and 7. Frames are snapshots at a fixed interval of simulated time
@@ -10,6 +11,9 @@ FFMpegWriter) with the ffmpeg binary of the ``imageio-ffmpeg`` wheel, so no syst
 package is needed; ``.gif`` (or MP4 when no ffmpeg can be found) falls back to
 matplotlib's Pillow writer. A movie is written to a temporary name and renamed when
 complete: a failure never leaves half a file.
+
+The 2-D movie (:data:`MOVIES_2D`, not in the paper) shows mu(I),Phi(I) on scene bump2d up to
+its failure beside iCIDR at the same times, with a progress bar counting the frames written.
 """
 
 from __future__ import annotations
@@ -22,8 +26,8 @@ from pathlib import Path
 import numpy as np
 from pde.trackers.base import TrackerBase
 
-__all__ = ["MOVIES", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
-           "frame_times"]
+__all__ = ["MOVIES", "MOVIES_2D", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
+           "frame_times", "write_field_movie", "movie_from_results_2d"]
 
 
 def ffmpeg_exe() -> str | None:
@@ -283,4 +287,185 @@ MOVIES = {
     "movie6": MovieSpec("movie6", "iCIDR, IC (5.7), finite differences N = 201 (fig 7)",
                         dict(rheology="icidr", scene="sine", N=201, t_end=20.0, discretization="fd", **_PAPER),
                         frame_dt=0.2),
+}
+
+
+# --- 2-D: two runs of the x-periodic cell side by side --------------------------------------------------------------
+
+
+class _FieldFrameFigure:
+    """w and phi - phi0 of two 2-D runs side by side, with max|w|(t) and max|phi - phi0|(t) of both.
+
+    Colour scales are symmetric and set per frame (a blow-up spans decades); each panel's title
+    gives its maximum.
+    """
+
+    def __init__(self, extent, labels, first, series, title, dpi):
+        from matplotlib.figure import Figure
+        from matplotlib.ticker import LogFormatter
+
+        self.fig = Figure(figsize=(13, 6.8), dpi=dpi)  # a fixed layout: re-laying out every frame is slow
+        axes = self.fig.subplots(2, 3, gridspec_kw=dict(left=0.05, right=0.98, bottom=0.08, top=0.9, wspace=0.5,
+                                                         hspace=0.3))
+        self.labels, self.images, self.bars = labels, {}, {}
+        for col, label in enumerate(labels):
+            for row, name in enumerate(("w", "φ − φ0")):
+                ax = axes[row, col]
+                im = ax.imshow(first[label][row].T, origin="lower", extent=extent, cmap="RdBu_r",
+                               interpolation="nearest")
+                self.images[label, row] = im
+                self.bars[label, row] = self.fig.colorbar(im, ax=ax, shrink=0.85)
+                ax.set_xlabel("x")
+                ax.set_ylabel("z")
+        self.axes = axes
+        self.markers = {}
+        for row, name in enumerate(("max|w|", "max|φ − φ0|")):
+            ax = axes[row, 2]
+            for k, label in enumerate(labels):
+                t, v = series[label][row]
+                color = ("tab:red", "tab:blue")[k % 2]
+                ax.semilogy(t, v, color=color, lw=1, label=label)
+                (self.markers[label, row],) = ax.semilogy([], [], "o", color=color, clip_on=False)
+            if row == 0:  # a failed run's max|w| at t* (1e6-1e10) would flatten everything else
+                ax.set_ylim(top=2.0)
+            ax.yaxis.set_major_formatter(LogFormatter(labelOnlyBase=True))  # plain "1e-2": mathtext slows every frame
+            ax.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=True))
+            ax.set_xlabel("t")
+            ax.set_ylabel(name)
+            ax.legend(fontsize=7, loc="upper left")
+        self.series = series
+        self.title = title
+        self.suptitle = self.fig.suptitle(title, fontsize=10)
+
+    def update(self, t, fields, note=""):
+        for label in self.labels:
+            for row, name in enumerate(("w", "φ − φ0")):
+                data = fields[label][row]
+                vmax = float(np.max(np.abs(data))) or 1e-12
+                im = self.images[label, row]
+                im.set_data(data.T)
+                im.set_clim(-vmax, vmax)
+                self.axes[row, self.labels.index(label)].set_title(
+                    f"{label}: {name}  (max {vmax:.2g})", fontsize=8)
+                ymax = self.axes[row, 2].get_ylim()[1]  # the state at t* is far off the axis: the marker sits at its top
+                self.markers[label, row].set_data([t], [min(vmax, ymax)])  # this frame's own maximum
+        self.suptitle.set_text(f"{self.title}    t = {t:.4g}{note}")
+
+
+def write_field_movie(path, extent, times, frames: dict, *, series: dict | None = None, title: str = "",
+                      last_note: str = "", fps: float = 10, dpi: int = 90, progress: bool = True) -> Path:
+    """Write a movie of two (or more) 2-D runs side by side at `path` (.mp4 through ffmpeg, or .gif).
+
+    `frames`: {label: array (n_times, 2, Nx, Nz) of w and phi - phi0 at `times`}; `series`:
+    {label: ((t, max|w|), (t, max|phi - phi0|))} for the right-hand column (default: from the frames);
+    `last_note` is appended to the title of the last frame (a failed run's state at t*).
+    `progress`: a tqdm bar counting the frames written (its total is the number of frames).
+    Written to a temporary name and renamed when complete.
+    """
+    path = Path(path)
+    times = np.asarray(times, dtype=float)
+    frames = {label: np.asarray(f, dtype=float) for label, f in frames.items()}
+    if not frames or any(f.ndim != 4 or f.shape[:2] != (len(times), 2) for f in frames.values()) or len(times) == 0:
+        raise ValueError(f"`frames` must map labels to arrays of shape (n_times, 2, Nx, Nz) with n_times = "
+                         f"{len(times)} > 0; got {({k: v.shape for k, v in frames.items()})}")
+    if not path.parent.is_dir():
+        raise ValueError(f"`path`: folder {path.parent} does not exist")
+    suffix = path.suffix.lower()
+    if suffix not in (".mp4", ".gif"):
+        raise ValueError(f"`path` must end in .mp4 or .gif; got {path.name!r}")
+    if suffix == ".mp4" and ffmpeg_exe() is None:
+        warnings.warn("no ffmpeg found (install imageio-ffmpeg): writing a GIF instead", stacklevel=2)
+        path, suffix = path.with_suffix(".gif"), ".gif"
+    if series is None:
+        series = {label: tuple((times, np.max(np.abs(f[:, row]), axis=(1, 2))) for row in (0, 1))
+                  for label, f in frames.items()}
+    labels = list(frames)
+    plot = _FieldFrameFigure(extent, labels, {k: v[0] for k, v in frames.items()}, series, title, dpi)
+    partial = path.with_name(f".{path.stem}.partial{suffix}")
+    try:
+        if suffix == ".mp4":
+            from pde.visualization.movies import Movie
+
+            with Movie(str(partial), framerate=fps, dpi=dpi) as movie:
+                _add_field_frames(plot, times, frames, last_note, movie.add_figure, progress, path.name)
+        else:
+            from matplotlib.animation import PillowWriter
+
+            writer = PillowWriter(fps=fps)
+            with writer.saving(plot.fig, str(partial), dpi=dpi):
+                _add_field_frames(plot, times, frames, last_note, lambda fig: writer.grab_frame(), progress,
+                                  path.name)
+        os.replace(partial, path)
+    finally:
+        if partial.exists():
+            partial.unlink()
+    return path
+
+
+def _add_field_frames(plot, times, frames, last_note, grab, progress, name):
+    from tqdm.auto import tqdm
+
+    last = len(times) - 1
+    with tqdm(total=len(times), desc=f"{name}: frames", unit="frame", disable=not progress, leave=True) as bar:
+        for k, t in enumerate(times):
+            plot.update(t, {label: f[k] for label, f in frames.items()}, last_note if k == last else "")
+            grab(plot.fig)
+            bar.update(1)  # after the frame is handed to the encoder: the bar counts frames written
+
+
+def movie_from_results_2d(results: dict, path, *, title: str = "", stride: int = 1, **kwargs) -> Path:
+    """Movie of 2-D runs side by side ({label: Result}) at the snapshot times of the first.
+
+    Every other run must hold snapshots at those times. If the first run failed, a last frame
+    shows its state at t* beside the others' snapshot at t* (titled with the reason).
+    `stride`: keep every stride-th snapshot (the last one and the failure frame always).
+    Other keyword arguments go to :func:`write_field_movie` (fps, dpi, progress).
+    """
+    if not (isinstance(stride, int) and stride >= 1):
+        raise ValueError(f"`stride` must be an integer >= 1; got {stride!r}")
+    labels = list(results)
+    first = results[labels[0]]
+    times = np.asarray(first.times, dtype=float)
+    times = times[sorted(set(range(0, len(times), stride)) | {len(times) - 1})]
+
+    def fields(res, k):
+        return np.stack([res.w[k], res.phi[k] - res.scene_params["phi0"]])
+
+    def index(res, t):
+        k = int(np.argmin(np.abs(np.asarray(res.times) - t)))
+        if abs(res.times[k] - t) > 1e-6 * max(1.0, abs(t)):
+            raise ValueError(f"`results`: {res.rheology} has no snapshot at t = {t:g} (nearest {res.times[k]:g})")
+        return k
+
+    frames = {label: np.stack([fields(res, index(res, t)) for t in times]) for label, res in results.items()}
+    note = ""
+    if first.blew_up:
+        final = np.asarray(first.final)
+        frames[labels[0]] = np.concatenate([frames[labels[0]], np.stack([final[2], final[0] - first.scene_params["phi0"]])[None]])
+        for label in labels[1:]:
+            res = results[label]
+            frames[label] = np.concatenate([frames[label], fields(res, index(res, first.t_star))[None]])
+        times = np.append(times, first.t_star)
+        note = f"  {labels[0]} FAILED at t* ({first.reason.split(' (')[0]})"
+    series = {}
+    for label, res in results.items():  # right-hand column: every snapshot up to the last frame, not only the frames
+        keep = np.asarray(res.max_w_t) <= times[-1] * (1 + 1e-9)
+        snap = np.asarray(res.times) <= times[-1] * (1 + 1e-9)
+        t_phi = np.asarray(res.times)[snap]
+        phi_dev = np.max(np.abs(np.asarray(res.phi)[snap] - res.scene_params["phi0"]), axis=(1, 2))
+        if res is first and first.blew_up:
+            t_phi, phi_dev = np.append(t_phi, times[-1]), np.append(phi_dev, np.max(np.abs(frames[label][-1, 1])))
+        series[label] = ((np.asarray(res.max_w_t)[keep], np.asarray(res.max_w)[keep]), (t_phi, phi_dev))
+    L, H = first.scene_params["L"], first.scene_params["H"]
+    return write_field_movie(path, (0.0, L, 0.0, H), times, frames, series=series, title=title, last_note=note,
+                             **kwargs)
+
+
+# The 2-D movie (not in the paper): bump2d, mu(I),Phi(I) up to its failure against iCIDR at the same times,
+# drawn from the runs of the bump2d gallery figure (icidr_pde.figures.bump2d_pair: CVODE rtol 1e-7, atol 1e-10).
+MOVIES_2D = {
+    "movie2d": MovieSpec("movie2d", "2-D cell, scene bump2d: mu(I),Phi(I) up to its failure (an oblique band) "
+                         "against iCIDR at the same times, w and phi - phi0 side by side",
+                         dict(rheology=("mui", "icidr"), scene="bump2d", discretization="fv2d",
+                              method="CVODE", rtol=1e-7, atol=1e-10), frame_dt=0.0),
 }

@@ -89,3 +89,41 @@ def test_tstar2d_findings_and_the_fresh_runs(drawn):
     fresh = list(n["fresh_t_star_2d"].values())
     assert all(a > b for a, b in zip(fresh, fresh[1:]))
     assert n["fresh_vs_committed_rel_max"] < 1e-4  # the committed study is what its code computes today
+
+
+def _decode(path):
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    width, height = meta["size"]
+    return [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
+
+
+def test_movie2d_has_every_frame_and_its_bar_counts_them(drawn, tmp_path, capsys):
+    """The mp4 decodes to the snapshots kept plus mu(I)'s state at t*; the progress bar's total is that
+    number and it ends there; the failure frame differs from the one before it."""
+    from icidr_pde.figures import movie2d
+
+    _, runs, _ = drawn
+    mui = bump2d_pair(runs)["mui"]
+    stride = 10
+    info = movie2d(runs, tmp_path / "movie2d.mp4", stride=stride, dpi=50)
+    expected = len(range(0, len(mui.times), stride)) + (0 if (len(mui.times) - 1) % stride == 0 else 1) + 1
+    frames = _decode(tmp_path / "movie2d.mp4")
+    assert info["frames"] == expected == len(frames)
+    assert f"{expected}/{expected}" in capsys.readouterr().err
+    assert np.mean(np.abs(frames[-1].astype(float) - frames[-2])) > 1.0
+    assert not list(tmp_path.glob(".*partial*"))
+
+
+def test_movie2d_bad_input_names_the_parameter(drawn, tmp_path):
+    from icidr_pde.movies import movie_from_results_2d, write_field_movie
+
+    pair = bump2d_pair(drawn[1])
+    with pytest.raises(ValueError, match="`stride` must be an integer >= 1"):
+        movie_from_results_2d({"a": pair["mui"]}, tmp_path / "m.mp4", stride=0)
+    with pytest.raises(ValueError, match="`path` must end in .mp4 or .gif"):
+        write_field_movie(tmp_path / "m.avi", (0, 1, 0, 1), [0.0], {"a": np.zeros((1, 2, 3, 3))})
+    with pytest.raises(ValueError, match="`frames` must map labels"):
+        write_field_movie(tmp_path / "m.mp4", (0, 1, 0, 1), [0.0, 1.0], {"a": np.zeros((1, 2, 3, 3))})
