@@ -378,6 +378,15 @@ def _eos_summary(rheology) -> dict:
     from icidr_pde.rheology import symbols as s
 
     q, c = rheology._derived()
+    if rheology.is_implicit():
+        from icidr_pde.rheology.implicit import MAX_ITER, TOL
+
+        residual = type(q).residual
+        return {"method": "scalar solve in the kernels (no closed form): bracketed Newton on the flow-rule "
+                          f"residual F(q), q = sqrt(p), increasing in q where (4.5) holds; relative tolerance "
+                          f"{TOL:.3g}, at most {MAX_ITER} iterations; derivatives by the implicit function theorem",
+                "residual": sp.sstr(residual), "sqrt_p": "root q of F(q) = 0", "c": sp.sstr(c),
+                "no_positive_root_at": rheology.admissibility()}
     return {"method": "closed form" + (" (given, checked against the derived root)"
                                        if rheology.closed_form(s.phi, s.div_u, s.norm_S, s.M, s.Psi,
                                                                rheology.material.values(True)) is not None

@@ -13,6 +13,10 @@ alignment law (2.6). The workbench turns (Y, f) into a :class:`~.base.Rheology` 
   A subclass may also give the closed form itself (:meth:`CIDRLaw.closed_form`, e.g. a
   cancellation-free one): it is then *checked* against the flow rule and the yield law
   (:meth:`CIDRLaw.verify_closed_form`), not trusted;
+  where sympy finds no root in closed form (or ``equation_of_state = "scalar"`` asks for it),
+  sqrt(p) is the root of the flow-rule residual F(q) = div u - 2||S|| f(q^2, 2||S||/q, phi),
+  a sympy function whose derivatives are the implicit function theorem, solved in the
+  compiled kernels by a safeguarded (bracketed) Newton iteration (:mod:`.implicit`);
 * **stress.** ||tau|| = Y at that p, and tau = (Y/||S||) S (2.6): c = Y/||S||, simplified
   so that it stays finite as ||S|| -> 0 wherever the law allows;
 * **stable form.** For the kernels, a difference sqrt(A) - B that cancels in floating point
@@ -114,6 +118,8 @@ def _mro_source(cls) -> str:
     from .codegen import _module_source
 
     modules = dict.fromkeys(k.__module__ for k in cls.__mro__ if isinstance(k, type) and issubclass(k, Rheology))
+    if issubclass(cls, CIDRLaw):  # the scalar solve's source is part of an implicit law's kernels
+        modules[f"{__package__}.implicit"] = None
     return "\n".join(_module_source(m) for m in modules if not m.startswith("__")) + cls.__qualname__
 
 
@@ -126,6 +132,9 @@ class CIDRLaw(Rheology):
     """
 
     kind = "cidr"
+    #: "auto": a closed-form root where sympy finds one, else the scalar solve; "scalar": always
+    #: the scalar solve (:mod:`.implicit`), e.g. where the closed form needs complex arithmetic
+    equation_of_state: str = "auto"
 
     def yield_function(self, p, I, phi, M, Psi, prm):  # noqa: E741
         """Y(p, I, phi) of (4.1), a sympy expression."""
@@ -174,19 +183,51 @@ class CIDRLaw(Rheology):
         I = 2 * S / q  # noqa: E741  (2.9) with d = rho_* = 1
         f = sp.sympify(self.dilatancy_function(q**2, I, phi, M, Psi, prm))
         Y = sp.sympify(self.yield_function(q**2, I, phi, M, Psi, prm))
-        flow = sp.together(div - 2 * f * S)
-        numerator = sp.numer(flow)
-        try:
-            roots = sp.solve(numerator, q)
-        except NotImplementedError:
-            roots = []
-        roots = [r for r in roots if not r.has(sp.I)]
+        if self.equation_of_state not in ("auto", "scalar"):
+            raise ValueError(f"`equation_of_state` must be 'auto' or 'scalar'; got {self.equation_of_state!r}")
+        roots = []
+        if self.equation_of_state == "auto":
+            numerator = sp.numer(sp.together(div - 2 * f * S))
+            try:
+                roots = sp.solve(numerator, q)
+            except NotImplementedError:
+                roots = []
+            roots = [r for r in roots if not r.has(sp.I)]
         if not roots:
-            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no closed-form solution for p "
-                           "(sympy finds none); give closed_form() or rewrite the law")
-        q_root = self._positive_root(roots, flow)
+            return self._implicit_root(f, Y)
+        q_root = self._positive_root(roots, None)
         c = sp.simplify(Y.subs(q, q_root) / S) if not Y.has(q) else sp.simplify((Y / S).subs(q, q_root))
         return q_root, c
+
+    def _implicit_root(self, f, Y):
+        """(q, c) with q the implicit root of the flow-rule residual (:mod:`.implicit`), in placeholders."""
+        import sympy as sp
+
+        from .implicit import implicit_root_class
+
+        phi, div, S, M, Psi, prm = self._placeholders()
+        q = _sqrt_p_symbol()
+        flux = 2 * S * f
+        if sp.count_ops(flux) <= 200:
+            flux = sp.expand(flux)  # e.g. iCIDR: 2||S|| f = M||S||^2/(q Psi) - M Psi q/4, finite at ||S|| = 0
+        F = div - flux
+        if not F.has(q):
+            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no closed-form solution for p and "
+                           "does not depend on p (no scalar solve possible)")
+        names = self.material.parameter_names()
+        args = (phi, div, S, M, Psi, *[prm[k] for k in names])
+        root = implicit_root_class(self.name or type(self).__name__, F, q, args)(*args)
+        c = sp.simplify(Y / S)
+        return root, c.xreplace({q: root})
+
+    def is_implicit(self) -> bool:
+        """True if sqrt(p) is the scalar solve's root (no closed form); needs sympy."""
+        from .implicit import ImplicitRoot
+
+        if self.has_closed_form():
+            return False
+        q, _ = self._derived()
+        return isinstance(q, ImplicitRoot)
 
     def _numeric_placeholders(self):
         """Values of the placeholders on the sample (M, Psi from the material)."""
@@ -219,7 +260,16 @@ class CIDRLaw(Rheology):
 
     def admissibility(self):
         """None, or a state (dict) of the sample where the flow rule has no positive solution for p."""
+        from .implicit import ImplicitRoot
+
         q, _ = self._derived()
+        if isinstance(q, ImplicitRoot):
+            phis, divs, Ss, Ms, Psis = self._numeric_placeholders()
+            _, failed = q.solve(phis, divs, Ss, Ms, Psis, *self.material.params, raise_on_failure=False)
+            if not np.any(failed):
+                return None
+            i = int(np.argmax(failed))
+            return {"phi": float(phis[i]), "div_u": float(divs[i]), "norm_S": float(Ss[i])}
         v = self._lambdify(q)
         bad = ~((np.abs(v.imag) <= 1e-12 * np.maximum(np.abs(v), 1e-300)) & (v.real > 0))
         _, divs, Ss, _, _ = self._numeric_placeholders()
@@ -362,17 +412,21 @@ def _register(name, cls, register):
 
 
 def define_cidr_law(name: str, yield_function, dilatancy_function, *, label=None, material: Material | None = None,
-                    register: bool = True, key: str | None = None) -> type:
+                    register: bool = True, key: str | None = None, equation_of_state: str = "auto") -> type:
     """A :class:`CIDRLaw` class from Y and f (callables of (p, I, phi, M, Psi, prm) or sympy
-    expressions in the symbols p, I, phi, M, Psi and material parameters); registered as `name`."""
+    expressions in the symbols p, I, phi, M, Psi and material parameters); registered as `name`.
+    `equation_of_state` as :attr:`CIDRLaw.equation_of_state` ('auto' or 'scalar')."""
+    if equation_of_state not in ("auto", "scalar"):
+        raise ValueError(f"`equation_of_state` must be 'auto' or 'scalar'; got {equation_of_state!r}")
     Y = _as_function(yield_function, ("p", "I", "phi", "M", "Psi"))
     f = _as_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"))
     definition = key or _key_of(Y, f, extra=name)
     body = {
         "yield_function": lambda self, p, I, phi, M, Psi, prm: Y(p, I, phi, M, Psi, prm),  # noqa: E741
         "dilatancy_function": lambda self, p, I, phi, M, Psi, prm: f(p, I, phi, M, Psi, prm),  # noqa: E741
-        "definition_key": classmethod(lambda cls: definition + _mro_source(CIDRLaw)),
+        "definition_key": classmethod(lambda cls: definition + equation_of_state + _mro_source(CIDRLaw)),
         "label": label or name, "__doc__": f"CIDR law {name!r} defined at run time.",
+        "equation_of_state": equation_of_state,
     }
     if material is not None:
         body["default_material"] = classmethod(lambda cls: material)

@@ -213,10 +213,10 @@ def _rsqrt0_np(x):
 '''
 
 
-def _scalar_function(name, args, param_names, exprs, printer) -> str:
+def _scalar_function(name, args, param_names, exprs, printer, pre="") -> str:
     lines, outs = _body(exprs, printer)
     unpack = f"    {', '.join(param_names)}, = params\n" if param_names else ""
-    return (f"\n\n@njit(**_OPTIONS)\ndef {name}({', '.join(args)}, params):\n{unpack}"
+    return (f"\n\n@njit(**_OPTIONS)\ndef {name}({', '.join(args)}, params):\n{unpack}{pre}"
             + "\n".join(lines) + ("\n" if lines else "") + f"    return ({', '.join(outs)},)\n")
 
 
@@ -230,12 +230,12 @@ def _array_loop(name, point, args, n_out) -> str:
             f"    return ({', '.join(outs)},)\n")
 
 
-def _numpy_function(name, args, param_names, exprs, printer, single=False) -> str:
+def _numpy_function(name, args, param_names, exprs, printer, single=False, pre="") -> str:
     lines, outs = _body(exprs, printer)
     unpack = f"    {', '.join(param_names)}, = params\n" if param_names else ""
     zero = f"    _zero = 0.0 * ({' + '.join(args)})\n"
     return (f"\n\ndef {name}({', '.join(args)}, params):\n{unpack}{zero}"
-            "    with numpy.errstate(divide='ignore', invalid='ignore'):\n"
+            "    with numpy.errstate(divide='ignore', invalid='ignore'):\n" + pre
             + "".join(f"    {line}\n" for line in lines)
             + (f"        return {outs[0]} + _zero\n" if single else
                f"        return ({', '.join(f'{o} + _zero' for o in outs)},)\n"))
@@ -270,17 +270,59 @@ def generated_source(rheology, kinematics) -> str:
     n_out = len(outputs)
     what = (f"rheology {rheology.name!r}, laws {material.friction.name!r}/{material.dilatancy.name!r}, "
             f"kinematics {kinematics.name!r}: outputs {kinematics.outputs}, params {tuple(pnames)}")
+    solve, pre, pre_np = "", "", ""
+    roots = _implicit_roots(outputs + jac)
+    if roots:  # sqrt(p) by the scalar solve (.implicit): its derivatives are already in `jac`
+        solve, pre, pre_np, outputs, jac = _implicit_parts(roots, outputs, jac, names, pnames, scalar, array)
     return "".join([
         _HEADER.format(what=what),
         f"\nOUTPUTS = {tuple(kinematics.outputs)!r}\nRATES = {tuple(kinematics.rates)!r}\n"
-        f"PARAMETERS = {tuple(pnames)!r}\n",
-        _scalar_function("stress", args, pnames, outputs, scalar),
-        _scalar_function("stress_jacobian", args, pnames, jac, scalar),
+        f"PARAMETERS = {tuple(pnames)!r}\n", solve,
+        _scalar_function("stress", args, pnames, outputs, scalar, pre),
+        _scalar_function("stress_jacobian", args, pnames, jac, scalar, pre),
         _array_loop("stress_array", "stress", args, n_out),
         _array_loop("stress_jacobian_array", "stress_jacobian", args, n_out * len(args)),
-        _numpy_function("stress_numpy", args, pnames, outputs, array),
-        _numpy_function("stress_jacobian_numpy", args, pnames, jac, array),
+        _numpy_function("stress_numpy", args, pnames, outputs, array, pre=pre_np),
+        _numpy_function("stress_jacobian_numpy", args, pnames, jac, array, pre=pre_np),
     ])
+
+
+def _implicit_roots(exprs) -> set:
+    from .implicit import ImplicitRoot
+
+    return set().union(*(e.atoms(ImplicitRoot) for e in exprs))
+
+
+def _implicit_parts(roots, outputs, jac, names, pnames, scalar, array):
+    """Source of the flow-rule residual and the scalar solve, the line computing sqrt(p) (numba and
+    numpy) and the outputs with the root replaced by that value (see :mod:`.implicit`)."""
+    import sympy as sp
+
+    from .implicit import SCALAR_SOLVER
+
+    if len(roots) != 1:
+        raise ValueError(f"a law's kernels can hold one implicit sqrt(p); got {len(roots)}")
+    (root,) = roots
+    cls = type(root)
+    q, F = cls.root_symbol, cls.residual
+    placeholders = cls.arg_symbols[:5]                         # phi, div_u, norm_S, M, Psi
+    own = {a: names.get(a, sp.Symbol(k, real=True)) for a, k in zip(cls.arg_symbols[5:], pnames)}
+    rargs = ["q", "phi", "div_u", "norm_S", "M", "Psi"]
+    plain = {q: sp.Symbol("q", real=True), **{s: sp.Symbol(n, real=True) for s, n in zip(placeholders, rargs[1:])},
+             **own}
+    F = F.xreplace(plain)
+    Fq = sp.diff(F, plain[q])
+    source = (_scalar_function("_flow_residual", rargs, pnames, [F, Fq], scalar) + SCALAR_SOLVER
+              + _numpy_function("_flow_residual_numpy", rargs, pnames, [F, Fq], array)
+              + "\n\ndef sqrt_pressure_numpy(phi, div_u, norm_S, M, Psi, params):\n"
+                "    from icidr_pde.rheology.implicit import solve_increasing\n\n"
+                "    return solve_increasing(_flow_residual_numpy, phi, div_u, norm_S, M, Psi, params)\n")
+    call_s = ", ".join(scalar.doprint(_safe_powers(a)) for a in root.args[:5])
+    call_a = ", ".join(array.doprint(_safe_powers(a)) for a in root.args[:5])
+    pre = f"    _q = sqrt_pressure({call_s}, params)\n"
+    pre_np = f"        _q = sqrt_pressure_numpy({call_a}, params)\n"
+    qs = {root: sp.Symbol("_q", real=True)}
+    return source, pre, pre_np, [e.xreplace(qs) for e in outputs], [e.xreplace(qs) for e in jac]
 
 
 def law_kernels(rheology, kinematics):
