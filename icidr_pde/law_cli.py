@@ -24,6 +24,11 @@ def _check(args) -> int:
             f"{k} = {v:.4g}" for k, v in c["counterexample"].items())
         method = f" ({c['method']})" if c["method"] else ""
         print(f"  {key}: {c['status']}{method}{where}")
+    pos = report.get("positivity")
+    if pos:
+        where = "" if pos["counterexample"] is None else "  e.g. at " + ", ".join(
+            f"{k} = {v:.4g}" for k, v in pos["counterexample"].items())
+        print(f"  Y > 0: {pos['status']} ({pos['method']}){where}")
     eos = report.get("equation_of_state")
     if eos:
         print(f"  equation of state: {eos['method']}; sqrt(p) = {eos['sqrt_p']}")

@@ -35,8 +35,25 @@ import numpy as np
 __all__ = ["resolve_law", "check_conditions", "symbol_grid", "curves", "law_report", "write_report",
            "condition_sample", "law_list"]
 
-#: the sample of (4.3)-(4.5) where sympy cannot decide (stated in every report)
-SAMPLE = {"p": (1e-4, 1e6, 31), "I": (1e-4, 10.0, 31), "phi": 25}
+#: the sample of (4.3)-(4.5) where sympy cannot decide (stated in every report): phi uniform in the
+#: law's domain, plus `near_phi_c` points uniform in [phi_c - 0.03, phi_c + 0.015] (within the domain)
+SAMPLE = {"p": (1e-4, 1e6, 31), "I": (1e-4, 10.0, 31), "phi": 25, "near_phi_c": (0.03, 0.015, 31)}
+
+
+def _phi_points(rheology, n_uniform, near):
+    """phi uniform inside the law's domain (ends excluded), plus points dense around phi_c where the
+    domain reaches it (the jamming transition, where laws such as the blended one change character)."""
+    lo, hi = law_domain(rheology)
+    phis = np.linspace(lo, hi, n_uniform + 2)[1:-1]
+    phi_c = dict(zip(rheology.material.parameter_names(), rheology.material.params)).get("phi_c")
+    if phi_c is None or near is None:
+        return phis, ""
+    below, above, n = near
+    a, b = max(lo, phi_c - below), min(hi, phi_c + above)
+    extra = np.linspace(a, b, n + 2)[1:-1] if b > a else np.empty(0)
+    extra = extra[(extra > lo) & (extra < hi)]
+    text = f" + {extra.size} phi uniform in ({a:.4g}, {b:.4g}) around phi_c = {phi_c:g}" if extra.size else ""
+    return np.unique(np.concatenate([phis, extra])), text
 
 
 def resolve_law(law, material=None):
@@ -64,11 +81,11 @@ def condition_sample(rheology):
     lo, hi = law_domain(rheology)
     p_lo, p_hi, n_p = SAMPLE["p"]
     i_lo, i_hi, n_i = SAMPLE["I"]
-    phis = np.linspace(lo, hi, SAMPLE["phi"] + 2)[1:-1]
+    phis, near = _phi_points(rheology, SAMPLE["phi"], SAMPLE["near_phi_c"])
     P, I, F = np.meshgrid(np.logspace(math.log10(p_lo), math.log10(p_hi), n_p),
                           np.logspace(math.log10(i_lo), math.log10(i_hi), n_i), phis, indexing="ij")
     text = (f"{n_p} p log-uniform in [{p_lo:g}, {p_hi:g}] x {n_i} I log-uniform in [{i_lo:g}, {i_hi:g}] x "
-            f"{SAMPLE['phi']} phi uniform in ({lo:g}, {hi:g}): {P.size} states")
+            f"({SAMPLE['phi']} phi uniform in ({lo:g}, {hi:g}){near}; {phis.size} phi): {P.size} states")
     return P.ravel(), I.ravel(), F.ravel(), text
 
 
@@ -183,15 +200,33 @@ def check_conditions(rheology) -> dict:
             "(4.5)": _decide(rheology, cidr.condition_45(f), -1, "(4.5)")}
 
 
+def check_positivity(rheology):
+    """Y > 0 (a yield stress, and c = Y/||S|| > 0 in the alignment law) on the condition sample.
+
+    Not one of (4.3)-(4.5), but the 2-D symbol has the part (c/2) I (:func:`plane_gamma`): where
+    Y < 0 plane waves grow without bound although (4.3)-(4.5) hold. None for a direct law.
+    """
+    from icidr_pde.rheology.cidr import CIDRLaw
+
+    if not isinstance(rheology, CIDRLaw):
+        return None
+    Y, _ = rheology.symbolic_yield(symbolic_material=True)
+    return _decide(rheology, Y, 1, "Y > 0")
+
+
 # --- the symbol over a grid of states -------------------------------------------------------
 
 #: states of the symbol grid: phi uniform inside the domain; gamma-dot = 2||S||; div u/||S||
-GRID = {"phi": 12, "rate": (1.0 / 30.0, 1.0), "ratio": np.linspace(-1.5, 1.5, 13), "angles": 36}
+#: (laws whose domain reaches beyond phi_c get `near_phi_c` phi around phi_c too, as SAMPLE)
+GRID = {"phi": 12, "rate": (1.0 / 30.0, 1.0), "ratio": np.linspace(-1.5, 1.5, 13), "angles": 36,
+        "near_phi_c": (0.03, 0.015, 9)}
 
 
 def _grid_states(rheology):
     lo, hi = law_domain(rheology)
     phis = np.linspace(lo, hi, GRID["phi"] + 2)[1:-1]
+    if hi > dict(zip(rheology.material.parameter_names(), rheology.material.params)).get("phi_c", hi):
+        phis, _ = _phi_points(rheology, GRID["phi"], GRID["near_phi_c"])   # laws that run across phi_c
     F, G, R = np.meshgrid(phis, np.asarray(GRID["rate"]), GRID["ratio"], indexing="ij")
     return F.ravel(), G.ravel(), R.ravel()
 
@@ -359,12 +394,19 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
     symbol_ok = sym["one_d"]["well_posed"] and sym["two_d"]["well_posed"]
     hold = all(c.status == "holds" for c in conditions.values())
     report["conditions"] = {k: c.to_json() for k, c in conditions.items()}
+    positivity = check_positivity(rheology)
+    report["positivity"] = None if positivity is None else positivity.to_json()
     report["conditions_hold"] = hold if isinstance(rheology, CIDRLaw) else None
     report["well_posed"] = bool(symbol_ok and (hold or not isinstance(rheology, CIDRLaw)))
     report["stability"] = sym
     if isinstance(rheology, CIDRLaw) and hold and not symbol_ok:
-        report["stability"]["notes"].append("(4.3)-(4.5) hold but the symbol is not negative on the grid: "
-                                            "inconsistent, please report")
+        if positivity is not None and positivity.status == "fails":
+            report["stability"]["notes"].append("(4.3)-(4.5) hold but Y < 0 on part of the sample (see "
+                                                "'positivity'): there c = Y/||S|| < 0 and the 2-D symbol's (c/2) I "
+                                                "part makes plane waves grow")
+        else:
+            report["stability"]["notes"].append("(4.3)-(4.5) hold but the symbol is not negative on the grid: "
+                                                "inconsistent, please report")
     if with_curves:
         report["curves"] = curves(rheology)
     report["runnable"] = not (isinstance(rheology, CIDRLaw) and report["equation_of_state"]["no_positive_root_at"])

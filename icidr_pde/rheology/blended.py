@@ -1,4 +1,4 @@
-"""iCIDR with the blended pressure (7.2)-(7.3) of Chialvo et al. (2012): a CIDR law across phi_c.
+"""iCIDR with the blended pressure (7.2)-(7.3) of Chialvo et al. (2012): CIDR laws across phi_c.
 
 **Steady pressure.** In steady simple shear (div u = 0, gamma-dot = 2||S||) the pressure is
 the blend (7.2) of the inertial pressure (2.14), p_inert = (gamma-dot/Psi_+)^2, and the
@@ -7,27 +7,58 @@ intermediate-regime pressure (7.3), p_itm = alpha_itm (k/d)^(3/4) gamma-dot^(1/2
 
     P(phi, gamma-dot) = p_inert p_itm/(p_inert + p_itm),   1/P = Psi_+^2/gamma-dot^2 + 1/p_itm,
 
-with Psi_+ = max(Psi(phi), 0) (the dilatancy law :class:`LinearDilatancyToJamming`): for phi >= phi_c the inertial pressure is infinite and P = p_itm,
-finite, so the law runs up to and across phi_c, where iCIDR's pressure (4.12) diverges.
-Parameters: k/d = k_n = 1e4, the DEM spring constant of appendix C in the units (3.12); in
-2-D the spring constant is itself a stress, so k_n plays the role of k/d. alpha_itm = 1:
-an order-one coefficient chosen here (appendix C has no intermediate-regime data to fit it;
-not Chialvo et al.'s fitted 3-D value). With these, p_itm = 1000 gamma-dot^(1/2) and the cap
-acts where Psi^2 < gamma-dot^(3/2)/1000, i.e. within a I*a ~ 1e-3 of phi_c at gamma-dot = 1/30.
-The friction coefficient is M_+ = mu(Psi_+), mu_s beyond phi_c.
+with Psi_+ = max(Psi(phi), 0) (the dilatancy law :class:`LinearDilatancyToJamming`): for
+phi >= phi_c the inertial pressure is infinite and P = p_itm, finite, so the laws run up to
+and across phi_c, where iCIDR's pressure (4.12) diverges. The friction coefficient is
+M_+ = mu(Psi_+), mu_s beyond phi_c.
+
+**Parameters.** k/d = k_n = 1e4: the normal spring constant of the DEM of appendix C in the
+units (3.12); in 2-D a spring constant is a force per length, i.e. a stress, so k_n is the
+stiffness k/d of (7.3) non-dimensionalised by rho_* d^2 gamma-dot-scale^2 as every stress
+here. alpha_itm = 1: an order-one coefficient chosen here, because appendix C has no
+intermediate-regime (soft-particle) data to fit it and Chialvo et al.'s fitted value belongs
+to their 3-D spheres and their definition of the stiffness, not to these 2-D disks. With these,
+p_itm = 1000 gamma-dot^(1/2) and the cap acts where Psi^2 < gamma-dot^(3/2)/1000, i.e.
+within I*a ~ 1e-3 of phi_c at gamma-dot = 1/30.
 
 **Yield and dilatancy functions.** In the variables (p, gamma-dot), gamma-dot = I sqrt(p), the
 operator of (4.3) and (4.5), d/dp - (I/2p) d/dI at fixed I, is d/dp at fixed gamma-dot; (4.3)
-reads dY/dp = d(gamma-dot f)/d(gamma-dot). iCIDR is f = (M/4)(sqrt(P/p) - sqrt(p/P)),
-Y = M sqrt(p P) with P = (gamma-dot/Psi)^2. Keeping that f for the blended P (so (4.5) holds:
-df/dp < 0 at fixed gamma-dot) and integrating (4.3) in p with (4.6) (Y = M p where p = P)
-gives, with r = p/P and eps = dln P/dln gamma-dot (eps = 2 for iCIDR, where Y reduces to (4.7)):
+reads dY/dp = d(gamma-dot f)/d(gamma-dot). With r = p/P and eps = dln P/dln gamma-dot (eps = 2
+where P = p_inert, 1/2 where P = p_itm), a dilatancy function f = (M/4)(r^(-1/2) - r^b)
+vanishes at the steady state r = 1 and satisfies (4.5) (df/dp < 0 at fixed gamma-dot);
+integrating (4.3) in p from r = 1 with (4.6) (Y = M P there) gives
 
-    Y = (M P/4) [(2 + eps) r^(1/2) + ((eps - 2)/3) r^(3/2)] + M P (2 - eps)/3.
+    Y = M P + (M P/4) [(2 + eps)(r^(1/2) - 1) - ((1 - b eps)/(1 + b)) (r^(1 + b) - 1)].
 
-The workbench checks (4.3)-(4.5) for these (the derivation above is not trusted), and solves
-the flow rule for p in closed form: sqrt(p) = sqrt(P) (R - div u)/(M ||S||), which is (4.12)
-when P = p_inert.
+* ``icidr-blended`` (:class:`ICIDRBlended`), b = 1/2: iCIDR's own dilatancy shape kept for the
+  blended P, Y = (M P/4)[(2 + eps) r^(1/2) + ((eps - 2)/3) r^(3/2)] + M P (2 - eps)/3 (eps = 2
+  gives (4.7)), with the closed form sqrt(p) = sqrt(P) (R - div u)/(M ||S||) ((4.12) when
+  P = p_inert). (4.4) fails under strong compaction (p >> P; p >= 1e3 on the sample).
+* ``icidr-blended-quarter`` (:class:`ICIDRBlendedQuarter`), b = 1/4: (4.3)-(4.5) hold (the
+  workbench proves them symbolically), the 1-D symbol is well-posed. Its flow rule is the cubic
+  x^3 + k x^2 - 1 = 0 in x = r^(1/4), k = 2 div u/(M ||S||): exactly one positive root (the
+  left side increases for x > 0 from -1), but Cardano's formula for it needs complex arithmetic
+  where the cubic has three real roots (discriminant 4 k^3 - 27 > 0, strong dilation), so p
+  comes from the workbench's scalar solve (``equation_of_state = "scalar"``, :mod:`.implicit`).
+  Its yield function is *negative* under strong compaction: Y ~ -(M/5)(1 - eps/4) p^(5/4) P^(-1/4)
+  as r -> oo, so c = Y/||S|| < 0 there and 2-D plane waves grow without bound (the (c/2) I
+  part of the 2-D symbol): ill-posed in 2-D where r is large. It does not reduce to iCIDR
+  where P = p_inert (b = 1/4 is not iCIDR's 1/2).
+
+**Why b = 1/4.** Under strong compaction (r >> 1) Y is dominated by -(M/4)((1 - b eps)/(1 + b))
+p^(1+b) P^(-b), and its derivative in gamma-dot at fixed p (the sign of dY/dI) has the sign of
+eps (1 - b eps) + gamma-dot d eps/d gamma-dot. With omega = P/p_itm in [0, 1], eps = 2 - 3 omega/2
+and gamma-dot d eps/d gamma-dot = -(9/4) omega (1 - omega). For b = 1/2 the sum is
+(9/8) omega (omega - 2/3) < 0 wherever omega < 2/3 (the failure above); for b = 1/4 it is
+1 - (9/4) omega + (27/16) omega^2, positive for every omega (discriminant 81/16 - 27/4 < 0).
+
+**Why no law of this family is well-posed.** The same leading term decides the sign of Y:
+Y > 0 for r >> 1 needs 1 - b eps <= 0, and then eps (1 - b eps) + gamma-dot d eps/d gamma-dot
+<= -(9/4) omega (1 - omega) < 0 wherever the blend is active (0 < omega < 1): for every
+constant b > 0, f = (M/4)(r^(-1/2) - r^b) gives either Y < 0 (b < 1/eps) or (4.4) failing
+(b >= 1/eps) under strong compaction. iCIDR escapes only because eps = 2 is constant there
+(b = 1/2, leading coefficient 0). A well-posed blended CIDR law needs a dilatancy function
+outside this family; neither law here is one, and the reports say where each fails.
 """
 
 from dataclasses import dataclass
@@ -37,10 +68,10 @@ from .cidr import CIDRLaw
 from .laws import TABLE1, DilatancyLaw, _check_phi_c
 from .material import Material
 
-__all__ = ["ICIDRBlended", "LinearDilatancyToJamming", "K_OVER_D", "ALPHA_ITM", "PHI_MAX"]
+__all__ = ["ICIDRBlended", "ICIDRBlendedQuarter", "LinearDilatancyToJamming", "K_OVER_D", "ALPHA_ITM", "PHI_MAX"]
 
-K_OVER_D = 10000      # k_n of appendix C, non-dimensional (3.12)
-ALPHA_ITM = 1         # order-one coefficient of (7.3), chosen (see the module docstring)
+K_OVER_D = 10000      # k_n of appendix C, non-dimensional (3.12): the DEM's own stiffness
+ALPHA_ITM = 1         # order-one coefficient of (7.3): no intermediate-regime data to fit (module docstring)
 PHI_MAX = 0.86        # the law's domain reaches beyond phi_c = 0.817 (Table 1)
 
 
@@ -87,11 +118,8 @@ def steady_pressure(gamma_dot, Psi):
     return gamma_dot**2 * p_itm / (gamma_dot**2 + Psi**2 * p_itm)
 
 
-class ICIDRBlended(CIDRLaw):
-    """iCIDR generalised to the blended steady pressure (7.2)-(7.3) (Chialvo et al. 2012)."""
-
-    name = "icidr-blended"
-    label = "iCIDR, blended pressure (7.2)"
+class _Blended(CIDRLaw):
+    """Shared parts: the material (Psi_+ across phi_c) and the steady pressure P with eps = dln P/dln gamma-dot."""
 
     @classmethod
     def default_material(cls):
@@ -105,6 +133,35 @@ class ICIDRBlended(CIDRLaw):
         eps = sp.simplify(g * sp.diff(P, g) / P)
         at = {g: I * sp.sqrt(p)}
         return P.xreplace(at), eps.xreplace(at)
+
+
+class ICIDRBlendedQuarter(_Blended):
+    """The blended steady pressure with f = (M/4)(r^(-1/2) - r^(1/4)), r = p/P: (4.3)-(4.5) hold, Y < 0 for r >> 1."""
+
+    name = "icidr-blended-quarter"
+    label = "blended pressure (7.2), quarter-power dilatancy"
+    equation_of_state = "scalar"   # the cubic flow rule's real root needs complex arithmetic in closed form
+
+    def yield_function(self, p, I, phi, M, Psi, prm):  # noqa: E741
+        import sympy as sp
+
+        P, eps = self._parts(p, I, Psi)
+        r = p / P
+        b = sp.Rational(1, 4)
+        return M * P + M * P / 4 * ((2 + eps) * (sp.sqrt(r) - 1) - (1 - b * eps) / (1 + b) * (r ** (1 + b) - 1))
+
+    def dilatancy_function(self, p, I, phi, M, Psi, prm):  # noqa: E741
+        import sympy as sp
+
+        P, _ = self._parts(p, I, Psi)
+        return M / 4 * (sp.sqrt(P / p) - (p / P) ** sp.Rational(1, 4))
+
+
+class ICIDRBlended(_Blended):
+    """iCIDR generalised to the blended steady pressure (7.2)-(7.3): (4.4) fails under strong compaction."""
+
+    name = "icidr-blended"
+    label = "iCIDR, blended pressure (7.2)"
 
     def closed_form(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
         """sqrt(p) = 2 k G/M, c = Y/||S||, written without 0/0 as ||S|| -> 0 (checked by the workbench).
