@@ -155,7 +155,11 @@ def summarise(rows: list[dict], fit_from: dict) -> dict:
 
 
 def measure(cases, fd_N, cheb_N, repeats: int) -> tuple[list[dict], dict]:
-    env, workdir = environment(), Path(tempfile.mkdtemp(prefix="icidr_scaling_"))
+    with tempfile.TemporaryDirectory(prefix="icidr_scaling_") as folder:
+        return _measure(cases, fd_N, cheb_N, repeats, environment(), Path(folder))
+
+
+def _measure(cases, fd_N, cheb_N, repeats: int, env: dict, workdir: Path) -> tuple[list[dict], dict]:
     floor = measured([sys.executable, "-c", FLOOR], env, workdir)
     for case in cases:  # fill the kernel cache of each law and discretization (not timed)
         one_run(case, 51, env, workdir)

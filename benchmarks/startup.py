@@ -235,9 +235,9 @@ def main(argv=None) -> int:
     data = {} if args.no_invocations else measure(args.repeats)
     if data:
         print(report(data))
-    workdir = Path(tempfile.mkdtemp(prefix="icidr_startup_"))
     env = dict(os.environ, **({"NUMBA_CACHE_DIR": data["cache"]} if data else {}))  # else: the user's cache
-    data["commands"] = measure_commands(args.repeats, env, workdir, args.against)
+    with tempfile.TemporaryDirectory(prefix="icidr_startup_") as workdir:
+        data["commands"] = measure_commands(args.repeats, env, Path(workdir), args.against)
     data["commands"]["repeats"] = args.repeats
     print(report_commands(data["commands"]))
     if args.json:
