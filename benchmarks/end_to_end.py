@@ -373,11 +373,12 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None) -> dict
                 lu_share=n_lu * t_lu / limit)
 
 
-def timed(args, env):
+def timed(args, env, allowed=(0,)):
+    """Wall time and result of a process; an exit status outside `allowed` is an error."""
     start = time.perf_counter()
     proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=ROOT)
     wall = time.perf_counter() - start
-    if proc.returncode != 0:
+    if proc.returncode not in allowed:
         raise RuntimeError(f"{' '.join(map(str, args))} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     return wall, proc
 
@@ -397,7 +398,8 @@ def run_project(case, env, workdir):
     args = [sys.executable, "-m", "icidr_pde.cli", "run", "--rheology", spec["rheology"], "--scene", spec["scene"],
             "--discretization", spec["disc"], "--N", str(spec["N"]), "--t-end", f"{spec['t_end']:g}",
             "--times", *times, *spec["project"], "--json", str(out), "--no-progress"]
-    wall, proc = timed(args, env)
+    # the t* case fails by design: the CLI exits 3 (run failed) after writing its JSON
+    wall, proc = timed(args, env, allowed=(0, 3) if spec["ref"].startswith("mui-shear-tstar") else (0,))
     data = json.loads(out.read_text())
     return dict(wall_s=wall, solve_s=data["wall_s"], compile_s=data["compile_s"],
                 error=accuracy(case, data["max_w"], data["t_star"] if data["blew_up"] else None),

@@ -120,6 +120,7 @@ class Result:
             "n_steps": self.n_steps,
             "n_rhs": self.n_rhs,
             "n_jac": self.n_jac,
+            "n_lu": self.n_lu,
             "scene_params": self.scene_params,
             "material": self.material,
             "settings": self.settings,
