@@ -48,6 +48,8 @@ class Result:
         max_w_t, max_w: time series of max|w| over the nodes
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
         mass_drift: relative change of the integral of phi between 0 and t_final
+        wall_s, cpu_s: wall-clock and CPU time of the solve (kernel set-up, compile_s, excluded)
+        n_steps, n_rhs, n_jac, n_lu: the integrator's counts (None where it has none)
         Nx, L, measures: 2-D runs only (N is then Nz): cells along x, period L, and per
             snapshot max_w, max_phi_dev (max|phi - phi0|) and l2_velocity
             (sqrt of the integral of (u - z/H)^2 + w^2 over the cell)
@@ -82,6 +84,7 @@ class Result:
     n_rhs: int
     n_jac: int
     n_lu: int | None = None
+    cpu_s: float | None = None
     requested_times: list[str] = field(default_factory=list)
     chi_t: np.ndarray | None = None
     chi_z: np.ndarray | None = None
@@ -117,6 +120,7 @@ class Result:
             "mass_drift": self.mass_drift,
             "wall_s": self.wall_s,
             "compile_s": self.compile_s,
+            "cpu_s": self.cpu_s,
             "n_steps": self.n_steps,
             "n_rhs": self.n_rhs,
             "n_jac": self.n_jac,
