@@ -196,10 +196,10 @@ def fig1_pool(pool: dict, path):
     ax[0].set(xlabel="I", ylabel=r"$\mu$", title="(a) bulk friction, pooled")
     ax[1].set(xlabel="I", ylabel=r"$\phi$", title="(b) packing fraction, pooled")
     for a in ax:
-        a.set_xlim(0, 0.25)
+        a.set_xlim(0, 0.22)
         a.legend(fontsize=6)
     ax[0].set_ylim(0.3, 0.5)
-    ax[1].set_ylim(0.74, 0.82)
+    ax[1].set_ylim(0.755, 0.805)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
