@@ -138,36 +138,50 @@ def write_movie(path, z, times, frames, *, max_w_t=None, max_w=None, title="", f
     if frames.ndim != 3 or frames.shape[0] != len(times) or frames.shape[1] != 3 or len(times) == 0:
         raise ValueError(f"`frames` must have shape (n_times, 3, n_z) with n_times = {len(times)} > 0; "
                          f"got {frames.shape}")
+    path, suffix = _movie_target(path)
+    if max_w_t is None:
+        max_w_t, max_w = times, np.max(np.abs(frames[:, 2]), axis=1)
+    plot = _FrameFigure(z, times, frames, np.asarray(max_w_t, float), np.asarray(max_w, float), title, dpi)
+    return _write_movie(plot.fig, path, suffix, fps, dpi,
+                        lambda grab: _add_frames(plot, times, frames, failed_reason, grab))
+
+
+
+def _movie_target(path):
+    """Check a movie's output `path`; return (path, suffix), a .gif beside it when an .mp4
+    was asked for and no ffmpeg exists (with a warning to the public function's caller)."""
     if not path.parent.is_dir():
         raise ValueError(f"`path`: folder {path.parent} does not exist")
     suffix = path.suffix.lower()
     if suffix not in (".mp4", ".gif"):
         raise ValueError(f"`path` must end in .mp4 or .gif; got {path.name!r}")
     if suffix == ".mp4" and ffmpeg_exe() is None:
-        warnings.warn("no ffmpeg found (install imageio-ffmpeg): writing a GIF instead", stacklevel=2)
+        warnings.warn("no ffmpeg found (install imageio-ffmpeg): writing a GIF instead", stacklevel=3)
         path, suffix = path.with_suffix(".gif"), ".gif"
-    if max_w_t is None:
-        max_w_t, max_w = times, np.max(np.abs(frames[:, 2]), axis=1)
-    plot = _FrameFigure(z, times, frames, np.asarray(max_w_t, float), np.asarray(max_w, float), title, dpi)
+    return path, suffix
+
+
+def _write_movie(fig, path, suffix, fps, dpi, add_frames):
+    """Write the frames `add_frames(grab)` draws on `fig` to a temporary name beside `path`,
+    rename it to `path` when complete (never a half-written file) and return `path`."""
     partial = path.with_name(f".{path.stem}.partial{suffix}")
     try:
         if suffix == ".mp4":
             from pde.visualization.movies import Movie
 
             with Movie(str(partial), framerate=fps, dpi=dpi) as movie:
-                _add_frames(plot, times, frames, failed_reason, movie.add_figure)
+                add_frames(movie.add_figure)
         else:
             from matplotlib.animation import PillowWriter
 
             writer = PillowWriter(fps=fps)
-            with writer.saving(plot.fig, str(partial), dpi=dpi):
-                _add_frames(plot, times, frames, failed_reason, lambda fig: writer.grab_frame())
+            with writer.saving(fig, str(partial), dpi=dpi):
+                add_frames(lambda _fig: writer.grab_frame())
         os.replace(partial, path)
     finally:
         if partial.exists():
             partial.unlink()
     return path
-
 
 def _add_frames(plot, times, frames, failed_reason, grab):
     last = len(times) - 1
@@ -368,38 +382,14 @@ def write_field_movie(path, extent, times, frames: dict, *, series: dict | None 
     if not frames or any(f.ndim != 4 or f.shape[:2] != (len(times), 2) for f in frames.values()) or len(times) == 0:
         raise ValueError(f"`frames` must map labels to arrays of shape (n_times, 2, Nx, Nz) with n_times = "
                          f"{len(times)} > 0; got {({k: v.shape for k, v in frames.items()})}")
-    if not path.parent.is_dir():
-        raise ValueError(f"`path`: folder {path.parent} does not exist")
-    suffix = path.suffix.lower()
-    if suffix not in (".mp4", ".gif"):
-        raise ValueError(f"`path` must end in .mp4 or .gif; got {path.name!r}")
-    if suffix == ".mp4" and ffmpeg_exe() is None:
-        warnings.warn("no ffmpeg found (install imageio-ffmpeg): writing a GIF instead", stacklevel=2)
-        path, suffix = path.with_suffix(".gif"), ".gif"
+    path, suffix = _movie_target(path)
     if series is None:
         series = {label: tuple((times, np.max(np.abs(f[:, row]), axis=(1, 2))) for row in (0, 1))
                   for label, f in frames.items()}
     labels = list(frames)
     plot = _FieldFrameFigure(extent, labels, {k: v[0] for k, v in frames.items()}, series, title, dpi)
-    partial = path.with_name(f".{path.stem}.partial{suffix}")
-    try:
-        if suffix == ".mp4":
-            from pde.visualization.movies import Movie
-
-            with Movie(str(partial), framerate=fps, dpi=dpi) as movie:
-                _add_field_frames(plot, times, frames, last_note, movie.add_figure, progress, path.name)
-        else:
-            from matplotlib.animation import PillowWriter
-
-            writer = PillowWriter(fps=fps)
-            with writer.saving(plot.fig, str(partial), dpi=dpi):
-                _add_field_frames(plot, times, frames, last_note, lambda fig: writer.grab_frame(), progress,
-                                  path.name)
-        os.replace(partial, path)
-    finally:
-        if partial.exists():
-            partial.unlink()
-    return path
+    return _write_movie(plot.fig, path, suffix, fps, dpi,
+                        lambda grab: _add_field_frames(plot, times, frames, last_note, grab, progress, path.name))
 
 
 def _add_field_frames(plot, times, frames, last_note, grab, progress, name):
