@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from .icidr import ICIDR
-from .laws import TABLE1, FrictionLaw
+from .laws import MuOfI
 from .material import Material
 from .mui import MuIPhiI
 
@@ -33,30 +33,24 @@ NONMONOTONIC_DEFAULTS = {"delta_mu": 0.1, "I_m": 0.01}
 
 
 @dataclass(frozen=True)
-class NonMonotonicMu(FrictionLaw):
-    """mu(I) = mu_s + (mu_d - mu_s)/(I0/I + 1) + delta_mu I_m/(I + I_m): a minimum at small I."""
+class NonMonotonicMu(MuOfI):
+    """mu(I) = mu_s + (mu_d - mu_s)/(I0/I + 1) + delta_mu I_m/(I + I_m): (2.10) plus a term
+    that gives a minimum at small I."""
 
     name: ClassVar[str] = "non-monotonic"
-    mu_s: float = TABLE1["mu_s"]
-    mu_d: float = TABLE1["mu_d"]
-    I0: float = TABLE1["I0"]
     delta_mu: float = NONMONOTONIC_DEFAULTS["delta_mu"]
     I_m: float = NONMONOTONIC_DEFAULTS["I_m"]
 
     def validate(self):
-        if not 0 < self.mu_s < self.mu_d < 1:
-            raise ValueError(f"`mu_s`, `mu_d` must satisfy 0 < mu_s < mu_d < 1; got mu_s={self.mu_s}, "
-                             f"mu_d={self.mu_d}")
+        super().validate()
         if not 0 <= self.delta_mu < 1 - self.mu_s:
             raise ValueError(f"`delta_mu` must lie in [0, 1 - mu_s) = [0, {1 - self.mu_s:g}) so that mu < 1; "
                              f"got {self.delta_mu}")
-        for name in ("I0", "I_m"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"`{name}` must be > 0; got {getattr(self, name)}")
+        if not self.I_m > 0:
+            raise ValueError(f"`I_m` must be > 0; got {self.I_m}")
 
     def mu(self, I, prm):  # noqa: E741
-        return (prm["mu_s"] + (prm["mu_d"] - prm["mu_s"]) * I / (prm["I0"] + I)
-                + prm["delta_mu"] * prm["I_m"] / (I + prm["I_m"]))
+        return super().mu(I, prm) + prm["delta_mu"] * prm["I_m"] / (I + prm["I_m"])
 
 
 def nonmonotonic_material(**parameters) -> Material:
