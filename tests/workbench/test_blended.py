@@ -81,11 +81,11 @@ def test_sample_is_dense_across_phi_c():
     assert np.sum((g > 0.794) & (g < 0.827)) >= 7
 
 
-def test_old_blended_law_fails_4_4_and_positivity_only_under_compaction():
-    c = wb.check_conditions(get_rheology("icidr-blended"))
+def test_half_power_blended_law_fails_4_4_and_positivity_only_under_compaction():
+    c = wb.check_conditions(get_rheology("icidr-blended-half"))
     region = c["(4.4)"].region
     assert c["(4.4)"].status == "fails" and region["p"][0] >= 1e2
-    pos = wb.check_positivity(get_rheology("icidr-blended"))
+    pos = wb.check_positivity(get_rheology("icidr-blended-half"))
     assert pos.status == "fails" and pos.region["p"][0] >= 1.0
 
 

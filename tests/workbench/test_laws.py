@@ -92,7 +92,7 @@ def test_closed_forms_are_checked_not_trusted():
     with pytest.raises(LawError, match=r"closed_form\(\) p does not solve the flow rule.*phi = "):
         Wrong().verify_closed_form()
     get_rheology("icidr").verify_closed_form()
-    get_rheology("icidr-blended").verify_closed_form()
+    get_rheology("icidr-blended-half").verify_closed_form()
 
 
 def test_flow_rule_without_a_solution_for_p_is_an_error():
@@ -159,9 +159,10 @@ def test_nonmonotonic_friction_has_the_stated_minimum():
         NonMonotonicMu(delta_mu=0.9)
 
 
-def test_blended_steady_pressure_is_7_2_and_caps_at_p_itm():
+@pytest.mark.parametrize("name", ["icidr-blended", "icidr-blended-half"])
+def test_blended_steady_pressure_is_7_2_and_caps_at_p_itm(name):
     """At div u = 0 the pressure is (7.2) with (7.3) (k/d = 1e4, alpha = 1), -> p_itm at and beyond phi_c."""
-    r = get_rheology("icidr-blended")
+    r = get_rheology(name)
     phi_c, a = 0.817, 0.314
     phi = np.array([0.70, 0.78, 0.81, 0.8165, 0.817, 0.83, 0.85])
     gdot = 1.0 / 30.0

@@ -153,8 +153,8 @@ def test_user_law_file_is_checked(tmp_path):
 
 
 def test_sampled_condition_reports_a_counterexample_and_region():
-    """The blended law: (4.4) cannot be decided by sympy; the sample finds where dY/dI < 0."""
-    r = get_rheology("icidr-blended")
+    """The half-power blended law: (4.4) cannot be decided by sympy; the sample finds where dY/dI < 0."""
+    r = get_rheology("icidr-blended-half")
     c = wb.check_conditions(r)
     assert c["(4.3)"].status == "holds"
     c44 = c["(4.4)"]
