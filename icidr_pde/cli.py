@@ -84,15 +84,22 @@ class DefaultsFormatter(argparse.RawDescriptionHelpFormatter):
         return f"{text} (default: {shown})".strip()
 
 
-def positive_int(text):
-    """argparse type: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive integer; got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer; got {text}")
-    return value
+def int_at_least(lowest):
+    """argparse type: an integer >= `lowest`, the error naming that range and the text received."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < lowest:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}; got {text!r}")
+        return value
+
+    parse.__name__ = f"integer >= {lowest}"
+    return parse
+
+
+positive_int = int_at_least(1)
 
 
 def number(text):

@@ -14,7 +14,7 @@ import os
 import sys
 from pathlib import Path
 
-from ..cli import positive_int as _pos_int
+from ..cli import int_at_least, positive_int as _pos_int
 
 
 def _fraction(text):
@@ -27,14 +27,7 @@ def _fraction(text):
     return v
 
 
-def _seed(text):
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0; got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0; got {text!r}")
-    return v
+_seed = int_at_least(0)
 
 
 def _common(p, what):
