@@ -25,29 +25,12 @@ from .result import Result
 from .rheology import Material
 from .scenes import SCENES, Scene
 from .snapshots import SnapshotFile
-from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker, dense_times
-from .validation import ParameterError, real, shown
+from .times import dense_times, time_labels as _time_labels
+from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker
+from .validation import real
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
-
-
-def _time_labels(times, t_end):
-    labels, values = [], []
-    wanted = f"numbers in [0, t_end] = [0, {t_end:g}]"
-    if isinstance(times, (str, bytes)) or not np.iterable(times):
-        raise ParameterError(f"`times` must be a list of {wanted}; got {shown(times)}")
-    for t in times:
-        try:
-            value = float(t) if isinstance(t, str) else real("times", t)
-        except (ValueError, TypeError):
-            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}") from None
-        if not (np.isfinite(value) and 0 <= value <= t_end):
-            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}")
-        labels.append(t if isinstance(t, str) else f"{value:g}")
-        values.append(value)
-    order = np.argsort(values, kind="stable")
-    return [labels[i] for i in order], np.array(values)[order]
 
 
 @dataclass

@@ -41,10 +41,12 @@ def resolve(accuracy: str = "standard", **overrides) -> dict:
     preset = PRESETS[accuracy]
     settings = {k: v for k, v in overrides.items() if v is not None}
     settings.setdefault("discretization", preset["discretization"])
-    from .discretizations import get_discretization
-
     N = preset["N"].get(settings["discretization"])
-    settings.setdefault("N", get_discretization(settings["discretization"]).default_N if N is None else N)
+    if N is None and "N" not in settings:  # only then the scheme's class (and py-pde) is needed
+        from .discretizations import get_discretization
+
+        N = get_discretization(settings["discretization"]).default_N
+    settings.setdefault("N", N)
     for key in ("method", "rtol", "atol"):
         settings.setdefault(key, preset[key])
     return settings

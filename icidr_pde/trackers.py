@@ -21,20 +21,9 @@ import time
 import numpy as np
 from pde.trackers.base import TrackerBase
 
+from .times import dense_times
+
 __all__ = ["MaxWTracker", "ChiTracker", "ProgressBarTracker", "LivePlotTracker", "dense_times"]
-
-
-def dense_times(t_end: float, n_log: int = 120, n_lin: int = 400, t_min: float = 1e-4) -> np.ndarray:
-    """Interrupt times for time series: log-spaced from `t_min` plus uniform, up to t_end.
-
-    The log part resolves early failures (t* ~ 1e-2 for mu(I)); the uniform part the
-    decay to steady state.
-    """
-    if not t_end > 0:
-        raise ValueError(f"`t_end` must be > 0; got {t_end}")
-    t_min = min(t_min, t_end / 10)
-    times = np.concatenate(([0.0], np.geomspace(t_min, t_end, n_log), np.linspace(0, t_end, n_lin)))
-    return np.unique(times)
 
 
 class MaxWTracker(TrackerBase):

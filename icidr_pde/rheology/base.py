@@ -185,7 +185,11 @@ def chi(phi, uz, wz, material: Material | None = None) -> np.ndarray:
     for name, value in (("uz", uz), ("wz", wz)):
         if not np.all(np.isfinite(value)):
             raise ValueError(f"`{name}` must be finite (any real number); got {value!r}")
-    M = material.M(phi)
+    return chi_of_M(material.M(phi), uz, wz)
+
+
+def chi_of_M(M, uz, wz) -> np.ndarray:
+    """chi of (A18) from M(phi) and the strain rates (see :func:`chi`; no checks)."""
     au = np.abs(uz)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(au > 0, wz / np.where(au > 0, au, 1.0), np.sign(wz) * np.inf)

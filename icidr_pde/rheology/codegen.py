@@ -56,7 +56,7 @@ import sys
 import threading
 import time
 
-__all__ = ["kernel_dir", "law_kernels", "material_functions", "compose", "generated_source", "first_call"]
+__all__ = ["kernel_dir", "law_kernels", "law_expressions", "material_functions", "compose", "generated_source", "first_call"]
 
 _MODULES: dict[str, object] = {}  # module name -> module
 _BY_DEFINITION: dict[tuple, object] = {}  # (classes the module is generated from) -> module
@@ -247,8 +247,10 @@ def _python_names(symbols: dict) -> dict:
     return {sym: sp.Symbol(name, real=True) for name, sym in symbols.items()}
 
 
-def generated_source(rheology, kinematics) -> str:
-    """Python source of the law module of `rheology` for `kinematics` (see the docstring)."""
+def law_expressions(rheology, kinematics):
+    """The outputs of `rheology` for `kinematics` and their derivatives, as sympy expressions
+    in plain real symbols: (args, parameter names, outputs, jacobian (output by output),
+    symbol map). The one definition every printer (numba, numpy, C) starts from."""
     import sympy as sp
 
     from .symbols import phi
@@ -265,8 +267,14 @@ def generated_source(rheology, kinematics) -> str:
     args = ["phi", *kinematics.rates]
     arg_symbols = [sp.Symbol(a, real=True) for a in args]
     jac = [sp.diff(e, v) for e in outputs for v in arg_symbols]
+    return args, list(material.parameter_names()), outputs, jac, names
+
+
+def generated_source(rheology, kinematics) -> str:
+    """Python source of the law module of `rheology` for `kinematics` (see the docstring)."""
+    args, pnames, outputs, jac, names = law_expressions(rheology, kinematics)
+    material = rheology.material
     scalar, array = _printers()
-    pnames = list(material.parameter_names())
     n_out = len(outputs)
     what = (f"rheology {rheology.name!r}, laws {material.friction.name!r}/{material.dilatancy.name!r}, "
             f"kinematics {kinematics.name!r}: outputs {kinematics.outputs}, params {tuple(pnames)}")

@@ -1,0 +1,402 @@
+"""The native engine: 1-D finite volumes integrated by SUNDIALS CVODE in compiled code.
+
+:func:`run_native` runs what ``run(..., discretization="fd", method="CVODE")`` runs (same
+scheme, same CVODE settings, same output times and Result) with no Python in the loop:
+the law printed as C from its sympy definition (:mod:`icidr_pde.rheology.ccode`), the
+finite-volume right-hand side and analytic band Jacobian in C
+(``discretizations/templates/fd.c``, a mirror of the numba template) and a C driver that
+calls CVODE (``cvode_driver.c``), compiled once per installation (:mod:`.build`). A warm
+run imports neither py-pde, numba, scipy, sympy nor scikit-sundae: only numpy, ctypes and
+the light parts of the package (rheology classes, scenes, presets, Result).
+
+The walls are the ghost-cell maps of :meth:`ShearCellPDE.ghost_coefficients` (a test
+compares them with py-pde's boundary setters); the grid is py-pde's cell-centred
+``CartesianGrid([[0, H]], N)``. Failure handling is the stiff solver's: a run that leaves
+(lo, hi) of phi (CVODE's root function, exact crossing), fails in CVODE (the minimum step,
+repeated error-test or Newton failures) or reaches an invalid state returns what it
+recorded, the time reached and the reason; Ctrl-C ends it at the last output reached.
+
+:func:`unavailable` says in one line why a run cannot take this engine (another
+discretization or method, a 2-D scene, an output only the py-pde path writes); building
+the library raises :class:`NativeUnavailable` where gcc, the SUNDIALS libraries or a C
+form of the law are missing.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import sys
+import time as _time
+
+import numpy as np
+
+from .build import NativeUnavailable
+
+__all__ = ["run_native", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "ghost_coefficients",
+           "cell_centres", "MAX_N"]
+
+MAX_N = 100_000  # ShearCellPDE.max_N
+MIN_STEP_FRACTION = 1e-11  # integrator.MIN_STEP_FRACTION: of the fastest time scale
+_CHUNK = 64  # output times per call into C: Ctrl-C and the progress bar act between calls
+
+
+def unavailable(*, discretization, method, jacobian=None, backend="numba", save=None, movie=None,
+                live_plot=False, max_wall=None, N=None, scene=None) -> str | None:
+    """Why these run settings cannot take the native engine (one line), or None."""
+    if discretization != "fd":
+        return f"discretization {discretization!r} (the native engine is 1-D finite volumes, fd)"
+    if method != "CVODE":
+        return f"method {method!r} (the native engine is CVODE)"
+    if jacobian not in (None, "analytic"):
+        return f"jacobian {jacobian!r} (the native engine uses the analytic band Jacobian)"
+    if backend != "numba":
+        return f"backend {backend!r}"
+    if isinstance(N, (tuple, list)):
+        return "a 2-D grid"
+    if getattr(scene, "dim", 1) != 1:
+        return "a 2-D scene"
+    for what, value in (("--save", save), ("--movie", movie), ("a live plot", live_plot),
+                        ("a wall-clock limit", max_wall)):
+        if value:
+            return f"{what} (written by the py-pde run path)"
+    return None
+
+
+def cell_centres(N: int, H: float) -> np.ndarray:
+    """Cell centres of py-pde's CartesianGrid([[0, H]], N): (i + 1/2) H/N."""
+    return (np.arange(N) + 0.5) * (H / N)
+
+
+def ghost_coefficients(V0: float = 1.0) -> np.ndarray:
+    """(3, 2, 2) ghost-cell maps of the fd walls, as :meth:`ShearCellPDE.ghost_coefficients`:
+    phi zero gradient (ghost = edge), u = 0 and V0 and w = 0 as Dirichlet values on the wall
+    (ghost = 2 value - edge)."""
+    return np.array([[[1.0, 0.0], [1.0, 0.0]],
+                     [[-1.0, 0.0], [-1.0, 2.0 * V0]],
+                     [[-1.0, 0.0], [-1.0, 0.0]]])
+
+
+def _pointer(array):
+    return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+class FdProblem:
+    """The compiled finite-volume problem of `rheology` on N cells of height H (interleaved
+    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE.
+
+    The band is ``jb[col, row - col + 5]`` (11 entries a column, :meth:`jacobian_band`);
+    :meth:`jacobian_dense` spreads it into the (3N, 3N) matrix."""
+
+    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0):
+        from ..rheology import SHEAR_CELL
+        from .build import library
+
+        self.lib = library(rheology, SHEAR_CELL)
+        self.N, self.H, self.h = int(N), float(H), float(H) / int(N)
+        self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
+        params = np.array(rheology.material.params, dtype=float)
+        lo, hi = (float(b) for b in rheology.material.phi_range)
+        self.bounds = (lo, hi)
+        self.handle = self.lib.icidr_fd_problem(self.N, self.h, int(advection == "upwind"), _pointer(self.ghost),
+                                                _pointer(params), params.size, lo, hi)
+        if not self.handle:
+            raise MemoryError(f"native problem of N = {N} not allocated")
+        self._params = params
+
+    def __del__(self):
+        handle, self.handle = getattr(self, "handle", None), None
+        if handle:
+            self.lib.icidr_free(handle)
+
+    def rates(self, y) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        out = np.empty(3 * self.N)
+        self.lib.icidr_fd_rates(self.handle, _pointer(y), _pointer(out))
+        return out
+
+    def jacobian_band(self, y) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        jb = np.empty((3 * self.N, 11))
+        self.lib.icidr_fd_jacobian(self.handle, _pointer(y), _pointer(jb))
+        return jb
+
+    def jacobian_dense(self, y) -> np.ndarray:
+        jb, n = self.jacobian_band(y), 3 * self.N
+        J = np.zeros((n, n))
+        for offset in range(-5, 6):
+            cols = np.arange(max(0, -offset), min(n, n - offset))
+            J[cols + offset, cols] = jb[cols, offset + 5]
+        return J
+
+    def time_scale(self, y, iterations: int = 20) -> float:
+        y = np.ascontiguousarray(y, dtype=float)
+        return float(self.lib.icidr_fd_time_scale(self.handle, _pointer(y), iterations))
+
+    def M(self, phi) -> np.ndarray:
+        phi = np.ascontiguousarray(phi, dtype=float)
+        out = np.empty(phi.size)
+        self.lib.icidr_law_M(self.handle, phi.size, _pointer(phi), _pointer(out))
+        return out
+
+    # --- CVODE ------------------------------------------------------------------------------
+
+    def start(self, y0, *, rtol: float, atol: float, t0: float = 0.0, max_step: float = np.inf,
+              first_step: float | None = None) -> float:
+        """Start CVODE at (t0, y0); returns the fastest time scale 1/rho(J(y0))."""
+        y0 = np.ascontiguousarray(y0, dtype=float)
+        scale = ctypes.c_double()
+        error = ctypes.create_string_buffer(1024)
+        status = self.lib.icidr_cvode_start(
+            self.handle, t0, _pointer(y0), rtol, atol, MIN_STEP_FRACTION,
+            max_step if np.isfinite(max_step) else 1e300, 1_000_000, 0.0 if first_step is None else first_step,
+            ctypes.byref(scale), error, len(error))
+        if status != 0:
+            raise RuntimeError(f"CVODE could not start: {error.value.decode(errors='replace')}")
+        return scale.value
+
+    def advance(self, times, store, max_w, states):
+        """CVODE through `times`; see icidr_cvode_advance. Returns (n_done, status, flag)."""
+        times = np.ascontiguousarray(times, dtype=float)
+        store = np.ascontiguousarray(store, dtype=np.intc)
+        n_done, status, flag = ctypes.c_int(), ctypes.c_int(), ctypes.c_int()
+        self.lib.icidr_cvode_advance(self.handle, times.size, _pointer(times),
+                                     store.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), _pointer(max_w),
+                                     _pointer(states), ctypes.byref(n_done), ctypes.byref(status),
+                                     ctypes.byref(flag))
+        return n_done.value, status.value, flag.value
+
+    def last_good(self) -> tuple[float, np.ndarray]:
+        y = np.empty(3 * self.N)
+        t = self.lib.icidr_cvode_last_good(self.handle, _pointer(y))
+        return float(t), y
+
+    def message(self, flag: int) -> str:
+        out = ctypes.create_string_buffer(2048)
+        self.lib.icidr_cvode_message(self.handle, flag, out, len(out))
+        return " ".join(out.value.decode(errors="replace").split())
+
+    def counts(self) -> dict:
+        out = (ctypes.c_long * 7)()
+        self.lib.icidr_cvode_counts(self.handle, out)
+        return dict(zip(("steps", "rhs", "jac", "lu", "error_test_failures", "newton_iterations",
+                         "newton_failures"), map(int, out)))
+
+
+class FdCase:
+    """Scene, law and initial state of a 1-D fd run without py-pde: what
+    :func:`icidr_pde.case.build_case` builds for ``discretization="fd"``, with the same checks
+    (the scene's parameters, the law, phi0 in the law's range, N, the advection option)."""
+
+    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
+        from ..rheology import get_rheology
+        from ..scenes import get_scene
+        from ..validation import ParameterError, format_bytes, integer, memory_bytes
+
+        self.scene = get_scene(scene, **(scene_params or {}))
+        if getattr(self.scene, "dim", 1) != 1:
+            raise NativeUnavailable("a 2-D scene")
+        self.rheology = get_rheology(rheology, material)
+        getattr(self.rheology, "check_runnable", lambda: None)()
+        self.rheology.material.check_phi(self.scene.phi0, "phi0")
+        self.advection = "upwind" if advection is None else advection
+        if self.advection not in ("upwind", "central"):
+            raise ValueError(f"`advection` must be one of ('upwind', 'central'); got {self.advection!r}")
+        self.N = N = integer("N", N, 4)
+        need, have = 4000.0 * N, memory_bytes()
+        if N > MAX_N or (have is not None and need > 0.5 * have):
+            raise ParameterError(
+                f"`N` = {N} is too large for discretization 'fd': the maximum is {MAX_N}, and N = {N} needs "
+                f"about {format_bytes(need)} of memory (banded Jacobian and work vectors); this machine has "
+                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        self.V0 = 1.0
+        self.H = float(self.scene.H)
+        self.h = self.H / N
+        self.z = cell_centres(N, self.H)
+        data = np.array([np.broadcast_to(np.asarray(f, float), (N,)) for f in self.scene.initial_condition(self.z)])
+        self.y0 = np.ascontiguousarray(data.T).ravel()  # interleaved: y[3 i + k] = field k of cell i
+
+    def check_state(self, y) -> str | None:
+        """Why the interleaved state `y` is invalid (as the stiff solver's check), or None."""
+        if not np.all(np.isfinite(y)):
+            return "state became non-finite"
+        phi = y[0::3]
+        lo, hi = self.rheology.material.phi_range
+        if np.all(phi > lo) and np.all(phi < hi):
+            return None
+        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
+        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
+                f"min {phi.min():.6g}, max {phi.max():.6g}")
+
+    def mass(self, data) -> float:
+        """Midpoint rule of phi (ShearCellPDE.integral)."""
+        return float(np.sum(data[0]) * self.h)
+
+    def strain_rates(self, data):
+        """Faces and (phi, u_z, w_z) on them (ShearCellPDE.strain_rates)."""
+        c = ghost_coefficients(self.V0)
+        g = np.empty((3, self.N + 2))
+        g[:, 1:-1] = data
+        g[:, 0] = c[:, 0, 0] * data[:, 0] + c[:, 0, 1]
+        g[:, -1] = c[:, 1, 0] * data[:, -1] + c[:, 1, 1]
+        z_f = np.linspace(0.0, self.H, self.N + 1)
+        return z_f, 0.5 * (g[0, 1:] + g[0, :-1]), np.diff(g[1]) / self.h, np.diff(g[2]) / self.h
+
+
+def _outputs(t_end, lists):
+    """Merged output times (> 0, increasing; times within 1e-8 are one output, as the stiff
+    solver's recorders) and, per list, the output index of each of its times (-1: at t = 0)."""
+    every = np.sort(np.concatenate([np.asarray(t, float) for t in lists] + [[t_end]]))
+    merged = []
+    for t in every:
+        if t < 1e-8:
+            continue
+        if not merged or t >= merged[-1] + 1e-8:
+            merged.append(float(t))
+    merged = np.array(merged)
+    where = []
+    for times in lists:
+        index = np.searchsorted(merged, np.asarray(times, float) - 1e-8, side="left")
+        index[np.asarray(times, float) < 1e-8] = -1
+        where.append(index)
+    return merged, where
+
+
+def _progress_bar(t_end):
+    if "IPython" in sys.modules:
+        from tqdm.auto import tqdm
+    else:
+        from tqdm import tqdm
+    return tqdm(total=t_end, desc="integrating (native)", unit="t", leave=True,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:g} [{elapsed}]")
+
+
+def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, *, accuracy="standard",
+               discretization=None, method=None, rtol=None, atol=None, jacobian=None, material=None,
+               advection=None, progress=False, series_times=None, **scene_params):
+    """Run one case on the native engine; arguments and Result as :func:`icidr_pde.api.run`.
+
+    Raises :class:`NativeUnavailable` (before any work is done) where the case cannot take
+    it (:func:`unavailable`, or the library cannot be built)."""
+    from ..presets import resolve
+    from ..result import Result
+    from ..rheology.base import chi_of_M
+    from ..times import dense_times, time_labels
+    from ..validation import real
+
+    t_end = real("t_end", t_end, 0)
+    settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
+    why = unavailable(discretization=settings["discretization"], method=settings["method"], jacobian=jacobian,
+                      N=settings["N"])
+    if why:
+        raise NativeUnavailable(why)
+    case = FdCase(rheology, scene, settings["N"], material=material, advection=advection,
+                  scene_params=scene_params)
+    rtol_v, atol_v = real("rtol", settings["rtol"], 1e-14, 1, low_open=False), real("atol", settings["atol"], 0)
+    if times is None:
+        times = [t for t in case.scene.default_times if t <= t_end] + [t_end]
+    labels, snap_times = time_labels(times, t_end)
+    series = dense_times(t_end) if series_times is None else np.sort(np.asarray(series_times, float))
+    chi_times = np.empty(0)
+    if "chi" in case.scene.outputs:
+        chi_times = np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
+
+    start, cpu_start = _time.perf_counter(), _time.process_time()
+    problem = FdProblem(case.rheology, case.N, case.H, advection=case.advection, V0=case.V0)
+    compile_s = _time.perf_counter() - start
+    start, cpu_start = _time.perf_counter(), _time.process_time()
+
+    out_times, (at_series, at_snap, at_chi) = _outputs(t_end, [series, snap_times, chi_times])
+    n_out, n3 = out_times.size, 3 * case.N
+    stored = np.unique(np.concatenate([at_snap, at_chi, [n_out - 1]]).astype(int))
+    stored = stored[stored >= 0]
+    store = np.full(n_out, -1, dtype=np.intc)
+    store[stored] = np.arange(stored.size)
+    states = np.empty((max(stored.size, 1), n3))
+    max_w = np.full(n_out, np.nan)
+    y0 = case.y0
+    phi_view = slice(0, None, 3)
+    lo, hi = problem.bounds
+    failure = None
+    reached = 0.0
+    n_done = 0
+    inside0 = np.all(np.isfinite(y0)) and np.all((y0[phi_view] > lo) & (y0[phi_view] < hi))
+    bar = _progress_bar(t_end) if progress else None
+    try:
+        if not inside0:
+            failure = (0.0, y0.copy(), f"initial state invalid: {case.check_state(y0)}")
+        else:
+            problem.start(y0, rtol=rtol_v, atol=atol_v)
+            while n_done < n_out and failure is None:
+                chunk = slice(n_done, min(n_done + _CHUNK, n_out))
+                done, status, flag = problem.advance(out_times[chunk], store[chunk], max_w[n_done:], states)
+                n_done += done
+                reached = out_times[n_done - 1] if n_done else 0.0
+                if bar is not None:
+                    bar.update(reached - bar.n)
+                if status:
+                    t_good, y_good = problem.last_good()
+                    if status == 1:
+                        reason = case.check_state(y_good) or "state reached the boundary of its valid range"
+                    elif status == 2:
+                        reason = f"integrator failed ({problem.message(flag)})"
+                    else:
+                        reason = case.check_state(y_good)
+                    failure = (t_good, y_good, reason)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if bar is not None:
+            if failure is not None:
+                bar.set_description(f"failed at t = {failure[0]:.4g}")
+            bar.close()
+    interrupted = failure is None and n_done < n_out
+    wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
+    counts = problem.counts()
+
+    def native(y):
+        return np.ascontiguousarray(y.reshape(case.N, 3).T)
+
+    def state_at(index):
+        return y0 if index < 0 else states[store[index]]
+
+    def done(index):
+        return index < n_done
+
+    # one snapshot per distinct time, labelled by the first labels (as py-pde's storage records them)
+    snaps = [k for k, index in enumerate(at_snap) if done(index) and (k == 0 or snap_times[k] > snap_times[k - 1])]
+    data = np.array([native(state_at(at_snap[k])) for k in snaps]).reshape(len(snaps), 3, case.N)
+    series_done = [k for k, index in enumerate(at_series) if done(index)]
+    max_w_t = [float(out_times[at_series[k]]) if at_series[k] >= 0 else float(series[k]) for k in series_done]
+    max_w_v = [float(max_w[at_series[k]]) if at_series[k] >= 0 else float(np.max(np.abs(y0[2::3])))
+               for k in series_done]
+    if failure is not None:
+        t_final, final = failure[0], native(failure[1])
+        max_w_t.append(float(t_final))
+        max_w_v.append(float(np.max(np.abs(final[2]))))
+        blew_up, t_star, reason = True, float(t_final), failure[2]
+    elif interrupted:
+        t_final = float(reached)
+        final = native(states[store[n_done - 1]]) if n_done else native(y0)
+        blew_up, t_star, reason = False, None, f"interrupted at t = {t_final:.6g}"
+    else:
+        t_final, final = float(t_end), native(states[store[n_out - 1]])
+        blew_up, t_star, reason = False, None, "reached t_end"
+    chi_kwargs = {}
+    chi_done = [k for k, index in enumerate(at_chi) if done(index)]
+    if chi_done:
+        values = []
+        for k in chi_done:
+            z_f, phi_f, uz, wz = case.strain_rates(native(state_at(at_chi[k])))
+            values.append(chi_of_M(problem.M(phi_f), uz, wz))
+        chi_kwargs = dict(chi_t=np.array([float(chi_times[k]) for k in chi_done]), chi_z=z_f, chi=np.array(values))
+    mass0 = case.mass(native(y0))
+    return Result(
+        rheology=case.rheology.name, scene=case.scene.name, discretization="fd", N=case.N, t_end=float(t_end),
+        rtol=float(rtol_v), atol=float(atol_v), method="CVODE", jacobian="analytic", blew_up=blew_up,
+        t_star=t_star, reason=reason, t_final=float(t_final), z=case.z, times=np.array(snap_times[snaps]),
+        time_labels=labels[:len(snaps)], requested_times=labels, phi=data[:, 0], u=data[:, 1],
+        w=data[:, 2], final=tuple(final), max_w_t=np.array(max_w_t), max_w=np.array(max_w_v),
+        mass_drift=(case.mass(final) - mass0) / mass0, wall_s=wall, compile_s=compile_s, cpu_s=cpu,
+        n_steps=counts["steps"], n_rhs=counts["rhs"], n_jac=counts["jac"], n_lu=counts["lu"],
+        scene_params=case.scene.parameters(), material=case.rheology.material.to_dict(),
+        settings=dict(accuracy=accuracy, advection=case.advection, engine="native"), **chi_kwargs)

@@ -1,0 +1,181 @@
+"""Build and load the native engine's shared library for a law: C generated once, compiled once.
+
+The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, the
+finite-volume template ``discretizations/templates/fd.c`` and the CVODE driver
+``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc (``$CC``) into the
+kernel cache directory (:func:`icidr_pde.rheology.codegen.kernel_dir`) and linked against
+the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``, found from the
+package's location without importing it), then loaded with ctypes.
+
+A library's name is a hash of everything its text is generated from (the inputs of the
+law's numba kernels, this package's sources, the template, the SUNDIALS library files and
+index type, the compiler), looked up before any sympy work: a warm run imports neither
+sympy nor scikit-sundae. Files are written under a temporary name and hard-linked into
+place (never half-written). A law the C printer refuses leaves a ``.unsupported`` note
+with the reason, so that later runs fall back at once. Any reason the engine cannot be
+built is a :class:`NativeUnavailable` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import importlib.resources
+import importlib.util
+import inspect
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+__all__ = ["NativeUnavailable", "sundials", "library", "LIBRARY_FLAGS"]
+
+LIBRARY_FLAGS = ("-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fvisibility=hidden")
+_LIBRARIES: dict[str, ctypes.CDLL] = {}
+_LOCK = threading.Lock()
+
+
+class NativeUnavailable(RuntimeError):
+    """The native engine cannot run this case here; the message says why (one line)."""
+
+
+def _text(name: str) -> str:
+    return importlib.resources.files(__package__).joinpath(name).read_text()
+
+
+def _template() -> str:
+    # by path: importing icidr_pde.discretizations would import py-pde
+    return (pathlib.Path(__file__).parent.parent / "discretizations" / "templates" / "fd.c").read_text()
+
+
+def sundials() -> tuple[pathlib.Path, list[pathlib.Path], str]:
+    """(directory, [libsundials_cvode, libsundials_core], index type) of scikit-sundae's SUNDIALS."""
+    spec = importlib.util.find_spec("sksundae")  # locates the package without importing it
+    if spec is None or spec.origin is None:
+        raise NativeUnavailable("scikit-sundae is not installed (its SUNDIALS libraries are needed)")
+    package = pathlib.Path(spec.origin).parent
+    libs = package.parent / "scikit_sundae.libs"
+    found = [sorted(glob.glob(str(libs / f"libsundials_{name}-*.so*"))) for name in ("cvode", "core")]
+    if not all(len(f) == 1 for f in found):
+        raise NativeUnavailable(f"SUNDIALS libraries (cvode, core) not found in {libs}")
+    config = package / "c_config.pxi"
+    index = "int"
+    if config.is_file():
+        for line in config.read_text().splitlines():
+            words = line.split()
+            if words[-1:] == ["sunindextype"]:
+                index = " ".join(words[1:-1])
+    if index not in ("int", "long", "long int", "int64_t", "long long"):
+        raise NativeUnavailable(f"SUNDIALS index type {index!r} not supported")
+    return libs, [pathlib.Path(f[0]) for f in found], index
+
+
+def _compiler() -> str:
+    cc = shutil.which(os.environ.get("CC", "gcc"))
+    if cc is None:
+        raise NativeUnavailable(f"no C compiler ({os.environ.get('CC', 'gcc')}) on PATH")
+    return cc
+
+
+def _key(rheology, kinematics, libs, index, cc) -> str:
+    from ..rheology import codegen
+
+    friction, dilatancy = rheology.material.law_key()
+    return "\n".join([
+        codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
+        rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
+        dilatancy.__qualname__, type(kinematics).__qualname__, inspect.getsource(type(kinematics)),
+        _template(), _text("sundials_api.h"), _text("cvode_driver.c"), codegen._module_source(__name__),
+        *map(str, libs), index, cc, *LIBRARY_FLAGS])
+
+
+def _source(rheology, kinematics, index) -> str:
+    from ..rheology.ccode import c_law_source
+
+    return "\n".join([f"#define SUNINDEXTYPE {index}", _text("sundials_api.h"),
+                      c_law_source(rheology, kinematics), _template(), _text("cvode_driver.c")])
+
+
+def library(rheology, kinematics) -> ctypes.CDLL:
+    """The loaded native library of `rheology` (compiled now if missing; see the docstring)."""
+    from ..rheology import codegen
+
+    libdir, libs, index = sundials()
+    cc = _compiler()
+    name = f"icidr_pde_native_{codegen._digest(_key(rheology, kinematics, libs, index, cc))}"
+    with _LOCK:
+        if name in _LIBRARIES:
+            return _LIBRARIES[name]
+        directory = codegen.kernel_dir()
+        path = directory / f"{name}.so"
+        note = directory / f"{name}.unsupported"
+        if not path.exists():
+            if note.exists():
+                raise NativeUnavailable(note.read_text().strip())
+            _compile(rheology, kinematics, index, cc, libdir, libs, directory / f"{name}.c", path, note)
+        try:
+            lib = ctypes.CDLL(str(path))
+        except OSError as err:
+            raise NativeUnavailable(f"native library not loadable: {err}") from None
+        _declare(lib)
+        _LIBRARIES[name] = lib
+        return lib
+
+
+def _compile(rheology, kinematics, index, cc, libdir, libs, c_path, so_path, note) -> None:
+    from ..rheology.ccode import UnsupportedLaw
+    from ..rheology.codegen import _write_once
+
+    try:
+        text = _source(rheology, kinematics, index)
+    except UnsupportedLaw as err:
+        _write_once(note, f"{err}\n")
+        raise NativeUnavailable(str(err)) from None
+    _write_once(c_path, text)
+    sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} on fd (once per installation) ...\n")
+    sys.stderr.flush()
+    start = time.perf_counter()
+    tmp = so_path.with_name(f".{so_path.name}.{os.getpid()}.tmp")
+    command = [cc, *LIBRARY_FLAGS, "-o", str(tmp), str(c_path), *map(str, libs),
+               f"-Wl,-rpath,{libdir}", "-lm"]
+    try:
+        proc = subprocess.run(command, capture_output=True, text=True)
+        if proc.returncode != 0:
+            lines = [line for line in proc.stderr.splitlines() if "error" in line] or proc.stderr.splitlines()
+            raise NativeUnavailable(f"compiling the native kernels failed: {(lines or ['?'])[0].strip()}")
+        try:
+            os.link(tmp, so_path)  # atomic, and fails if another process was first
+        except FileExistsError:
+            pass
+        except OSError:
+            if not so_path.exists():
+                os.replace(tmp, so_path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    sys.stderr.write(f"icidr-pde: native kernels compiled in {time.perf_counter() - start:.1f} s\n")
+    sys.stderr.flush()
+
+
+def _declare(lib) -> None:
+    P, D, I, L = ctypes.c_void_p, ctypes.c_double, ctypes.c_int, ctypes.c_long
+    ptr = ctypes.POINTER
+    signatures = {
+        "icidr_fd_problem": (P, [I, D, I, ptr(D), ptr(D), I, D, D]),
+        "icidr_fd_rates": (None, [P, ptr(D), ptr(D)]),
+        "icidr_fd_jacobian": (None, [P, ptr(D), ptr(D)]),
+        "icidr_fd_time_scale": (D, [P, ptr(D), I]),
+        "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
+        "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ptr(D), ctypes.c_char_p, I]),
+        "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
+        "icidr_cvode_last_good": (D, [P, ptr(D)]),
+        "icidr_cvode_message": (None, [P, I, ctypes.c_char_p, I]),
+        "icidr_cvode_counts": (None, [P, ptr(L)]),
+        "icidr_free": (None, [P]),
+    }
+    for name, (restype, argtypes) in signatures.items():
+        function = getattr(lib, name)
+        function.restype, function.argtypes = restype, argtypes

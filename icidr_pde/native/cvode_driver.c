@@ -1,0 +1,336 @@
+/* CVODE driver of the native engine: the finite-volume shear cell integrated by SUNDIALS
+   CVODE without a Python callback.
+
+   The same CVODE set-up as icidr_pde.integrator.CvodeEngine (through scikit-sundae) on
+   the same problem: BDF up to order 5, scalar tolerances, the band linear solver with
+   bandwidths (5, 5) and the analytic band Jacobian (fd_jacobian), at most 3 Newton
+   iterations and 10 convergence failures a step, 1e6 steps, the minimum step
+   min_step_fraction x the fastest time scale 1/rho(J(y0)) (power iteration on difference
+   quotients, as integrator.fastest_time_scale), and the validity root function
+   (min phi - lo, hi - max phi, direction -1, terminal). Output at requested times by
+   CV_NORMAL calls (CVODE's interpolant): no output time changes CVODE's steps.
+   Placed after the law (icidr_pde.rheology.ccode) and templates/fd.c; sundials_api.h
+   declares the part of the SUNDIALS C API used here. */
+
+#include <stdlib.h>
+#include <string.h>
+#include <stdio.h>
+
+#define EXPORT __attribute__((visibility("default")))
+
+typedef struct {
+    int n;
+    double h;
+    int upwind;
+    double ghost[12];
+    double *params;
+    double lo, hi;
+    double *work, *jb, *y_good;
+    double t_good;
+    long own_rhs;
+    void *cvode;
+    SUNContext ctx;
+    N_Vector y;
+    SUNMatrix A;
+    SUNLinearSolver LS;
+    char message[1024];
+} Native;
+
+static int rhs_fn(sunrealtype t, N_Vector y, N_Vector ydot, void *user_data)
+{
+    Native *p = (Native *)user_data;
+    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot), p->work);
+    return 0;
+}
+
+static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *user_data,
+                  N_Vector tmp1, N_Vector tmp2, N_Vector tmp3)
+{
+    Native *p = (Native *)user_data;
+    int neq = 3 * p->n;
+    fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, N_VGetArrayPointer(y), p->jb, p->work);
+    for (int col = 0; col < neq; col++) {
+        sunrealtype *column = SUNBandMatrix_Column(J, col);  /* column[row - col] */
+        int first = col - FD_LOWER < 0 ? 0 : col - FD_LOWER;
+        int last = col + FD_LOWER > neq - 1 ? neq - 1 : col + FD_LOWER;
+        for (int row = first; row <= last; row++)
+            column[row - col] = p->jb[col * FD_BAND + row - col + FD_LOWER];
+    }
+    return 0;
+}
+
+static int root_fn(sunrealtype t, N_Vector y, sunrealtype *gout, void *user_data)
+{
+    Native *p = (Native *)user_data;
+    const double *v = N_VGetArrayPointer(y);
+    double low = INFINITY, high = -INFINITY;
+    for (int i = 0; i < p->n; i++) {
+        double phi = v[3 * i];
+        low = phi < low ? phi : low;   /* as min()/max(): a NaN never wins */
+        high = phi > high ? phi : high;
+    }
+    gout[0] = low - p->lo;
+    gout[1] = p->hi - high;
+    return 0;
+}
+
+static void error_handler(int line, const char *func, const char *file, const char *msg,
+                          SUNErrCode err_code, void *err_user_data, SUNContext sunctx)
+{
+    Native *p = (Native *)err_user_data;
+    snprintf(p->message, sizeof p->message, "%s", msg ? msg : "");
+}
+
+static double norm2(const double *x, int m)
+{
+    double s = 0.0;
+    for (int k = 0; k < m; k++)
+        s += x[k] * x[k];
+    return sqrt(s);
+}
+
+/* 1/rho(J(y0)) by power iteration on difference quotients (integrator.fastest_time_scale) */
+EXPORT double icidr_fd_time_scale(Native *p, const double *y0, int iterations)
+{
+    int m = 3 * p->n;
+    double *f0 = malloc(sizeof(double) * m), *v = malloc(sizeof(double) * m);
+    double *yp = malloc(sizeof(double) * m), *jv = malloc(sizeof(double) * m);
+    double rho = 0.0;
+    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y0, f0, p->work);
+    p->own_rhs++;
+    for (int k = 0; k < m; k++)
+        v[k] = cos(k * 2.0) + 0.5;
+    double nv = norm2(v, m), ny = norm2(y0, m);
+    for (int k = 0; k < m; k++)
+        v[k] /= nv;
+    double e = 1e-7 * (ny > 1e-300 ? ny : 1e-300);
+    for (int it = 0; it < iterations; it++) {
+        for (int k = 0; k < m; k++)
+            yp[k] = y0[k] + e * v[k];
+        fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, yp, jv, p->work);
+        p->own_rhs++;
+        for (int k = 0; k < m; k++)
+            jv[k] = (jv[k] - f0[k]) / e;
+        rho = norm2(jv, m);
+        if (!isfinite(rho) || rho == 0)
+            break;
+        for (int k = 0; k < m; k++)
+            v[k] = jv[k] / rho;
+    }
+    free(f0); free(v); free(yp); free(jv);
+    return isfinite(rho) && rho > 0 ? 1.0 / rho : 1.0;
+}
+
+/* the problem without CVODE: for the right-hand side, the Jacobian and the time scale alone */
+EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost, const double *params,
+                                int n_params, double lo, double hi)
+{
+    Native *p = calloc(1, sizeof(Native));
+    if (!p)
+        return NULL;
+    p->n = n;
+    p->h = h;
+    p->upwind = upwind;
+    memcpy(p->ghost, ghost, sizeof p->ghost);
+    p->params = malloc(sizeof(double) * (n_params > 0 ? n_params : 1));
+    memcpy(p->params, params, sizeof(double) * n_params);
+    p->lo = lo;
+    p->hi = hi;
+    p->work = malloc(sizeof(double) * FD_WORK(n));
+    p->jb = malloc(sizeof(double) * FD_BAND * 3 * (size_t)n);
+    p->y_good = malloc(sizeof(double) * 3 * (size_t)n);
+    if (!p->params || !p->work || !p->jb || !p->y_good) {
+        free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p);
+        return NULL;
+    }
+    return p;
+}
+
+EXPORT void icidr_fd_rates(Native *p, const double *y, double *out)
+{
+    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, out, p->work);
+}
+
+EXPORT void icidr_fd_jacobian(Native *p, const double *y, double *jb)
+{
+    fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, y, jb, p->work);
+}
+
+/* M(phi) of the law at m points (for chi of (A18)) */
+EXPORT void icidr_law_M(Native *p, int m, const double *phi, double *out)
+{
+    for (int k = 0; k < m; k++)
+        out[k] = law_M(phi[k], p->params);
+}
+
+#define CHECK(call) do { if ((call) < 0) { snprintf(error, error_len, "%s failed", #call); goto fail; } } while (0)
+
+/* Start CVODE at (t0, y0) on the problem `p`; 0 on success, else -1 with `error` set. */
+EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol, double atol,
+                             double min_step_fraction, double max_step, long max_num_steps,
+                             double first_step, double *time_scale, char *error, int error_len)
+{
+    int neq = 3 * p->n;
+    int direction[2] = {-1, -1};
+    *time_scale = icidr_fd_time_scale(p, y0, 20);
+    if (SUNContext_Create(SUN_COMM_NULL, &p->ctx) < 0) {
+        snprintf(error, error_len, "SUNContext_Create failed");
+        return -1;
+    }
+    SUNContext_ClearErrHandlers(p->ctx);
+    SUNContext_PushErrHandler(p->ctx, error_handler, p);
+    p->y = N_VNew_Serial(neq, p->ctx);
+    if (!p->y) {
+        snprintf(error, error_len, "N_VNew_Serial failed");
+        goto fail;
+    }
+    memcpy(N_VGetArrayPointer(p->y), y0, sizeof(double) * neq);
+    memcpy(p->y_good, y0, sizeof(double) * neq);
+    p->t_good = t0;
+    p->cvode = CVodeCreate(CV_BDF, p->ctx);
+    if (!p->cvode) {
+        snprintf(error, error_len, "CVodeCreate failed");
+        goto fail;
+    }
+    CHECK(CVodeSetUserData(p->cvode, p));
+    CHECK(CVodeInit(p->cvode, rhs_fn, t0, p->y));
+    CHECK(CVodeSStolerances(p->cvode, rtol, atol));
+    p->A = SUNBandMatrix(neq, FD_LOWER, FD_LOWER, p->ctx);
+    p->LS = p->A ? SUNLinSol_Band(p->y, p->A, p->ctx) : NULL;
+    if (!p->A || !p->LS) {
+        snprintf(error, error_len, "band matrix or solver not created");
+        goto fail;
+    }
+    CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
+    CHECK(CVodeSetJacFn(p->cvode, jac_fn));
+    CHECK(CVodeSetMaxNonlinIters(p->cvode, 3));
+    CHECK(CVodeSetMaxConvFails(p->cvode, 10));
+    CHECK(CVodeRootInit(p->cvode, 2, root_fn));
+    CHECK(CVodeSetRootDirection(p->cvode, direction));
+    CHECK(CVodeSetInitStep(p->cvode, first_step));
+    CHECK(CVodeSetMinStep(p->cvode, min_step_fraction * *time_scale));
+    CHECK(CVodeSetMaxStep(p->cvode, max_step));
+    CHECK(CVodeSetMaxOrd(p->cvode, 5));
+    CHECK(CVodeSetMaxNumSteps(p->cvode, max_num_steps));
+    return 0;
+fail:
+    if (p->message[0]) {
+        int used = (int)strlen(error);
+        snprintf(error + used, error_len - used, ": %s", p->message);
+    }
+    return -1;
+}
+
+static int inside(const Native *p, const double *v)
+{
+    for (int k = 0; k < 3 * p->n; k++)
+        if (!isfinite(v[k]))
+            return 0;
+    for (int i = 0; i < p->n; i++)
+        if (!(p->lo < v[3 * i] && v[3 * i] < p->hi))
+            return 0;
+    return 1;
+}
+
+/* Advance through the output times t_out[0..n_out-1] (increasing, after the current time).
+   At each: max_w[k] = max |w| over the cells, and the state into states + store[k] * 3n where
+   store[k] >= 0. Returns 0 when all are done, else the output index k where it stopped
+   (*n_done = k) and *status: 1 a root (phi reached the end of its range), 2 CVODE failed
+   (flag in *flag, message via icidr_cvode_message), 3 the state at t_out[k] is invalid.
+   The last valid state and its time are kept (icidr_cvode_last_good). */
+EXPORT int icidr_cvode_advance(Native *p, int n_out, const double *t_out, const int *store, double *max_w,
+                               double *states, int *n_done, int *status, int *flag)
+{
+    int neq = 3 * p->n;
+    double *y = N_VGetArrayPointer(p->y);
+    *status = 0;
+    *flag = 0;
+    for (int k = 0; k < n_out; k++) {
+        double t_ret = p->t_good;
+        p->message[0] = 0;
+        int f = CVode(p->cvode, t_out[k], p->y, &t_ret, CV_NORMAL);
+        *flag = f;
+        int finite = 1;
+        for (int q = 0; q < neq; q++)
+            finite &= isfinite(y[q]) != 0;
+        if (f < 0) {
+            if (finite && t_ret > p->t_good) {
+                p->t_good = t_ret;
+                memcpy(p->y_good, y, sizeof(double) * neq);
+            }
+            *n_done = k;
+            *status = 2;
+            return 1;
+        }
+        p->t_good = t_ret;
+        memcpy(p->y_good, y, sizeof(double) * neq);
+        if (f == CV_ROOT_RETURN) {
+            *n_done = k;
+            *status = 1;
+            return 1;
+        }
+        if (!inside(p, y)) {
+            *n_done = k;
+            *status = 3;
+            return 1;
+        }
+        double m = 0.0;
+        for (int i = 0; i < p->n; i++) {
+            double a = fabs(y[3 * i + 2]);
+            m = a > m ? a : m;
+        }
+        max_w[k] = m;
+        if (store[k] >= 0)
+            memcpy(states + (size_t)store[k] * neq, y, sizeof(double) * neq);
+    }
+    *n_done = n_out;
+    return 0;
+}
+
+EXPORT double icidr_cvode_last_good(Native *p, double *y)
+{
+    memcpy(y, p->y_good, sizeof(double) * 3 * p->n);
+    return p->t_good;
+}
+
+EXPORT void icidr_cvode_message(Native *p, int flag, char *out, int out_len)
+{
+    char *name = CVodeGetReturnFlagName(flag);
+    snprintf(out, out_len, "%s%s%s", name ? name : "CVODE error", p->message[0] ? "; SUNDIALS: " : "", p->message);
+    free(name);
+}
+
+/* steps, RHS evaluations (CVODE's and the time scale's), Jacobians, LU set-ups, error-test
+   failures, Newton iterations, Newton convergence failures */
+EXPORT void icidr_cvode_counts(Native *p, long *out)
+{
+    long v = 0;
+    memset(out, 0, 7 * sizeof(long));
+    if (!p->cvode)
+        return;
+    CVodeGetNumSteps(p->cvode, &v); out[0] = v;
+    CVodeGetNumRhsEvals(p->cvode, &v); out[1] = v + p->own_rhs;
+    CVodeGetNumJacEvals(p->cvode, &v); out[2] = v;
+    CVodeGetNumLinSolvSetups(p->cvode, &v); out[3] = v;
+    CVodeGetNumErrTestFails(p->cvode, &v); out[4] = v;
+    CVodeGetNumNonlinSolvIters(p->cvode, &v); out[5] = v;
+    CVodeGetNumNonlinSolvConvFails(p->cvode, &v); out[6] = v;
+}
+
+EXPORT void icidr_free(Native *p)
+{
+    if (!p)
+        return;
+    if (p->cvode)
+        CVodeFree(&p->cvode);
+    if (p->LS)
+        SUNLinSolFree(p->LS);
+    if (p->A)
+        SUNMatDestroy(p->A);
+    if (p->y)
+        N_VDestroy(p->y);
+    if (p->ctx)
+        SUNContext_Free(&p->ctx);
+    free(p->params); free(p->work); free(p->jb); free(p->y_good);
+    free(p);
+}

@@ -1,0 +1,76 @@
+/* The part of the SUNDIALS 7 C API the native driver calls, declared as in SUNDIALS'
+   headers (cvode/cvode.h, cvode/cvode_ls.h, sundials/sundials_context.h, nvector_serial.h,
+   sunmatrix_band.h, sunlinsol_band.h; scikit-sundae ships the libraries but not these
+   headers). SUNINDEXTYPE is the index type of that build (scikit-sundae's c_config.pxi),
+   set by the build. */
+
+#include <math.h>
+
+#ifndef SUNINDEXTYPE
+#define SUNINDEXTYPE int
+#endif
+
+typedef double sunrealtype;
+typedef SUNINDEXTYPE sunindextype;
+typedef int SUNErrCode;
+typedef int SUNComm;
+#define SUN_COMM_NULL 0
+
+typedef struct _SUNContext *SUNContext;
+typedef struct _generic_N_Vector *N_Vector;
+typedef struct _generic_SUNMatrix *SUNMatrix;
+typedef struct _generic_SUNLinearSolver *SUNLinearSolver;
+
+typedef int (*CVRhsFn)(sunrealtype t, N_Vector y, N_Vector ydot, void *user_data);
+typedef int (*CVRootFn)(sunrealtype t, N_Vector y, sunrealtype *gout, void *user_data);
+typedef int (*CVLsJacFn)(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jac, void *user_data,
+                         N_Vector tmp1, N_Vector tmp2, N_Vector tmp3);
+typedef void (*SUNErrHandlerFn)(int line, const char *func, const char *file, const char *msg,
+                                SUNErrCode err_code, void *err_user_data, SUNContext sunctx);
+
+#define CV_BDF 2
+#define CV_NORMAL 1
+#define CV_SUCCESS 0
+#define CV_TSTOP_RETURN 1
+#define CV_ROOT_RETURN 2
+
+SUNErrCode SUNContext_Create(SUNComm comm, SUNContext *sunctx_out);
+SUNErrCode SUNContext_Free(SUNContext *ctx);
+SUNErrCode SUNContext_ClearErrHandlers(SUNContext sunctx);
+SUNErrCode SUNContext_PushErrHandler(SUNContext sunctx, SUNErrHandlerFn err_fn, void *err_user_data);
+
+N_Vector N_VNew_Serial(sunindextype vec_length, SUNContext sunctx);
+void N_VDestroy(N_Vector v);
+sunrealtype *N_VGetArrayPointer(N_Vector v);
+
+SUNMatrix SUNBandMatrix(sunindextype N, sunindextype mu, sunindextype ml, SUNContext sunctx);
+sunrealtype *SUNBandMatrix_Column(SUNMatrix A, sunindextype j);
+void SUNMatDestroy(SUNMatrix A);
+SUNLinearSolver SUNLinSol_Band(N_Vector y, SUNMatrix A, SUNContext sunctx);
+SUNErrCode SUNLinSolFree(SUNLinearSolver S);
+
+void *CVodeCreate(int lmm, SUNContext sunctx);
+int CVodeInit(void *cvode_mem, CVRhsFn f, sunrealtype t0, N_Vector y0);
+int CVodeSStolerances(void *cvode_mem, sunrealtype reltol, sunrealtype abstol);
+int CVodeSetUserData(void *cvode_mem, void *user_data);
+int CVodeSetLinearSolver(void *cvode_mem, SUNLinearSolver LS, SUNMatrix A);
+int CVodeSetJacFn(void *cvode_mem, CVLsJacFn jac);
+int CVodeSetMaxNonlinIters(void *cvode_mem, int maxcor);
+int CVodeSetMaxConvFails(void *cvode_mem, int maxncf);
+int CVodeRootInit(void *cvode_mem, int nrtfn, CVRootFn g);
+int CVodeSetRootDirection(void *cvode_mem, int *rootdir);
+int CVodeSetInitStep(void *cvode_mem, sunrealtype hin);
+int CVodeSetMinStep(void *cvode_mem, sunrealtype hmin);
+int CVodeSetMaxStep(void *cvode_mem, sunrealtype hmax);
+int CVodeSetMaxOrd(void *cvode_mem, int maxord);
+int CVodeSetMaxNumSteps(void *cvode_mem, long int mxsteps);
+int CVode(void *cvode_mem, sunrealtype tout, N_Vector yout, sunrealtype *tret, int itask);
+int CVodeGetNumSteps(void *cvode_mem, long int *nsteps);
+int CVodeGetNumRhsEvals(void *cvode_mem, long int *nfevals);
+int CVodeGetNumJacEvals(void *cvode_mem, long int *njevals);
+int CVodeGetNumLinSolvSetups(void *cvode_mem, long int *nlinsetups);
+int CVodeGetNumErrTestFails(void *cvode_mem, long int *netfails);
+int CVodeGetNumNonlinSolvIters(void *cvode_mem, long int *nniters);
+int CVodeGetNumNonlinSolvConvFails(void *cvode_mem, long int *nnfails);
+char *CVodeGetReturnFlagName(long int flag);
+void CVodeFree(void **cvode_mem);
