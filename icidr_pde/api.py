@@ -234,6 +234,7 @@ def run(
     series_times=None,
     backend: str = "numba",
     max_wall: float | None = None,
+    engine: str = "pde",
     **scene_params,
 ) -> Result:
     """Run `scene` with `rheology` and return a :class:`~icidr_pde.result.Result`.
@@ -267,12 +268,26 @@ def run(
         series_times: times of the max|w| series (default: dense log+linear; empty: none)
         backend: 'numba' (compiled kernels, cached on disk) or 'numpy'
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
+        engine: 'pde' (this run path), 'auto' or 'native': the native engine
+            (:mod:`icidr_pde.native`: C kernels and CVODE, no Python in the loop) where it
+            applies (fd, CVODE, analytic Jacobian, no file, movie, live plot or wall limit),
+            else this path; 'native' says on stderr why it fell back
 
     A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
     """
     # every argument is checked before any work and before any output file is touched
     t_end = real("t_end", t_end, 0)
+    if engine != "pde":
+        from .native import try_native
+
+        result = try_native(engine, rheology, scene, N, t_end, times, accuracy=accuracy,
+                            discretization=discretization, method=method, rtol=rtol, atol=atol,
+                            jacobian=jacobian, material=material, advection=advection, progress=progress,
+                            series_times=series_times, save=save, movie=movie, live_plot=live_plot,
+                            max_wall=max_wall, backend=backend, **scene_params)
+        if result is not None:
+            return result
     if discretization is None:  # a scene of the 2-D cell names its scheme
         discretization = getattr(scene if isinstance(scene, Scene) else SCENES.get(scene), "discretization", None)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)

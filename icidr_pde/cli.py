@@ -197,8 +197,9 @@ def write_outputs(writers) -> int:
 
 
 def add_run_parser(subparsers):
-    from .discretizations import DISCRETIZATIONS
-    from .integrator import JACOBIAN_MODES, METHODS
+    # names from the catalog: building this parser imports neither py-pde nor scipy
+    from .catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
+    from .native import ENGINES
     from .presets import PRESETS
     from .rheology import RHEOLOGIES
     from .scenes import SCENES, scene_parameters
@@ -231,10 +232,9 @@ def add_run_parser(subparsers):
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="Jacobian of the implicit solves (default: the method's best: analytic for "
                         "BDF/Radau/CVODE, banded-fd for LSODA)")
-    for key, valid in discretization_options().items():
+    for key, (schemes, valid) in DISCRETIZATION_OPTIONS.items():
         p.add_argument(f"--{key}", choices=valid, default=None,
-                       help=f"option of {', '.join(n for n, c in DISCRETIZATIONS.items() if key in c.options)} "
-                            f"(default {valid[0]})")
+                       help=f"option of {', '.join(schemes)} (default {valid[0]})")
     for name, help_text in scene_parameters().items():
         p.add_argument(f"--{name}", type=number, default=None,
                        help=f"scene parameter: {help_text} (default: the scene's)")
@@ -246,11 +246,15 @@ def add_run_parser(subparsers):
                    help="simulated time between movie frames, independent of --times "
                         "(default: 40 log-spaced frames up to t_end/200, then every t_end/200)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--engine", choices=ENGINES, default="auto",
+                   help="auto: the native engine (C kernels and CVODE compiled once per installation, no "
+                        "Python in the loop, no py-pde import) where it applies: fd, CVODE, analytic Jacobian, "
+                        "no --save/--movie; else the py-pde path. native: the same, saying why when it falls "
+                        "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy)")
     p.set_defaults(func=cmd_run)
 
 
 def cmd_run(args) -> int:
-    from .api import run
     from .scenes import scene_parameters
 
     check_output_path("--json", args.json)
@@ -264,13 +268,17 @@ def cmd_run(args) -> int:
         N = (args.Nx or nz, nz)
     with interrupt_signals() as signals:
         try:
-            result = run(
-                args.rheology, args.scene, N, args.t_end, args.times,
-                accuracy=args.accuracy, discretization=args.discretization, method=args.method,
-                rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
-                progress=not args.no_progress, save=args.save, movie=args.movie,
-                frame_dt=args.frame_dt, **scene_params,
-            )
+            options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
+                           rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
+                           progress=not args.no_progress, save=args.save, movie=args.movie, **scene_params)
+            from .native import try_native
+
+            result = try_native(args.engine, args.rheology, args.scene, N, args.t_end, args.times, **options)
+            if result is None:
+                from .api import run
+
+                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                             **options)
         except KeyboardInterrupt:  # before the integration started: nothing computed
             print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
             return EXIT_INTERRUPTED[signals.received or signal.SIGINT]

@@ -57,6 +57,8 @@ def test_non_editable_install_finds_the_data_outside_the_repository(tmp_path):
             f"assert icidr_pde.__file__.startswith({str(site)!r}), icidr_pde.__file__\n"
             "assert (r.REFERENCE_DIR / 'icidr-sine.npz').is_file(), r.REFERENCE_DIR\n"
             "assert 'fit' in json.loads(committed('steady.json').read_text())\n"
+            "import icidr_pde.native.build as b\n"  # the native engine's C sources are package data
+            "assert b._template() and b._text('cvode_driver.c') and b._text('sundials_api.h')\n"
             "print('ok')\n")
     env = {**os.environ, "PYTHONPATH": str(site)}
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)

@@ -88,7 +88,8 @@ def test_each_subcommand_help_imports_only_its_own_modules():
 
 
 def test_warm_run_imports_neither_sympy_nor_matplotlib(tmp_path):
-    argv = ["run", "--N", "9", "--t-end", "0.2", "--no-progress"]
+    # the py-pde run path (a native run imports less still: tests/test_native.py)
+    argv = ["run", "--N", "9", "--t-end", "0.2", "--no-progress", "--engine", "pde"]
     assert cli.main(argv + ["--json", str(tmp_path / "warm.json")]) == 0  # fills the kernel cache if empty
     target = tmp_path / "r.json"
     out = child(f"import icidr_pde.cli; sys.exit(icidr_pde.cli.main({argv + ['--json', str(target)]!r}))")

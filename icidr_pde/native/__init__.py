@@ -32,12 +32,55 @@ import numpy as np
 
 from .build import NativeUnavailable
 
-__all__ = ["run_native", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "ghost_coefficients",
+__all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "ghost_coefficients",
            "cell_centres", "MAX_N"]
 
 MAX_N = 100_000  # ShearCellPDE.max_N
 MIN_STEP_FRACTION = 1e-11  # integrator.MIN_STEP_FRACTION: of the fastest time scale
 _CHUNK = 64  # output times per call into C: Ctrl-C and the progress bar act between calls
+
+
+#: --engine choices: 'auto' takes the native engine where it applies, 'native' says why it did not,
+#: 'pde' is the py-pde run path (api.run)
+ENGINES = ("auto", "native", "pde")
+
+
+def try_native(engine, rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, *, accuracy="standard",
+               discretization=None, method=None, rtol=None, atol=None, jacobian=None, material=None,
+               advection=None, progress=False, series_times=None, save=None, movie=None, live_plot=False,
+               max_wall=None, backend="numba", **scene_params):
+    """The Result of the native engine, or None where the run takes the py-pde path.
+
+    `engine`: one of :data:`ENGINES`. With 'auto' a run that the engine does not cover (see
+    :func:`unavailable`) falls back silently; with 'native' one line on stderr says why. Where
+    the engine applies but cannot be built (no compiler, no SUNDIALS libraries, a law without
+    a C form) the line is printed in both cases."""
+    from ..presets import resolve
+    from ..scenes import SCENES
+    from ..validation import choice
+
+    choice("engine", engine, ENGINES)
+    if engine == "pde":
+        return None
+    scene_cls = scene if not isinstance(scene, str) else SCENES.get(scene)
+    if discretization is None:  # a scene of the 2-D cell names its scheme
+        discretization = getattr(scene_cls, "discretization", None)
+    settings = resolve(accuracy, discretization=discretization, N=None if isinstance(N, (tuple, list)) else N,
+                       method=method, rtol=rtol, atol=atol)
+    why = unavailable(discretization=settings["discretization"], method=settings["method"], jacobian=jacobian,
+                      backend=backend, save=save, movie=movie, live_plot=live_plot, max_wall=max_wall, N=N,
+                      scene=scene_cls)
+    if why is None:
+        try:
+            return run_native(rheology, scene, N, t_end, times, accuracy=accuracy, discretization=discretization,
+                              method=method, rtol=rtol, atol=atol, jacobian=jacobian, material=material,
+                              advection=advection, progress=progress, series_times=series_times, **scene_params)
+        except NativeUnavailable as err:
+            sys.stderr.write(f"icidr-pde: native engine not available ({err}); running the py-pde path\n")
+            return None
+    if engine == "native":
+        sys.stderr.write(f"icidr-pde: native engine not used: {why}; running the py-pde path\n")
+    return None
 
 
 def unavailable(*, discretization, method, jacobian=None, backend="numba", save=None, movie=None,
@@ -82,12 +125,13 @@ def _pointer(array):
 
 class FdProblem:
     """The compiled finite-volume problem of `rheology` on N cells of height H (interleaved
-    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE.
+    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE; valid while
+    lo < phi < hi, `bounds` (default: the law's range of phi).
 
     The band is ``jb[col, row - col + 5]`` (11 entries a column, :meth:`jacobian_band`);
     :meth:`jacobian_dense` spreads it into the (3N, 3N) matrix."""
 
-    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0):
+    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0, bounds=None):
         from ..rheology import SHEAR_CELL
         from .build import library
 
@@ -95,7 +139,7 @@ class FdProblem:
         self.N, self.H, self.h = int(N), float(H), float(H) / int(N)
         self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
         params = np.array(rheology.material.params, dtype=float)
-        lo, hi = (float(b) for b in rheology.material.phi_range)
+        lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
         self.bounds = (lo, hi)
         self.handle = self.lib.icidr_fd_problem(self.N, self.h, int(advection == "upwind"), _pointer(self.ghost),
                                                 _pointer(params), params.size, lo, hi)

@@ -1,0 +1,238 @@
+"""The native engine (icidr_pde.native): C kernels and CVODE without Python in the loop.
+
+Against independent truth: the numba kernels (themselves tested against exact solutions)
+and py-pde's grid and boundary setters; a fourth-order difference of the native right-hand
+side for its Jacobian; the converged references of data/reference to the accuracy the
+README states for CVODE at N = 201; mass conservation; the failure of mu(I),Phi(I) (t* of
+the py-pde path's CVODE, the same integrator); the imports of a warm run in a fresh process.
+No timings.
+"""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from icidr_pde import catalog
+from icidr_pde.native import FdCase, FdProblem, NativeUnavailable, cell_centres, ghost_coefficients, run_native
+
+try:
+    FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)
+except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde path is tested elsewhere
+    pytest.skip(f"native engine unavailable: {err}", allow_module_level=True)
+
+HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
+
+
+def test_catalog_is_what_the_registries_hold():
+    from icidr_pde.cli import discretization_options
+    from icidr_pde.discretizations import DISCRETIZATIONS
+    from icidr_pde.integrator import JACOBIAN_MODES, METHODS
+
+    assert catalog.DISCRETIZATIONS == tuple(DISCRETIZATIONS)
+    assert {k: v[1] for k, v in catalog.DISCRETIZATION_OPTIONS.items()} == discretization_options()
+    for key, (schemes, _) in catalog.DISCRETIZATION_OPTIONS.items():
+        assert schemes == tuple(n for n, c in DISCRETIZATIONS.items() if key in c.options)
+    assert (catalog.METHODS, catalog.JACOBIAN_MODES) == (METHODS, JACOBIAN_MODES)
+
+
+def test_grid_walls_and_initial_state_are_py_pdes():
+    from icidr_pde.case import build_case
+
+    for scene in ("shear", "sine"):
+        c = build_case("icidr", scene, "fd", 37)
+        light = FdCase("icidr", scene, 37)
+        assert np.allclose(cell_centres(37, 30.0), c.grid.axes_coords[0], rtol=0, atol=1e-14)
+        assert np.array_equal(ghost_coefficients(c.pde.V0), c.pde.ghost_coefficients(c.grid))
+        perm = c.pde.interleaving(c.state)[0]
+        assert np.array_equal(light.y0, c.state.data.ravel()[perm])
+        data = c.state.data + 0.01 * np.random.default_rng(0).standard_normal(c.state.data.shape)
+        for mine, theirs in zip(light.strain_rates(data), c.pde.strain_rates(data, c.grid)):
+            assert np.allclose(mine, theirs, rtol=1e-15, atol=1e-15)
+        assert light.mass(data) == pytest.approx(c.pde.integral(data[0], c.grid), rel=1e-15)
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_native_rates_and_band_jacobian_equal_the_numba_kernels(rheology, advection):
+    from icidr_pde.case import build_case
+
+    N = 41
+    c = build_case(rheology, "sine", "fd", N, options=dict(advection=advection))
+    problem = FdProblem(c.pde.rheology, N, 30.0, advection=advection)
+    perm = c.pde.interleaving(c.state)[0]
+    rhs, jac = c.pde.make_rates(c.state), c.pde.make_band_jacobian(c.state)
+    rng = np.random.default_rng(3)
+    for trial in range(4):
+        data = c.state.data + (0.02 * trial) * rng.standard_normal(c.state.data.shape)
+        data[0] = np.clip(data[0], 0.5, 0.8)
+        y = data.ravel()[perm]
+        expected = rhs(data).ravel()[perm]
+        assert np.max(np.abs(problem.rates(y) - expected)) <= 1e-13 * np.max(np.abs(expected))
+        J = np.zeros((3 * N, 3 * N))
+        jac(y, J)
+        assert np.max(np.abs(problem.jacobian_dense(y) - J)) <= 1e-13 * np.max(np.abs(J))
+
+
+def test_native_jacobian_is_the_derivative_of_the_native_rates():
+    """Fourth-order central differences of the C right-hand side, on a state with u_z != 0 and
+    w > 0 everywhere (the stresses and the upwind choice are smooth there)."""
+    N = 21
+    case = FdCase("icidr", "sine", N)
+    problem = FdProblem(case.rheology, N, case.H)
+    rng = np.random.default_rng(5)
+    y = case.y0 + 1e-3 * rng.standard_normal(case.y0.size)
+    y[1::3] = case.z / case.H + 0.05 * np.sin(2 * np.pi * case.z / case.H)  # u_z > 0 on every face
+    y[2::3] = 0.03 + 0.01 * np.sin(2 * np.pi * case.z / case.H) + 1e-3 * rng.random(N)  # w > 0.019
+    J = problem.jacobian_dense(y)
+    e = 1e-5
+    for j in range(3 * N):
+        d = np.zeros(3 * N)
+        d[j] = e * max(1.0, abs(y[j]))
+        column = (8 * (problem.rates(y + d) - problem.rates(y - d))
+                  - (problem.rates(y + 2 * d) - problem.rates(y - 2 * d))) / (12 * d[j])
+        assert np.allclose(J[:, j], column, rtol=1e-6, atol=1e-7 * np.max(np.abs(J))), j
+
+
+def test_time_scale_is_the_stiff_solvers():
+    from icidr_pde.integrator import fastest_time_scale
+
+    case = FdCase("icidr", "sine", 201)
+    problem = FdProblem(case.rheology, 201, case.H)
+    expected = fastest_time_scale(lambda t, y: problem.rates(y), 0.0, case.y0)
+    assert problem.time_scale(case.y0) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("case", ["icidr-shear", "icidr-sine"])
+def test_native_run_reaches_the_references(case):
+    """README (presets): CVODE rtol 1e-5 at N = 201 is within 1e-3 of the converged max|w|
+    series (the grid's own error is 2.4e-4 and 4.7e-4); mass conserved to round-off."""
+    from icidr_pde.reference import CASES, reference, series_error, series_times
+
+    spec = CASES[case]
+    result = run_native(spec["rheology"], spec["scene"], 201, spec["t_end"], list(series_times(spec["t_end"])))
+    assert not result.blew_up and result.t_final == spec["t_end"]
+    assert series_error(result, reference(case)) < 1e-3
+    assert abs(result.mass_drift) < 1e-14
+    assert result.settings["engine"] == "native"
+    assert result.n_steps > 0 and result.n_lu > 0 and result.n_jac > 0
+
+
+def test_native_run_follows_the_py_pde_cvode_run():
+    """The same integrator on the same equations: the same steps, series to round-off
+    amplified by the tolerance."""
+    from icidr_pde.api import run
+
+    a, b = run_native("icidr", "shear", 101, 10.0), run("icidr", "shear", 101, 10.0, method="CVODE")
+    assert a.n_steps == b.n_steps
+    assert np.array_equal(a.max_w_t, b.max_w_t)
+    assert np.allclose(a.max_w, b.max_w, rtol=1e-5, atol=0)
+    assert a.time_labels == b.time_labels and np.allclose(a.w, b.w, rtol=0, atol=1e-7)
+    assert np.array_equal(a.chi_t, b.chi_t)
+    assert set(a.to_dict()) == set(b.to_dict())
+
+
+def test_failed_run_returns_what_it_computed():
+    """mu(I),Phi(I) at N = 201 blows up (fig 4b): t* as the py-pde path's CVODE finds it, the
+    series up to t*, the state at t*, the reason."""
+    from icidr_pde.api import run
+
+    result = run_native("mui", "shear", 201, 1.0, ["0", "0.01", "0.5"])
+    reference = run("mui", "shear", 201, 1.0, ["0", "0.01", "0.5"], method="CVODE")
+    assert result.blew_up and reference.blew_up
+    assert result.t_star == pytest.approx(reference.t_star, rel=1e-3)
+    assert result.t_final == result.t_star and result.max_w_t[-1] == result.t_star
+    assert np.all(np.diff(result.max_w_t) > 0)
+    assert result.max_w[-1] == pytest.approx(np.max(np.abs(result.final[2])))
+    assert result.time_labels == ["0", "0.01"]
+    assert "integrator failed" in result.reason
+    assert abs(result.mass_drift) < 1e-12
+
+
+def test_phi_reaching_its_range_is_found_by_the_root_function():
+    """The validity root function stops CVODE where phi first reaches the end of its range:
+    the sine case compacts (max phi 0.781 at t = 0.1, 0.782 at t = 0.3), so with 0.7815 as
+    the upper end the run stops at the crossing, between those times, with max phi on it."""
+    case = FdCase("icidr", "sine", 41)
+    problem = FdProblem(case.rheology, 41, case.H, bounds=(0.0, 0.7815))
+    problem.start(case.y0, rtol=1e-7, atol=1e-10)
+    times = np.linspace(0.05, 2.0, 40)
+    max_w, states = np.empty(times.size), np.empty((1, case.y0.size))
+    done, status, _ = problem.advance(times, np.full(times.size, -1), max_w, states)
+    t, y = problem.last_good()
+    assert status == 1 and 0 < done < times.size
+    assert times[done - 1] <= t < times[done] and 0.1 < t < 0.3
+    assert y[0::3].max() == pytest.approx(0.7815, abs=1e-9)
+
+
+def child(code):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    return proc
+
+
+def test_warm_cli_run_imports_no_heavy_library(tmp_path):
+    from icidr_pde import cli
+
+    argv = ["run", "--N", "11", "--t-end", "0.5", "--no-progress"]
+    assert cli.main(argv + ["--json", str(tmp_path / "warm.json")]) == 0  # builds the library if missing
+    target = tmp_path / "r.json"
+    code = (f"import sys, json, icidr_pde.cli\nstatus = icidr_pde.cli.main({argv + ['--json', str(target)]!r})\n"
+            "print(json.dumps([status, sorted({m.split('.')[0] for m in sys.modules})]))")
+    proc = child(code)
+    status, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert status == 0, proc.stderr
+    assert "compiling" not in proc.stderr
+    assert not set(HEAVY) & set(modules), set(HEAVY) & set(modules)
+    data = json.loads(target.read_text())
+    assert data["settings"]["engine"] == "native" and data["t_final"] == 0.5
+    pde_path = tmp_path / "p.json"
+    assert cli.main(argv + ["--json", str(pde_path), "--engine", "pde"]) == 0
+    assert set(json.loads(pde_path.read_text())) == set(data)
+
+
+def test_failed_cli_run_exits_3_with_its_json(tmp_path):
+    from icidr_pde import cli
+
+    target = tmp_path / "t.json"
+    assert cli.main(["run", "--rheology", "mui", "--N", "201", "--t-end", "1", "--no-progress",
+                     "--json", str(target)]) == 3
+    data = json.loads(target.read_text())
+    assert data["blew_up"] and data["settings"]["engine"] == "native" and 0 < data["t_star"] < 0.05
+
+
+def test_fallback_says_why_in_one_line(capsys):
+    from icidr_pde import cli
+
+    assert cli.main(["run", "--discretization", "cheb", "--N", "9", "--t-end", "0.05", "--no-progress",
+                     "--engine", "native"]) == 0
+    err = capsys.readouterr().err
+    assert "native engine not used: discretization 'cheb'" in err
+    assert cli.main(["run", "--method", "BDF", "--N", "9", "--t-end", "0.05", "--no-progress"]) == 0
+    assert "native engine" not in capsys.readouterr().err  # auto: silent where it does not apply
+
+
+def test_law_without_a_c_form_falls_back():
+    """The scalar flow-rule solve (icidr-blended-quarter) has no C form here: the py-pde path runs it."""
+    from icidr_pde.api import run
+
+    with pytest.raises(NativeUnavailable, match="scalar flow-rule solve"):
+        run_native("icidr-blended-quarter", "shear", 11, 0.05)
+    result = run("icidr-blended-quarter", "shear", 11, 0.05, engine="auto")
+    assert result.settings.get("engine") is None and result.t_final == 0.05
+
+
+def test_bad_input_is_named_before_any_work():
+    from icidr_pde.validation import ParameterError
+
+    with pytest.raises(ParameterError, match="`N`"):
+        run_native("icidr", "shear", 2, 1.0)
+    with pytest.raises(ValueError, match="`advection`"):
+        run_native("icidr", "shear", 11, 1.0, advection="sideways")
+    with pytest.raises(ValueError, match="`t_end`"):
+        run_native("icidr", "shear", 11, -1.0)
+    with pytest.raises(NativeUnavailable, match="method 'BDF'"):
+        run_native("icidr", "shear", 11, 1.0, method="BDF")
