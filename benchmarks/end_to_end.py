@@ -18,7 +18,10 @@ derivatives are complex-step derivatives (exact to round-off, no difference quot
 integrated by ``scipy.integrate.solve_ivp(method="BDF")``.
 
 **Project**: ``python -m icidr_pde.cli run ...`` of this tree, its default integrator (CVODE)
-at the tolerance given in :data:`CASES`. The first invocation uses a fresh, empty kernel cache
+at the tolerance given in :data:`CASES`, on its default engine (``--engine auto``: the native
+engine for finite volumes, :mod:`icidr_pde.native`; the py-pde path for Chebyshev); for the
+cases the native engine runs, the py-pde path (``--engine pde``) is timed in the same rounds
+too (``--no-pde-path`` skips it). The first invocation uses a fresh, empty kernel cache
 (NUMBA_CACHE_DIR in a temporary directory, removed at the end: generation and compilation as
 after installation, "cold"); the repeated invocations find the cache ("warm"). With
 ``--no-cold`` the installed cache is used (one unreported warm-up invocation per case).
@@ -328,7 +331,7 @@ def _best(call, repeats=200, budget=0.5):
 _BEST_CPU: list = []
 
 
-def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None) -> dict:
+def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native: bool = False) -> dict:
     """Compiled-code limit of the project's solve: what its counted work costs in compiled code.
 
     Measured here, in process, each the best of repeated calls: one compiled right-hand side
@@ -339,6 +342,7 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None) -> dict
     limit = n_rhs (t_rhs + t_solve) + n_jac t_jac + n_lu t_lu, i.e. the run's arithmetic with
     no interpreter, no wrapper and no per-step bookkeeping. Without an LU count every
     Jacobian is charged one LU (a lower bound: CVODE refactors when its step changes).
+    `native`: t_rhs and t_jac are the native engine's C kernels, timed in C.
     """
     import numpy as np
     from scipy.linalg import lapack
@@ -357,6 +361,12 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None) -> dict
         J = np.zeros((n, n))
         jac_into, y = pde.make_band_jacobian(state), data.ravel()[perm]
         t_jac = _best(lambda: jac_into(y, J))
+        if native:  # the native engine's own kernels, timed in C (no Python call around them)
+            from icidr_pde.native import FdProblem
+
+            problem = FdProblem(c.pde.rheology, spec["N"], float(c.grid.axes_bounds[0][1]))
+            t_rhs, t_jac = problem.kernel_times(y)
+            _BEST_CPU[-2:] = [t_rhs, t_jac]  # in place of the numba kernels' (C wall times: one thread)
         J[np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > 5] = 0.0
         J += np.eye(n)
         ab = np.zeros((2 * lband + uband + 1, n))
@@ -399,20 +409,22 @@ def run_baseline(case, env, workdir):
                 n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_lu=data["n_lu"])
 
 
-def run_project(case, env, workdir):
+def run_project(case, env, workdir, engine="auto"):
+    """The project's CLI on `case`: `engine` 'auto' is the default fast path (the native
+    engine for fd), 'pde' the py-pde run path (numba kernels, scikit-sundae)."""
     spec = CASES[case]
-    out = workdir / f"project-{case}.json"
+    out = workdir / f"project-{case}-{engine}.json"
     times = ["0"] + [f"{t:g}" for t in TIMES if t <= spec["t_end"]]
     args = [sys.executable, "-m", "icidr_pde.cli", "run", "--rheology", spec["rheology"], "--scene", spec["scene"],
             "--discretization", spec["disc"], "--N", str(spec["N"]), "--t-end", f"{spec['t_end']:g}",
-            "--times", *times, *spec["project"], "--json", str(out), "--no-progress"]
+            "--times", *times, *spec["project"], "--json", str(out), "--no-progress", "--engine", engine]
     # the t* case fails by design: the CLI exits 3 (run failed) after writing its JSON
     wall, proc = timed(args, env, allowed=(0, 3) if spec["ref"].startswith("mui-shear-tstar") else (0,))
     data = json.loads(out.read_text())
     return dict(wall_s=wall, solve_s=data["wall_s"], compile_s=data["compile_s"], solve_cpu_s=data.get("cpu_s"),
                 error=accuracy(case, data["max_w"], data["t_star"] if data["blew_up"] else None),
                 n_rhs=data["n_rhs"], n_jac=data["n_jac"], n_steps=data["n_steps"], n_lu=data.get("n_lu"),
-                compiled="compiling kernels" in proc.stderr)
+                compiled="compiling" in proc.stderr, engine=data["settings"].get("engine", "pde"))
 
 
 def summary(runs: list[dict]) -> dict:
@@ -427,7 +439,7 @@ def summary(runs: list[dict]) -> dict:
     return out
 
 
-def measure(cases, repeats: int, cold: bool, blas_threads: int = 1) -> dict:
+def measure(cases, repeats: int, cold: bool, blas_threads: int = 1, compare_pde: bool = True) -> dict:
     """Interleaved baseline/project processes per case. `cold`: the project's first invocation
     runs on an empty kernel cache in a temporary directory (reported as "first, cold");
     otherwise the installed cache is used and nothing is compiled when it is warm (an
@@ -443,14 +455,21 @@ def measure(cases, repeats: int, cold: bool, blas_threads: int = 1) -> dict:
         for case in cases:
             first = run_project(case, env, workdir)  # cold: the first case of a law compiles it
             first = first if cold else None
-            base_runs, proj_runs = [], []
-            for _ in range(repeats):  # interleaved A/B
+            pde_path = compare_pde and CASES[case]["disc"] == "fd"  # the cases the native engine runs
+            if pde_path:
+                run_project(case, env, workdir, "pde")  # its kernels too (cold: compiled here, unreported)
+            base_runs, proj_runs, pde_runs = [], [], []
+            for _ in range(repeats):  # interleaved A/B (/C: the py-pde path where the fast path is native)
                 base_runs.append(run_baseline(case, env, workdir))
                 proj_runs.append(run_project(case, env, workdir))
-            results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs))
+                if pde_path:
+                    pde_runs.append(run_project(case, env, workdir, "pde"))
+            results[case] = dict(first=first, baseline=summary(base_runs), project=summary(proj_runs),
+                                 pde_path=summary(pde_runs) if pde_runs else None)
             counts = {k: int(statistics.median(r[k] for r in proj_runs)) if proj_runs[0][k] is not None else None
                       for k in ("n_rhs", "n_jac", "n_lu")}
-            results[case]["roofline"] = roofline(case, counts["n_rhs"], counts["n_jac"], counts["n_lu"])
+            results[case]["roofline"] = roofline(case, counts["n_rhs"], counts["n_jac"], counts["n_lu"],
+                                                 native=proj_runs[0]["engine"] == "native")
             report_case(case, results[case], repeats)
     return results
 
@@ -476,10 +495,18 @@ def report_case(case, res, repeats):
     print(f"  baseline whole process: {fmt(b, 'wall_s')}   solve {fmt(b, 'solve_s')}   error {b['error']:.2e}"
           f"  (BDF {CASES[case]['baseline']}; {_counts(b)})")
     print(f"  project  whole process: {fmt(p, 'wall_s')}   solve {fmt(p, 'solve_s')}   error {p['error']:.2e}"
-          f"  (solve CPU {p['solve_cpu_s']:.3f} s; compile/load {p['compile_s']:.2f} s; CVODE {_counts(p)})")
-    print(f"  ratio baseline/project: whole process warm {b['wall_s'] / p['wall_s']:.2f}x"
-          + (f", first cold {b['wall_s'] / first['wall_s']:.2f}x" if first else "")
-          + f"; in process {b['solve_s'] / p['solve_s']:.1f}x", flush=True)
+          f"  ({p['engine']} engine; solve CPU {p['solve_cpu_s']:.3f} s; compile/load {p['compile_s']:.3f} s;"
+          f" CVODE {_counts(p)})")
+    print(f"  ratio baseline/project: whole process warm {b['wall_s'] / p['wall_s']:.2f}x (error {p['error']:.2e}"
+          f" against {b['error']:.2e})"
+          + (f", first cold {b['wall_s'] / first['wall_s']:.2f}x (error {first['error']:.2e})" if first else "")
+          + f"; in process {b['solve_s'] / p['solve_s']:.1f}x (error {p['error']:.2e})", flush=True)
+    q = res.get("pde_path")
+    if q:
+        print(f"  py-pde path (--engine pde) whole process: {fmt(q, 'wall_s')}   solve {fmt(q, 'solve_s')}"
+              f"   error {q['error']:.2e}  (compile/load {q['compile_s']:.3f} s; CVODE {_counts(q)}); "
+              f"ratio baseline/py-pde path: whole process {b['wall_s'] / q['wall_s']:.2f}x, in process "
+              f"{b['solve_s'] / q['solve_s']:.1f}x", flush=True)
     r = res["roofline"]
     per_step = (f"{1e6 * p['solve_s'] / p['n_steps']:.0f} us per step, " if p.get("n_steps") else "")
     print(f"  roofline: RHS {r['t_rhs'] * 1e6:.1f} us, Jacobian {r['t_jac'] * 1e6:.0f} us, LU {r['t_lu'] * 1e6:.0f} us,"
@@ -499,6 +526,8 @@ def main(argv=None) -> int:
                         help="skip the first invocation on an empty kernel cache; use the installed cache")
     parser.add_argument("--blas-threads", type=int, default=1,
                         help="OPENBLAS_NUM_THREADS of every process (0: inherit); see the module docstring")
+    parser.add_argument("--no-pde-path", action="store_true",
+                        help="do not also time the py-pde run path (--engine pde) where the fast path is native")
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
     if args.baseline:
@@ -508,7 +537,7 @@ def main(argv=None) -> int:
     if args.blas_threads:  # this process measures the roofline: same BLAS threads as the runs
         os.environ.update(OPENBLAS_NUM_THREADS=str(args.blas_threads), OMP_NUM_THREADS=str(args.blas_threads))
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
-    results = measure(args.cases, args.repeats, not args.no_cold, args.blas_threads)
+    results = measure(args.cases, args.repeats, not args.no_cold, args.blas_threads, not args.no_pde_path)
     if args.json:
         Path(args.json).write_text(json.dumps(dict(load=os.getloadavg(), cases=results), indent=1))
     return 0

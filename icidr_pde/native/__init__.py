@@ -176,6 +176,13 @@ class FdProblem:
         y = np.ascontiguousarray(y, dtype=float)
         return float(self.lib.icidr_fd_time_scale(self.handle, _pointer(y), iterations))
 
+    def kernel_times(self, y, repeats: int = 200) -> tuple[float, float]:
+        """Best-of-`repeats` seconds of one right-hand side and one band Jacobian, timed in C."""
+        y = np.ascontiguousarray(y, dtype=float)
+        out = np.empty(2)
+        self.lib.icidr_fd_kernel_times(self.handle, _pointer(y), repeats, _pointer(out))
+        return float(out[0]), float(out[1])
+
     def M(self, phi) -> np.ndarray:
         phi = np.ascontiguousarray(phi, dtype=float)
         out = np.empty(phi.size)

@@ -169,6 +169,7 @@ def _declare(lib) -> None:
         "icidr_fd_jacobian": (None, [P, ptr(D), ptr(D)]),
         "icidr_fd_time_scale": (D, [P, ptr(D), I]),
         "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
+        "icidr_fd_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ptr(D), ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
         "icidr_cvode_last_good": (D, [P, ptr(D)]),
