@@ -236,3 +236,26 @@ def test_bad_input_is_named_before_any_work():
         run_native("icidr", "shear", 11, -1.0)
     with pytest.raises(NativeUnavailable, match="method 'BDF'"):
         run_native("icidr", "shear", 11, 1.0, method="BDF")
+
+
+@pytest.mark.parametrize("sig, status", [(__import__("signal").SIGINT, 130), (__import__("signal").SIGTERM, 143)])
+def test_signal_stops_a_native_run_with_its_results(tmp_path, sig, status):
+    """Ctrl-C or SIGTERM between two chunks of output times: the CLI writes what was computed
+    up to the time reached and exits 130/143 (the native run is in C between the chunks)."""
+    from tests.test_hardening import wait_for_progress
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen([sys.executable, "-m", "icidr_pde.cli", "run", "--scene", "sine", "--N", "1601",
+                             "--t-end", "1e5", "--json", "i.json"], cwd=tmp_path, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        seen = wait_for_progress(proc)
+        proc.send_signal(sig)
+        proc.wait(timeout=120)
+    finally:
+        proc.kill()
+    assert "native" in seen
+    assert proc.returncode == status
+    summary = json.loads((tmp_path / "i.json").read_text())
+    assert summary["reason"].startswith("interrupted") and summary["settings"]["engine"] == "native"
+    assert 0 < summary["t_final"] < 1e5 and not summary["blew_up"]

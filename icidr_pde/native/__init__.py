@@ -37,7 +37,9 @@ __all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavaila
 
 MAX_N = 100_000  # ShearCellPDE.max_N
 MIN_STEP_FRACTION = 1e-11  # integrator.MIN_STEP_FRACTION: of the fastest time scale
-_CHUNK = 64  # output times per call into C: Ctrl-C and the progress bar act between calls
+#: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar
+#: act between calls, and a call costs ~1 us of Python
+_CHUNK = (8, 1, 1024)  # first, smallest, largest
 
 
 #: --engine choices: 'auto' takes the native engine where it applies, 'native' says why it did not,
@@ -377,9 +379,13 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
             failure = (0.0, y0.copy(), f"initial state invalid: {case.check_state(y0)}")
         else:
             problem.start(y0, rtol=rtol_v, atol=atol_v)
+            size, smallest, largest = _CHUNK
             while n_done < n_out and failure is None:
-                chunk = slice(n_done, min(n_done + _CHUNK, n_out))
+                chunk = slice(n_done, min(n_done + size, n_out))
+                call = _time.perf_counter()
                 done, status, flag = problem.advance(out_times[chunk], store[chunk], max_w[n_done:], states)
+                call = _time.perf_counter() - call
+                size = min(2 * size, largest) if call < 0.02 else max(size // 2, smallest) if call > 0.1 else size
                 n_done += done
                 reached = out_times[n_done - 1] if n_done else 0.0
                 if bar is not None:
