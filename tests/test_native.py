@@ -259,3 +259,14 @@ def test_signal_stops_a_native_run_with_its_results(tmp_path, sig, status):
     summary = json.loads((tmp_path / "i.json").read_text())
     assert summary["reason"].startswith("interrupted") and summary["settings"]["engine"] == "native"
     assert 0 < summary["t_final"] < 1e5 and not summary["blew_up"]
+
+
+def test_without_a_compiler_the_run_falls_back_saying_why(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), CC=str(tmp_path / "no-such-cc"))
+    proc = subprocess.run([sys.executable, "-m", "icidr_pde.cli", "run", "--N", "9", "--t-end", "0.1",
+                           "--no-progress", "--json", str(tmp_path / "r.json")], env=env, capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if "native engine" in line]
+    assert len(lines) == 1 and "no C compiler" in lines[0] and "py-pde path" in lines[0]
+    assert json.loads((tmp_path / "r.json").read_text())["settings"].get("engine") is None
