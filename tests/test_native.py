@@ -259,6 +259,7 @@ def test_signal_stops_a_native_run_with_its_results(tmp_path, sig, status):
     summary = json.loads((tmp_path / "i.json").read_text())
     assert summary["reason"].startswith("interrupted") and summary["settings"]["engine"] == "native"
     assert 0 < summary["t_final"] < 1e5 and not summary["blew_up"]
+    assert abs(summary["mass_drift"]) < 1e-13  # the state at t_final, not another output's
 
 
 def test_without_a_compiler_the_run_falls_back_saying_why(tmp_path):
@@ -270,3 +271,24 @@ def test_without_a_compiler_the_run_falls_back_saying_why(tmp_path):
     lines = [line for line in proc.stderr.splitlines() if "native engine" in line]
     assert len(lines) == 1 and "no C compiler" in lines[0] and "py-pde path" in lines[0]
     assert json.loads((tmp_path / "r.json").read_text())["settings"].get("engine") is None
+
+
+def test_interrupt_keeps_the_state_at_the_time_reached(monkeypatch):
+    """Ctrl-C between two calls into C: the Result holds the state at t_final, the same as a
+    run asked for a snapshot there (output times do not change CVODE's steps)."""
+    original, calls = FdProblem.advance, []
+
+    def advance(self, *args):
+        calls.append(1)
+        if len(calls) > 3:
+            raise KeyboardInterrupt
+        return original(self, *args)
+
+    monkeypatch.setattr(FdProblem, "advance", advance)
+    stopped = run_native("icidr", "sine", 41, 20.0)
+    monkeypatch.undo()
+    assert stopped.reason.startswith("interrupted") and not stopped.blew_up and 0 < stopped.t_final < 20.0
+    assert stopped.max_w_t[-1] == stopped.t_final
+    full = run_native("icidr", "sine", 41, 20.0, [0.0, stopped.t_final])
+    assert full.times[-1] == stopped.t_final
+    assert np.array_equal(np.array(stopped.final), np.array([full.phi[-1], full.u[-1], full.w[-1]]))
