@@ -9,7 +9,8 @@ compiles everything, as after installation) it runs, each as its own process:
 * ``python -m icidr_pde.cli run --rheology icidr --scene sine --t-end 20 --json out.json``
   (the command ``icidr-pde run ...`` of the same tree) three ways: the first invocation, a
   second one, and a second one at a new N (--N 401);
-* ``python -c "import icidr_pde.cli; icidr_pde.cli.make_parser()"`` for the import share.
+* ``python -c "import icidr_pde.cli; icidr_pde.cli.make_parser(['run'])"`` for the import share
+  (the parser a ``run`` invocation builds: the run subcommand only).
 
 Each invocation's wall time is split into import (the separate import process), set-up
 (kernel generation, compilation or cache loading: ``compile_s`` of the JSON), solve
@@ -87,7 +88,7 @@ def invocation(label: str, extra: list[str], env: dict, workdir: Path) -> dict:
                         "--no-progress"], env)
     summary = json.loads(out.read_text())
     return {"label": label, "wall_s": wall, "compile_s": summary["compile_s"], "solve_s": summary["wall_s"],
-            "N": summary["N"], "compiled": "compiling kernels" in proc.stderr,
+            "N": summary["N"], "compiled": "compiling" in proc.stderr,
             "max_w_error": max_w_error(summary)}
 
 
@@ -101,7 +102,7 @@ def measure(repeats: int) -> dict:
                            else runs[0][key]) for key in runs[0]})
         rows[-1]["compiled"] = any(r["compiled"] for r in runs)  # same cache: must stay "no"
     baseline = statistics.median(timed([sys.executable, "-c", "import icidr_pde"], env)[0] for _ in range(repeats))
-    cli_import = statistics.median(timed([sys.executable, "-c", "import icidr_pde.cli; icidr_pde.cli.make_parser()"],
+    cli_import = statistics.median(timed([sys.executable, "-c", "import icidr_pde.cli; icidr_pde.cli.make_parser(['run'])"],
                                          env)[0] for _ in range(repeats))
     for row in rows:
         row["import_s"] = cli_import
@@ -166,7 +167,7 @@ def measure_commands(repeats: int, env: dict, workdir: Path, against: Path | Non
                 if args is None:
                     wall, summary, stderr = warm_run(envs[tag], workdir, tag)
                     errors[tag] = accuracy("shear-fd", summary["max_w"], None)
-                    compiled[tag] = compiled.get(tag, False) or "compiling kernels" in stderr
+                    compiled[tag] = compiled.get(tag, False) or "compiling" in stderr
                     times[tag].setdefault("solve", []).append(summary["wall_s"])
                     times[tag].setdefault("set-up", []).append(summary["compile_s"])
                 else:
@@ -205,7 +206,7 @@ def report(data: dict) -> str:
     lines = [f"command: {data['command']} (as python -m icidr_pde.cli, a fresh kernel cache); "
              f"median of {data['repeats']} for repeated rows",
              f"baseline python -c 'import icidr_pde': {data['baseline_import_s']:.2f} s; "
-             f"import icidr_pde.cli + parser: {data['cli_import_s']:.2f} s",
+             f"import icidr_pde.cli + run parser: {data['cli_import_s']:.2f} s",
              "", "| invocation | N | wall | import | set-up (compile or load) | solve | rest | "
              "wall / (import + solve) | compiled? | max\\|w\\| error |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
