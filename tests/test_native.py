@@ -207,10 +207,10 @@ def test_failed_cli_run_exits_3_with_its_json(tmp_path):
 def test_fallback_says_why_in_one_line(capsys):
     from icidr_pde import cli
 
-    assert cli.main(["run", "--discretization", "cheb", "--N", "9", "--t-end", "0.05", "--no-progress",
+    assert cli.main(["run", "--method", "LSODA", "--N", "9", "--t-end", "0.05", "--no-progress",
                      "--engine", "native"]) == 0
     err = capsys.readouterr().err
-    assert "native engine not used: discretization 'cheb'" in err
+    assert "native engine not used: method 'LSODA'" in err
     assert cli.main(["run", "--method", "BDF", "--N", "9", "--t-end", "0.05", "--no-progress"]) == 0
     assert "native engine" not in capsys.readouterr().err  # auto: silent where it does not apply
 

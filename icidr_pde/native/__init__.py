@@ -1,4 +1,4 @@
-"""The native engine: 1-D finite volumes integrated by SUNDIALS CVODE in compiled code.
+"""The native engine: the 1-D shear cell integrated by SUNDIALS CVODE in compiled code.
 
 :func:`run_native` runs what ``run(..., discretization="fd", method="CVODE")`` runs (same
 scheme, same CVODE settings, same output times and Result) with no Python in the loop:
@@ -8,6 +8,11 @@ finite-volume right-hand side and analytic band Jacobian in C
 calls CVODE (``cvode_driver.c``), compiled once per installation (:mod:`.build`). A warm
 run imports neither py-pde, numba, scipy, sympy nor scikit-sundae: only numpy, ctypes and
 the light parts of the package (rheology classes, scenes, presets, Result).
+
+Chebyshev collocation (``discretization="cheb"``) runs the same way (:mod:`.cheb`):
+``templates/cheb.c`` mirrors the numba right-hand side and the numpy dense Jacobian, with
+the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.chebyshev`), and
+CVODE's dense LU (LAPACK's where scikit-sundae ships it) kept as the py-pde path keeps it.
 
 The walls are the ghost-cell maps of :meth:`ShearCellPDE.ghost_coefficients` (a test
 compares them with py-pde's boundary setters); the grid is py-pde's cell-centred
@@ -88,12 +93,12 @@ def try_native(engine, rheology="icidr", scene="shear", N=None, t_end=10.0, time
 def unavailable(*, discretization, method, jacobian=None, backend="numba", save=None, movie=None,
                 live_plot=False, max_wall=None, N=None, scene=None) -> str | None:
     """Why these run settings cannot take the native engine (one line), or None."""
-    if discretization != "fd":
-        return f"discretization {discretization!r} (the native engine is 1-D finite volumes, fd)"
+    if discretization not in ("fd", "cheb"):
+        return f"discretization {discretization!r} (the native engine is the 1-D cell: fd or cheb)"
     if method != "CVODE":
         return f"method {method!r} (the native engine is CVODE)"
     if jacobian not in (None, "analytic"):
-        return f"jacobian {jacobian!r} (the native engine uses the analytic band Jacobian)"
+        return f"jacobian {jacobian!r} (the native engine uses the analytic Jacobian)"
     if backend != "numba":
         return f"backend {backend!r}"
     if isinstance(N, (tuple, list)):
@@ -240,6 +245,8 @@ class FdCase:
     :func:`icidr_pde.case.build_case` builds for ``discretization="fd"``, with the same checks
     (the scene's parameters, the law, phi0 in the law's range, N, the advection option)."""
 
+    discretization = "fd"
+
     def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
         from ..rheology import get_rheology
         from ..scenes import get_scene
@@ -267,6 +274,13 @@ class FdCase:
         self.z = cell_centres(N, self.H)
         data = np.array([np.broadcast_to(np.asarray(f, float), (N,)) for f in self.scene.initial_condition(self.z)])
         self.y0 = np.ascontiguousarray(data.T).ravel()  # interleaved: y[3 i + k] = field k of cell i
+
+    def problem(self) -> FdProblem:
+        return FdProblem(self.rheology, self.N, self.H, advection=self.advection, V0=self.V0)
+
+    def fields(self, y) -> np.ndarray:
+        """(3, N) fields of the interleaved state vector `y`."""
+        return np.ascontiguousarray(np.asarray(y).reshape(self.N, 3).T)
 
     def check_state(self, y) -> str | None:
         """Why the interleaved state `y` is invalid (as the stiff solver's check), or None."""
@@ -342,8 +356,12 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
                       N=settings["N"])
     if why:
         raise NativeUnavailable(why)
-    case = FdCase(rheology, scene, settings["N"], material=material, advection=advection,
-                  scene_params=scene_params)
+    if settings["discretization"] == "cheb":
+        from .cheb import ChebCase as case_class
+    else:
+        case_class = FdCase
+    case = case_class(rheology, scene, settings["N"], material=material, advection=advection,
+                      scene_params=scene_params)
     rtol_v, atol_v = real("rtol", settings["rtol"], 1e-14, 1, low_open=False), real("atol", settings["atol"], 0)
     if times is None:
         times = [t for t in case.scene.default_times if t <= t_end] + [t_end]
@@ -354,7 +372,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
         chi_times = np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
 
     start = _time.perf_counter()
-    problem = FdProblem(case.rheology, case.N, case.H, advection=case.advection, V0=case.V0)
+    problem = case.problem()
     compile_s = _time.perf_counter() - start
     start, cpu_start = _time.perf_counter(), _time.process_time()
 
@@ -367,11 +385,11 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     states = np.empty((max(stored.size, 1), n3))
     max_w = np.full(n_out, np.nan)
     y0 = case.y0
-    phi_view = slice(0, None, 3)
     lo, hi = problem.bounds
     failure = None
     n_done = 0
-    inside0 = np.all(np.isfinite(y0)) and np.all((y0[phi_view] > lo) & (y0[phi_view] < hi))
+    phi0 = case.fields(y0)[0]
+    inside0 = np.all(np.isfinite(y0)) and np.all((phi0 > lo) & (phi0 < hi))
     bar = _progress_bar(t_end) if progress else None
     try:
         if not inside0:
@@ -408,8 +426,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     counts = problem.counts()
 
-    def native(y):
-        return np.ascontiguousarray(y.reshape(case.N, 3).T)
+    native = case.fields
 
     def state_at(index):
         return y0 if index < 0 else states[store[index]]
@@ -422,7 +439,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     data = np.array([native(state_at(at_snap[k])) for k in snaps]).reshape(len(snaps), 3, case.N)
     series_done = [k for k, index in enumerate(at_series) if done(index)]
     max_w_t = [float(out_times[at_series[k]]) if at_series[k] >= 0 else float(series[k]) for k in series_done]
-    max_w_v = [float(max_w[at_series[k]]) if at_series[k] >= 0 else float(np.max(np.abs(y0[2::3])))
+    max_w_v = [float(max_w[at_series[k]]) if at_series[k] >= 0 else float(np.max(np.abs(native(y0)[2])))
                for k in series_done]
     if failure is not None:
         t_final, final = failure[0], native(failure[1])
@@ -446,7 +463,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
         chi_kwargs = dict(chi_t=np.array([float(chi_times[k]) for k in chi_done]), chi_z=z_f, chi=np.array(values))
     mass0 = case.mass(native(y0))
     return Result(
-        rheology=case.rheology.name, scene=case.scene.name, discretization="fd", N=case.N, t_end=float(t_end),
+        rheology=case.rheology.name, scene=case.scene.name, discretization=case.discretization, N=case.N, t_end=float(t_end),
         rtol=float(rtol_v), atol=float(atol_v), method="CVODE", jacobian="analytic", blew_up=blew_up,
         t_star=t_star, reason=reason, t_final=float(t_final), z=case.z, times=np.array(snap_times[snaps]),
         time_labels=labels[:len(snaps)], requested_times=labels, phi=data[:, 0], u=data[:, 1],
@@ -454,4 +471,5 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
         mass_drift=(case.mass(final) - mass0) / mass0, wall_s=wall, compile_s=compile_s, cpu_s=cpu,
         n_steps=counts["steps"], n_rhs=counts["rhs"], n_jac=counts["jac"], n_lu=counts["lu"],
         scene_params=case.scene.parameters(), material=case.rheology.material.to_dict(),
-        settings=dict(accuracy=accuracy, advection=case.advection, engine="native"), **chi_kwargs)
+        settings=dict(accuracy=accuracy, **({"advection": case.advection} if case.advection else {}),
+                      engine="native"), **chi_kwargs)

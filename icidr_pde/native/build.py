@@ -1,11 +1,12 @@
 """Build and load the native engine's shared library for a law: C generated once, compiled once.
 
 The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, the
-finite-volume template ``discretizations/templates/fd.c`` and the CVODE driver
-``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc (``$CC``) into the
-kernel cache directory (:func:`icidr_pde.rheology.codegen.kernel_dir`) and linked against
-the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``, found from the
-package's location without importing it), then loaded with ctypes.
+finite-volume and Chebyshev templates ``discretizations/templates/fd.c`` and ``cheb.c`` and
+the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
+(``$CC``) into the kernel cache directory (:func:`icidr_pde.rheology.codegen.kernel_dir`)
+and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
+found from the package's location without importing it; its LAPACK dense solver where
+present, for Chebyshev), then loaded with ctypes.
 
 A library's name is a hash of everything its text is generated from (the inputs of the
 law's numba kernels, this package's sources, the template, the SUNDIALS library files and
@@ -48,11 +49,20 @@ def _text(name: str) -> str:
 
 def _template() -> str:
     # by path: importing icidr_pde.discretizations would import py-pde
-    return (pathlib.Path(__file__).parent.parent / "discretizations" / "templates" / "fd.c").read_text()
+    templates = pathlib.Path(__file__).parent.parent / "discretizations" / "templates"
+    return "\n".join((templates / name).read_text() for name in ("fd.c", "cheb.c"))
+
+
+def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
+    """[libsundials_sunlinsollapackdense, libopenblas] where scikit-sundae ships both, else []."""
+    found = [sorted(glob.glob(str(libs / f"lib{name}-*.so*"))) for name in ("sundials_sunlinsollapackdense",
+                                                                           "openblas*")]
+    return [pathlib.Path(f[0]) for f in found] if all(len(f) == 1 for f in found) else []
 
 
 def sundials() -> tuple[pathlib.Path, list[pathlib.Path], str]:
-    """(directory, [libsundials_cvode, libsundials_core], index type) of scikit-sundae's SUNDIALS."""
+    """(directory, [libsundials_cvode, libsundials_core(, libsundials_sunlinsollapackdense, libopenblas)], index type)
+    of scikit-sundae's SUNDIALS."""
     spec = importlib.util.find_spec("sksundae")  # locates the package without importing it
     if spec is None or spec.origin is None:
         raise NativeUnavailable("scikit-sundae is not installed (its SUNDIALS libraries are needed)")
@@ -70,7 +80,7 @@ def sundials() -> tuple[pathlib.Path, list[pathlib.Path], str]:
                 index = " ".join(words[1:-1])
     if index not in ("int", "long", "long int", "int64_t", "long long"):
         raise NativeUnavailable(f"SUNDIALS index type {index!r} not supported")
-    return libs, [pathlib.Path(f[0]) for f in found], index
+    return libs, [pathlib.Path(f[0]) for f in found] + _lapack_dense(libs), index
 
 
 def _compiler() -> str:
@@ -92,10 +102,13 @@ def _key(rheology, kinematics, libs, index, cc) -> str:
         *map(str, libs), index, cc, *LIBRARY_FLAGS])
 
 
-def _source(rheology, kinematics, index) -> str:
+def _source(rheology, kinematics, index, libs=()) -> str:
     from ..rheology.ccode import c_law_source
 
-    return "\n".join([f"#define SUNINDEXTYPE {index}", _text("sundials_api.h"),
+    lapack = any("lapackdense" in pathlib.Path(lib).name for lib in libs)
+    return "\n".join([f"#define SUNINDEXTYPE {index}",
+                      "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
+                      _text("sundials_api.h"),
                       c_law_source(rheology, kinematics), _template(), _text("cvode_driver.c")])
 
 
@@ -130,12 +143,12 @@ def _compile(rheology, kinematics, index, cc, libdir, libs, c_path, so_path, not
     from ..rheology.codegen import _write_once
 
     try:
-        text = _source(rheology, kinematics, index)
+        text = _source(rheology, kinematics, index, libs)
     except UnsupportedLaw as err:
         _write_once(note, f"{err}\n")
         raise NativeUnavailable(str(err)) from None
     _write_once(c_path, text)
-    sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} on fd (once per installation) ...\n")
+    sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} (fd, cheb; once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
     tmp = so_path.with_name(f".{so_path.name}.{os.getpid()}.tmp")
@@ -170,6 +183,10 @@ def _declare(lib) -> None:
         "icidr_fd_time_scale": (D, [P, ptr(D), I]),
         "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
         "icidr_fd_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
+        "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
+        "icidr_cheb_rates": (None, [P, ptr(D), ptr(D)]),
+        "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
+        "icidr_cheb_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ptr(D), ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
         "icidr_cvode_last_good": (D, [P, ptr(D)]),

@@ -1,5 +1,5 @@
-/* CVODE driver of the native engine: the finite-volume shear cell integrated by SUNDIALS
-   CVODE without a Python callback.
+/* CVODE driver of the native engine: the shear cell, finite volumes (fd) or Chebyshev
+   collocation (cheb), integrated by SUNDIALS CVODE without a Python callback.
 
    The same CVODE set-up as icidr_pde.integrator.CvodeEngine (through scikit-sundae) on
    the same problem: BDF up to order 5, scalar tolerances, the band linear solver with
@@ -9,8 +9,12 @@
    quotients, as integrator.fastest_time_scale), and the validity root function
    (min phi - lo, hi - max phi, direction -1, terminal). Output at requested times by
    CV_NORMAL calls (CVODE's interpolant): no output time changes CVODE's steps.
-   Placed after the law (icidr_pde.rheology.ccode) and templates/fd.c; sundials_api.h
-   declares the part of the SUNDIALS C API used here. */
+   Chebyshev (as CvodeEngine's dense 'analytic' mode): the analytic dense Jacobian
+   (cheb_jacobian) and the dense LU, LAPACK's (SUNLinSol_LapackDense, OpenBLAS) where the
+   build found it, else SUNDIALS' own; the factored Newton matrix kept until gamma changed
+   by delta_gamma (integrator.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
+   Placed after the law (icidr_pde.rheology.ccode), templates/fd.c and templates/cheb.c;
+   sundials_api.h declares the part of the SUNDIALS C API used here. */
 
 #include <stdlib.h>
 #include <string.h>
@@ -19,7 +23,10 @@
 
 #define EXPORT __attribute__((visibility("default")))
 
+enum { KIND_FD = 0, KIND_CHEB = 1 };
+
 typedef struct {
+    int kind;
     int n;
     double h;
     int upwind;
@@ -27,6 +34,9 @@ typedef struct {
     double *params;
     double lo, hi;
     double *work, *jb, *y_good;
+    double *D, *DT;       /* cheb: differentiation matrix and its transpose */
+    int lapack;           /* cheb: LAPACK's dense LU (else SUNDIALS' own) */
+    double delta_gamma;   /* cheb: refactor when gamma changed by more than this (0: SUNDIALS' 0.3) */
     double t_good;
     long own_rhs;
     void *cvode;
@@ -37,10 +47,21 @@ typedef struct {
     char message[1024];
 } Native;
 
+/* where phi and w of point i sit in the state vector: interleaved (fd) or in blocks (cheb) */
+#define PHI_AT(p, i) ((p)->kind == KIND_CHEB ? (i) : 3 * (i))
+#define W_AT(p, i) ((p)->kind == KIND_CHEB ? 2 * (p)->n + (i) : 3 * (i) + 2)
+
+static void problem_rates(Native *p, const double *y, double *out)
+{
+    if (p->kind == KIND_CHEB)
+        cheb_rates(p->n, p->D, p->params, y, out, p->work);
+    else
+        fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, out, p->work);
+}
+
 static int rhs_fn(sunrealtype t, N_Vector y, N_Vector ydot, void *user_data)
 {
-    Native *p = (Native *)user_data;
-    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot), p->work);
+    problem_rates((Native *)user_data, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot));
     return 0;
 }
 
@@ -49,6 +70,10 @@ static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *use
 {
     Native *p = (Native *)user_data;
     int neq = 3 * p->n;
+    if (p->kind == KIND_CHEB) {
+        cheb_jacobian(p->n, p->D, p->DT, p->params, N_VGetArrayPointer(y), SUNDenseMatrix_Data(J), p->work);
+        return 0;
+    }
     fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, N_VGetArrayPointer(y), p->jb, p->work);
     for (int col = 0; col < neq; col++) {
         sunrealtype *column = SUNBandMatrix_Column(J, col);  /* column[row - col] */
@@ -66,7 +91,7 @@ static int root_fn(sunrealtype t, N_Vector y, sunrealtype *gout, void *user_data
     const double *v = N_VGetArrayPointer(y);
     double low = INFINITY, high = -INFINITY;
     for (int i = 0; i < p->n; i++) {
-        double phi = v[3 * i];
+        double phi = v[PHI_AT(p, i)];
         low = phi < low ? phi : low;   /* as min()/max(): a NaN never wins */
         high = phi > high ? phi : high;
     }
@@ -97,7 +122,7 @@ EXPORT double icidr_fd_time_scale(Native *p, const double *y0, int iterations)
     double *f0 = malloc(sizeof(double) * m), *v = malloc(sizeof(double) * m);
     double *yp = malloc(sizeof(double) * m), *jv = malloc(sizeof(double) * m);
     double rho = 0.0;
-    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y0, f0, p->work);
+    problem_rates(p, y0, f0);
     p->own_rhs++;
     for (int k = 0; k < m; k++)
         v[k] = cos(k * 2.0) + 0.5;
@@ -108,7 +133,7 @@ EXPORT double icidr_fd_time_scale(Native *p, const double *y0, int iterations)
     for (int it = 0; it < iterations; it++) {
         for (int k = 0; k < m; k++)
             yp[k] = y0[k] + e * v[k];
-        fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, yp, jv, p->work);
+        problem_rates(p, yp, jv);
         p->own_rhs++;
         for (int k = 0; k < m; k++)
             jv[k] = (jv[k] - f0[k]) / e;
@@ -147,6 +172,47 @@ EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost
     return p;
 }
 
+/* the Chebyshev problem on n points: D row-major (n, n); `lapack` chooses the dense LU */
+EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, int n_params, double lo,
+                                  double hi, int lapack, double delta_gamma)
+{
+    Native *p = calloc(1, sizeof(Native));
+    if (!p)
+        return NULL;
+    p->kind = KIND_CHEB;
+    p->n = n;
+    p->lo = lo;
+    p->hi = hi;
+    p->lapack = lapack;
+    p->delta_gamma = delta_gamma;
+    p->params = malloc(sizeof(double) * (n_params > 0 ? n_params : 1));
+    p->work = malloc(sizeof(double) * CHEB_WORK(n));
+    p->y_good = malloc(sizeof(double) * 3 * (size_t)n);
+    p->D = malloc(sizeof(double) * (size_t)n * n);
+    p->DT = malloc(sizeof(double) * (size_t)n * n);
+    if (!p->params || !p->work || !p->y_good || !p->D || !p->DT) {
+        free(p->params); free(p->work); free(p->y_good); free(p->D); free(p->DT); free(p);
+        return NULL;
+    }
+    memcpy(p->params, params, sizeof(double) * n_params);
+    memcpy(p->D, D, sizeof(double) * (size_t)n * n);
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            p->DT[(size_t)j * n + i] = D[(size_t)i * n + j];
+    return p;
+}
+
+EXPORT void icidr_cheb_rates(Native *p, const double *y, double *out)
+{
+    cheb_rates(p->n, p->D, p->params, y, out, p->work);
+}
+
+/* J: (3n, 3n) column-major */
+EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
+{
+    cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+}
+
 EXPORT void icidr_fd_rates(Native *p, const double *y, double *out)
 {
     fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, out, p->work);
@@ -183,6 +249,25 @@ EXPORT void icidr_fd_kernel_times(Native *p, const double *y, int reps, double *
     }
     free(f);
     free(band);
+}
+
+/* best of `reps` timings of one Chebyshev right-hand side (out[0]) and one dense Jacobian (out[1]) */
+EXPORT void icidr_cheb_kernel_times(Native *p, const double *y, int reps, double *out)
+{
+    int neq = 3 * p->n;
+    double *f = malloc(sizeof(double) * neq), *J = malloc(sizeof(double) * (size_t)neq * neq);
+    out[0] = out[1] = INFINITY;
+    for (int r = 0; r < reps; r++) {
+        double start = seconds();
+        cheb_rates(p->n, p->D, p->params, y, f, p->work);
+        double mid = seconds();
+        cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+        double end = seconds();
+        out[0] = mid - start < out[0] ? mid - start : out[0];
+        out[1] = end - mid < out[1] ? end - mid : out[1];
+    }
+    free(f);
+    free(J);
 }
 
 /* M(phi) of the law at m points (for chi of (A18)) */
@@ -224,14 +309,26 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetUserData(p->cvode, p));
     CHECK(CVodeInit(p->cvode, rhs_fn, t0, p->y));
     CHECK(CVodeSStolerances(p->cvode, rtol, atol));
-    p->A = SUNBandMatrix(neq, FD_LOWER, FD_LOWER, p->ctx);
-    p->LS = p->A ? SUNLinSol_Band(p->y, p->A, p->ctx) : NULL;
+    if (p->kind == KIND_CHEB) {
+        p->A = SUNDenseMatrix(neq, neq, p->ctx);
+#ifdef ICIDR_LAPACK_DENSE
+        p->LS = p->A ? (p->lapack ? SUNLinSol_LapackDense(p->y, p->A, p->ctx) : SUNLinSol_Dense(p->y, p->A, p->ctx))
+                     : NULL;
+#else
+        p->LS = p->A ? SUNLinSol_Dense(p->y, p->A, p->ctx) : NULL;
+#endif
+    } else {
+        p->A = SUNBandMatrix(neq, FD_LOWER, FD_LOWER, p->ctx);
+        p->LS = p->A ? SUNLinSol_Band(p->y, p->A, p->ctx) : NULL;
+    }
     if (!p->A || !p->LS) {
-        snprintf(error, error_len, "band matrix or solver not created");
+        snprintf(error, error_len, "matrix or linear solver not created");
         goto fail;
     }
     CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
     CHECK(CVodeSetJacFn(p->cvode, jac_fn));
+    if (p->kind == KIND_CHEB && p->delta_gamma > 0)
+        CHECK(CVodeSetDeltaGammaMaxLSetup(p->cvode, p->delta_gamma));
     CHECK(CVodeSetMaxNonlinIters(p->cvode, 3));
     CHECK(CVodeSetMaxConvFails(p->cvode, 10));
     CHECK(CVodeRootInit(p->cvode, 2, root_fn));
@@ -256,7 +353,7 @@ static int inside(const Native *p, const double *v)
         if (!isfinite(v[k]))
             return 0;
     for (int i = 0; i < p->n; i++)
-        if (!(p->lo < v[3 * i] && v[3 * i] < p->hi))
+        if (!(p->lo < v[PHI_AT(p, i)] && v[PHI_AT(p, i)] < p->hi))
             return 0;
     return 1;
 }
@@ -305,7 +402,7 @@ EXPORT int icidr_cvode_advance(Native *p, int n_out, const double *t_out, const 
         }
         double m = 0.0;
         for (int i = 0; i < p->n; i++) {
-            double a = fabs(y[3 * i + 2]);
+            double a = fabs(y[W_AT(p, i)]);
             m = a > m ? a : m;
         }
         max_w[k] = m;
@@ -360,6 +457,6 @@ EXPORT void icidr_free(Native *p)
         N_VDestroy(p->y);
     if (p->ctx)
         SUNContext_Free(&p->ctx);
-    free(p->params); free(p->work); free(p->jb); free(p->y_good);
+    free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D); free(p->DT);
     free(p);
 }

@@ -1,6 +1,7 @@
 /* The part of the SUNDIALS 7 C API the native driver calls, declared as in SUNDIALS'
    headers (cvode/cvode.h, cvode/cvode_ls.h, sundials/sundials_context.h, nvector_serial.h,
-   sunmatrix_band.h, sunlinsol_band.h; scikit-sundae ships the libraries but not these
+   sunmatrix_band.h, sunlinsol_band.h, sunmatrix_dense.h, sunlinsol_dense.h,
+   sunlinsol_lapackdense.h; scikit-sundae ships the libraries but not these
    headers). SUNINDEXTYPE is the index type of that build (scikit-sundae's c_config.pxi),
    set by the build. */
 
@@ -47,6 +48,10 @@ SUNMatrix SUNBandMatrix(sunindextype N, sunindextype mu, sunindextype ml, SUNCon
 sunrealtype *SUNBandMatrix_Column(SUNMatrix A, sunindextype j);
 void SUNMatDestroy(SUNMatrix A);
 SUNLinearSolver SUNLinSol_Band(N_Vector y, SUNMatrix A, SUNContext sunctx);
+SUNMatrix SUNDenseMatrix(sunindextype M, sunindextype N, SUNContext sunctx);
+sunrealtype *SUNDenseMatrix_Data(SUNMatrix A);
+SUNLinearSolver SUNLinSol_Dense(N_Vector y, SUNMatrix A, SUNContext sunctx);
+SUNLinearSolver SUNLinSol_LapackDense(N_Vector y, SUNMatrix A, SUNContext sunctx);
 SUNErrCode SUNLinSolFree(SUNLinearSolver S);
 
 void *CVodeCreate(int lmm, SUNContext sunctx);
@@ -55,6 +60,7 @@ int CVodeSStolerances(void *cvode_mem, sunrealtype reltol, sunrealtype abstol);
 int CVodeSetUserData(void *cvode_mem, void *user_data);
 int CVodeSetLinearSolver(void *cvode_mem, SUNLinearSolver LS, SUNMatrix A);
 int CVodeSetJacFn(void *cvode_mem, CVLsJacFn jac);
+int CVodeSetDeltaGammaMaxLSetup(void *cvode_mem, sunrealtype dgmax_lsetup);
 int CVodeSetMaxNonlinIters(void *cvode_mem, int maxcor);
 int CVodeSetMaxConvFails(void *cvode_mem, int maxncf);
 int CVodeRootInit(void *cvode_mem, int nrtfn, CVRootFn g);

@@ -1,0 +1,148 @@
+"""The native engine's Chebyshev collocation: problem and case without py-pde.
+
+:class:`ChebProblem` is the compiled Chebyshev problem (``discretizations/templates/cheb.c``,
+a mirror of the numba template and of the numpy dense Jacobian) with CVODE's dense linear
+solver; :class:`ChebCase` is what :func:`icidr_pde.case.build_case` builds for
+``discretization="cheb"`` (the same checks, points, walls and initial state), from the
+numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's vector
+(phi, u, w) in blocks, so CVODE integrates the same numbers in the same order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import FdProblem, NativeUnavailable, _pointer
+
+__all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
+
+MAX_N = 4001  # ChebyshevShearCellPDE.max_N
+DENSE_LU_DELTA_GAMMA = 1.0  # integrator.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
+#: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
+DENSE_SOLVERS = ("lapack", "sundials")
+#: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
+DENSE_SOLVER = "lapack"
+
+
+def memory_estimate(N: int) -> float:
+    """ChebyshevShearCellPDE.memory_estimate: dense 3N x 3N Jacobian, its LU, D."""
+    return 8.0 * (3 * 9 * N**2 + 2 * N**2)
+
+
+class ChebProblem(FdProblem):
+    """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
+    right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
+    :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
+    `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`)."""
+
+    def __init__(self, rheology, D, *, bounds=None, solver: str = "lapack",
+                 delta_gamma: float = DENSE_LU_DELTA_GAMMA):
+        from ..rheology import SHEAR_CELL
+        from .build import library
+
+        if solver not in DENSE_SOLVERS:
+            raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
+        self.lib = library(rheology, SHEAR_CELL)
+        self.D = np.ascontiguousarray(D, dtype=float)
+        self.N = int(self.D.shape[0])
+        params = np.array(rheology.material.params, dtype=float)
+        lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
+        self.bounds, self.solver = (lo, hi), solver
+        self.handle = self.lib.icidr_cheb_problem(self.N, _pointer(self.D), _pointer(params), params.size, lo, hi,
+                                                  int(solver == "lapack"), float(delta_gamma))
+        if not self.handle:
+            raise MemoryError(f"native problem of N = {self.N} not allocated")
+        self._params = params
+
+    def rates(self, y) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        out = np.empty(3 * self.N)
+        self.lib.icidr_cheb_rates(self.handle, _pointer(y), _pointer(out))
+        return out
+
+    def jacobian_dense(self, y) -> np.ndarray:
+        """The (3N, 3N) Jacobian d rates / d y."""
+        y = np.ascontiguousarray(y, dtype=float)
+        J = np.empty((3 * self.N, 3 * self.N), order="F")
+        self.lib.icidr_cheb_jacobian(self.handle, _pointer(y), _pointer(J))
+        return J
+
+    def jacobian_band(self, y):
+        raise NotImplementedError("the Chebyshev Jacobian is dense: jacobian_dense")
+
+    def kernel_times(self, y, repeats: int = 20) -> tuple[float, float]:
+        """Best-of-`repeats` seconds of one right-hand side and one dense Jacobian, timed in C."""
+        y = np.ascontiguousarray(y, dtype=float)
+        out = np.empty(2)
+        self.lib.icidr_cheb_kernel_times(self.handle, _pointer(y), repeats, _pointer(out))
+        return float(out[0]), float(out[1])
+
+
+class ChebCase:
+    """Scene, law and initial state of a Chebyshev run without py-pde (see the module docstring)."""
+
+    discretization = "cheb"
+
+    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
+        from ..chebyshev import cc_weights, cgl_nodes, diff_matrix
+        from ..rheology import get_rheology
+        from ..scenes import get_scene
+        from ..validation import ParameterError, format_bytes, integer, memory_bytes
+
+        self.scene = get_scene(scene, **(scene_params or {}))
+        if getattr(self.scene, "dim", 1) != 1:
+            raise NativeUnavailable("a 2-D scene")
+        self.rheology = get_rheology(rheology, material)
+        getattr(self.rheology, "check_runnable", lambda: None)()
+        self.rheology.material.check_phi(self.scene.phi0, "phi0")
+        if advection is not None:
+            raise ValueError("`advection` is not an option of discretization 'cheb'")
+        self.advection = None
+        self.N = N = integer("N", N, 4)
+        need, have = memory_estimate(N), memory_bytes()
+        if N > MAX_N or (have is not None and need > 0.5 * have):
+            raise ParameterError(
+                f"`N` = {N} is too large for discretization 'cheb': the maximum is {MAX_N}, and N = {N} needs "
+                f"about {format_bytes(need)} of memory (dense 3N x 3N Jacobian, its LU and the N x N "
+                f"differentiation matrix); this machine has "
+                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        self.V0 = 1.0
+        self.H = float(self.scene.H)
+        self.z = cgl_nodes(N, self.H)
+        self.D = diff_matrix(N, self.H)
+        self.weights = cc_weights(N, self.H)
+        data = np.array([np.broadcast_to(np.asarray(f(self.z) if callable(f) else f, float), (N,))
+                         for f in self.scene.initial_condition(self.z)])
+        data[1, [0, -1]] = 0.0, self.V0  # the Dirichlet walls (3.9), as ChebyshevShearCellPDE.make_state
+        data[2, [0, -1]] = 0.0
+        self.y0 = np.ascontiguousarray(data).ravel()
+
+    def problem(self, **options) -> ChebProblem:
+        return ChebProblem(self.rheology, self.D, **{"solver": DENSE_SOLVER, **options})
+
+    def fields(self, y) -> np.ndarray:
+        """(3, N) fields of the state vector `y`."""
+        return np.asarray(y).reshape(3, self.N)
+
+    def phi(self, y) -> np.ndarray:
+        return np.asarray(y)[:self.N]
+
+    def check_state(self, y) -> str | None:
+        """Why the state `y` is invalid (as ShearCellBase.check_state), or None."""
+        if not np.all(np.isfinite(y)):
+            return "state became non-finite"
+        phi = self.phi(y)
+        lo, hi = self.rheology.material.phi_range
+        if np.all(phi > lo) and np.all(phi < hi):
+            return None
+        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
+        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
+                f"min {phi.min():.6g}, max {phi.max():.6g}")
+
+    def mass(self, data) -> float:
+        """Clenshaw-Curtis integral of phi (ChebyshevShearCellPDE.integral)."""
+        return float(np.dot(self.weights, data[0]))
+
+    def strain_rates(self, data):
+        """The points and (phi, u_z, w_z) there (ChebyshevShearCellPDE.strain_rates)."""
+        return self.z.copy(), np.array(data[0]), self.D @ data[1], self.D @ data[2]
