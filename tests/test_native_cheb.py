@@ -1,0 +1,211 @@
+"""The native engine's Chebyshev collocation (icidr_pde.native.cheb).
+
+Against independent truth: the numba right-hand side and the numpy dense Jacobian of
+icidr_pde.discretizations.cheb (themselves tested against exact solutions and symbolic
+identities in tests/chebyshev); a fourth-order difference of the native right-hand side for
+its Jacobian; the converged references of data/reference (t*: BDF rtol 1e-10; max|w|:
+finite volumes N = 3201) to the accuracy the README states for CVODE at N = 201; mass
+conservation (Clenshaw-Curtis exactness); the py-pde path's CVODE on the same equations; the
+imports of a warm run in a fresh process. No timings.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from icidr_pde.native import NativeUnavailable, run_native
+from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebCase, ChebProblem
+
+try:
+    ChebCase("icidr", "shear", 9).problem()
+except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde path is tested elsewhere
+    pytest.skip(f"native engine unavailable: {err}", allow_module_level=True)
+
+HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
+
+
+def perturbed(case, seed, amplitude=0.05):
+    """A valid state near the initial one: phi in its range, walls as (3.9)."""
+    rng = np.random.default_rng(seed)
+    data = case.fields(case.y0).copy()
+    data[0] += 0.005 * rng.standard_normal(case.N)
+    data[1:, 1:-1] += amplitude * rng.standard_normal((2, case.N - 2))
+    return data.ravel()
+
+
+def test_points_walls_operators_and_initial_state_are_the_py_pde_paths():
+    from icidr_pde.case import build_case
+
+    for scene in ("shear", "sine"):
+        c = build_case("icidr", scene, "cheb", 33)
+        light = ChebCase("icidr", scene, 33)
+        z, D, weights = c.pde.operators(c.grid)
+        assert np.array_equal(light.z, z) and np.array_equal(light.D, D) and np.array_equal(light.weights, weights)
+        assert np.array_equal(light.y0, c.state.data.ravel())
+        data = light.fields(perturbed(light, 1))
+        for mine, theirs in zip(light.strain_rates(data), c.pde.strain_rates(data, c.grid)):
+            assert np.array_equal(mine, theirs)
+        assert light.mass(data) == c.pde.integral(data[0], c.grid)
+        assert light.check_state(data.ravel()) == c.pde.check_state(data)
+        bad = data.copy()
+        bad[0, 3] = 0.9
+        assert light.check_state(bad.ravel()) == c.pde.check_state(bad)
+
+
+def test_settings_are_the_py_pde_paths():
+    from icidr_pde import native
+    from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE
+    from icidr_pde.integrator import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
+    from icidr_pde.native import cheb
+
+    assert DENSE_LU_DELTA_GAMMA == pde_delta_gamma
+    assert cheb.MAX_N == ChebyshevShearCellPDE.max_N
+    assert cheb.memory_estimate(201) == ChebyshevShearCellPDE.memory_estimate(201)
+    assert native.unavailable(discretization="cheb", method="CVODE") is None
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("N", [17, 201])
+def test_native_rates_and_dense_jacobian_equal_the_numba_and_numpy_ones(rheology, N):
+    from icidr_pde.case import build_case
+
+    c = build_case(rheology, "sine", "cheb", N)
+    case = ChebCase(rheology, "sine", N)
+    problem = case.problem()
+    rhs, jac = c.pde.make_rates(c.state), c.pde.make_jacobian(c.state)
+    for seed in range(3):
+        y = perturbed(case, seed)
+        theirs = rhs(y.reshape(3, N))
+        mine = problem.rates(y).reshape(3, N)
+        for k in range(3):  # each field's rates, relative to their largest (sums of D times a field)
+            assert np.max(np.abs(mine[k] - theirs[k])) <= 1e-13 * np.max(np.abs(theirs[k])), k
+        J, J_ref = problem.jacobian_dense(y), jac(0.0, y)
+        assert np.max(np.abs(J - J_ref)) <= 1e-13 * np.max(np.abs(J_ref))
+        walls = [N, 2 * N - 1, 2 * N, 3 * N - 1]
+        assert np.all(J[walls] == 0) and np.all(problem.rates(y)[walls] == 0)
+
+
+def test_native_jacobian_is_the_derivative_of_the_native_rates():
+    """Fourth-order central differences of the C right-hand side, column by column."""
+    for rheology in ("icidr", "mui"):
+        case = ChebCase(rheology, "sine", 13)
+        problem = case.problem()
+        y = perturbed(case, 7, amplitude=0.02)
+        J = problem.jacobian_dense(y)
+        e = 1e-5
+        for j in range(y.size):
+            d = np.zeros(y.size)
+            d[j] = e * max(1.0, abs(y[j]))
+            column = (8 * (problem.rates(y + d) - problem.rates(y - d))
+                      - (problem.rates(y + 2 * d) - problem.rates(y - 2 * d))) / (12 * d[j])
+            assert np.allclose(J[:, j], column, rtol=1e-6, atol=1e-7 * np.max(np.abs(J))), (rheology, j)
+
+
+def test_time_scale_is_the_stiff_solvers():
+    from icidr_pde.integrator import fastest_time_scale
+
+    case = ChebCase("mui", "shear", 201)
+    problem = case.problem()
+    expected = fastest_time_scale(lambda t, y: problem.rates(y), 0.0, case.y0)
+    assert problem.time_scale(case.y0) == pytest.approx(expected, rel=1e-12)
+
+
+def test_tstar_is_the_converged_one_and_the_py_pde_paths():
+    """README (t*): CVODE rtol 1e-7 at N = 201 gives t* within 1e-5 of the converged t*
+    (0.0105856, BDF rtol 1e-10; the py-pde path's error is 9.9e-6); the py-pde path's CVODE
+    on the same equations (an ulp apart in BLAS, so not the same steps) agrees to the
+    tolerance; the run fails in CVODE's error test at h_min, not at phi's range."""
+    from icidr_pde.api import run
+    from icidr_pde.reference import reference_tstar
+
+    converged = reference_tstar("cheb")["t_star"]
+    result = run_native("mui", "shear", 201, 1.0, ["0", "0.01", "0.5"], discretization="cheb", method="CVODE",
+                        rtol=1e-7, atol=1e-10)
+    assert result.blew_up and result.discretization == "cheb" and result.settings["engine"] == "native"
+    assert abs(result.t_star - converged) / converged < 2e-5
+    assert "integrator failed" in result.reason and "error test failed" in result.reason
+    pde_path = run("mui", "shear", 201, 1.0, ["0", "0.01", "0.5"], discretization="cheb", method="CVODE",
+                   rtol=1e-7, atol=1e-10)
+    assert result.t_star == pytest.approx(pde_path.t_star, rel=1e-5)
+    assert result.t_final == result.t_star and result.max_w_t[-1] == result.t_star
+    assert result.time_labels == ["0", "0.01"] and result.requested_times == pde_path.requested_times
+    assert np.allclose(result.phi, pde_path.phi, rtol=0, atol=1e-6)
+    assert result.max_w[-1] == pytest.approx(np.max(np.abs(result.final[2])))
+    assert np.all(np.diff(result.max_w_t) > 0)
+    assert abs(result.mass_drift) < 1e-13
+    assert np.array_equal(result.chi_t, pde_path.chi_t[:result.chi_t.size])
+    assert set(result.to_dict()) == set(pde_path.to_dict())
+
+
+def test_sine_reaches_the_reference():
+    """README (end to end): iCIDR sine, Chebyshev N = 201, CVODE rtol 1e-5, t = 15: max|w| at
+    t = 3, 5, 10, 15 within 1e-4 of the converged reference taken at the run's points (the
+    py-pde path's error is 5.1e-5); mass conserved to round-off (Clenshaw-Curtis is exact
+    for D(phi w), so the discrete mass cannot change but by rounding)."""
+    from icidr_pde.reference import reference
+
+    ref = reference("icidr-sine")
+    result = run_native("icidr", "sine", 201, 15.0, ["0", "3", "5", "10", "15"], discretization="cheb",
+                        method="CVODE", rtol=1e-5, atol=1e-8)
+    assert not result.blew_up and result.t_final == 15.0
+    for t, w in zip(result.times[1:], result.w[1:]):
+        k = int(np.argmin(np.abs(ref["series_t"] - t)))
+        ref_max = np.abs(np.interp(result.z, ref["z_series"], ref["w_series"][k])).max()
+        assert abs(np.abs(w).max() - ref_max) / ref_max < 1e-4, t
+    assert abs(result.mass_drift) < 1e-13
+    assert result.n_steps > 0 and 0 < result.n_jac <= result.n_lu
+
+
+def test_sundials_own_dense_lu_integrates_the_same_problem():
+    a = run_native("mui", "shear", 65, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)
+    from icidr_pde.native import cheb
+
+    saved, cheb.DENSE_SOLVER = cheb.DENSE_SOLVER, "sundials"
+    try:
+        b = run_native("mui", "shear", 65, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)
+    finally:
+        cheb.DENSE_SOLVER = saved
+    assert a.blew_up and b.blew_up
+    assert b.t_star == pytest.approx(a.t_star, rel=1e-5)
+    with pytest.raises(ValueError, match="`solver`"):
+        ChebProblem(ChebCase("mui", "shear", 9).rheology, np.eye(9), solver="qr")
+
+
+def test_bad_input_is_named_before_any_work():
+    from icidr_pde.validation import ParameterError
+
+    with pytest.raises(ParameterError, match="`N`"):
+        run_native("icidr", "shear", 2, 1.0, discretization="cheb")
+    with pytest.raises(ParameterError, match="`N` = 5000 is too large for discretization 'cheb'"):
+        run_native("icidr", "shear", 5000, 1.0, discretization="cheb")
+    with pytest.raises(ValueError, match="`advection` is not an option of discretization 'cheb'"):
+        run_native("icidr", "shear", 11, 1.0, discretization="cheb", advection="upwind")
+
+
+def test_cli_auto_runs_cheb_natively_and_a_failed_run_exits_3(tmp_path):
+    """The default engine takes cheb + CVODE; a warm process imports no heavy library; a blow-up
+    exits 3 with its JSON; --engine pde keeps the py-pde path."""
+    from icidr_pde import cli
+
+    from .test_native import child
+
+    argv = ["run", "--rheology", "mui", "--discretization", "cheb", "--N", "101", "--t-end", "1",
+            "--no-progress"]
+    assert cli.main(argv + ["--json", str(tmp_path / "warm.json")]) == 3  # builds the library if missing
+    target = tmp_path / "t.json"
+    code = (f"import sys, json, icidr_pde.cli\nstatus = icidr_pde.cli.main({argv + ['--json', str(target)]!r})\n"
+            "print(json.dumps([status, sorted({m.split('.')[0] for m in sys.modules})]))")
+    proc = child(code)
+    status, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert status == 3, proc.stderr
+    assert "compiling" not in proc.stderr
+    assert not set(HEAVY) & set(modules), set(HEAVY) & set(modules)
+    data = json.loads(target.read_text())
+    assert data["blew_up"] and data["settings"]["engine"] == "native" and data["discretization"] == "cheb"
+    assert 0 < data["t_star"] < 0.05 and "integrator failed" in data["reason"]
+    pde_path = tmp_path / "p.json"
+    assert cli.main(argv + ["--json", str(pde_path), "--engine", "pde"]) == 3
+    pde_data = json.loads(pde_path.read_text())
+    assert "engine" not in pde_data["settings"] and set(pde_data) == set(data)
+    assert data["t_star"] == pytest.approx(pde_data["t_star"], rel=1e-4)
