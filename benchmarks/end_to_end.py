@@ -19,9 +19,9 @@ integrated by ``scipy.integrate.solve_ivp(method="BDF")``.
 
 **Project**: ``python -m icidr_pde.cli run ...`` of this tree, its default integrator (CVODE)
 at the tolerance given in :data:`CASES`, on its default engine (``--engine auto``: the native
-engine for finite volumes, :mod:`icidr_pde.native`; the py-pde path for Chebyshev); for the
-cases the native engine runs, the py-pde path (``--engine pde``) is timed in the same rounds
-too (``--no-pde-path`` skips it). The first invocation uses a fresh, empty kernel cache
+engine, :mod:`icidr_pde.native`, for finite volumes and Chebyshev alike); for the cases the
+native engine runs, the py-pde path (``--engine pde``) is timed in the same rounds too
+(``--no-pde-path`` skips it). The first invocation uses a fresh, empty kernel cache
 (NUMBA_CACHE_DIR in a temporary directory, removed at the end: generation and compilation as
 after installation, "cold"); the repeated invocations find the cache ("warm"). With
 ``--no-cold`` the installed cache is used (one unreported warm-up invocation per case).
@@ -342,7 +342,8 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native:
     limit = n_rhs (t_rhs + t_solve) + n_jac t_jac + n_lu t_lu, i.e. the run's arithmetic with
     no interpreter, no wrapper and no per-step bookkeeping. Without an LU count every
     Jacobian is charged one LU (a lower bound: CVODE refactors when its step changes).
-    `native`: t_rhs and t_jac are the native engine's C kernels, timed in C.
+    `native`: t_rhs and t_jac are the native engine's C kernels, timed in C (Chebyshev: its
+    BLAS products and dense Jacobian written column-major, as CVODE's dense matrix holds it).
     """
     import numpy as np
     from scipy.linalg import lapack
@@ -379,6 +380,11 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native:
         jac = pde.make_jacobian(state)
         y = data.ravel()
         t_jac = _best(lambda: jac(0.0, y), repeats=20)
+        if native:
+            from icidr_pde.native.cheb import ChebCase
+
+            t_rhs, t_jac = ChebCase(spec["rheology"], spec["scene"], spec["N"]).problem().kernel_times(y)
+            _BEST_CPU[-2:] = [t_rhs, t_jac]
         J = np.asarray(jac(0.0, y)) + np.eye(n)
         t_lu = _best(lambda: lapack.dgetrf(J), repeats=20)
         lu, piv, _ = lapack.dgetrf(J)
@@ -454,8 +460,8 @@ def measure(cases, repeats: int, cold: bool, blas_threads: int = 1, compare_pde:
         results = {}
         for case in cases:
             first = run_project(case, env, workdir)  # cold: the first case of a law compiles it
+            pde_path = compare_pde and first["engine"] == "native"  # the cases the native engine runs
             first = first if cold else None
-            pde_path = compare_pde and CASES[case]["disc"] == "fd"  # the cases the native engine runs
             if pde_path:
                 run_project(case, env, workdir, "pde")  # its kernels too (cold: compiled here, unreported)
             base_runs, proj_runs, pde_runs = [], [], []
