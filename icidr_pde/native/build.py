@@ -187,6 +187,7 @@ def _declare(lib) -> None:
         "icidr_cheb_rates": (None, [P, ptr(D), ptr(D)]),
         "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
         "icidr_cheb_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
+        "icidr_blas_threads": (I, [I]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ptr(D), ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
         "icidr_cvode_last_good": (D, [P, ptr(D)]),

@@ -10,6 +10,8 @@ numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's ve
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from . import FdProblem, NativeUnavailable, _pointer
@@ -20,6 +22,11 @@ MAX_N = 4001  # ChebyshevShearCellPDE.max_N
 DENSE_LU_DELTA_GAMMA = 1.0  # integrator.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
+#: OpenBLAS threads of a run where neither OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set: one.
+#: Measured on this 2-core machine at a load of 3, iCIDR sine N = 201, t = 15: 2.2 s with one
+#: thread, 8.4 s with OpenBLAS's default two (a 603 x 603 LU gains little from a second core
+#: and loses much when that core is busy). It is OpenBLAS's setting for the whole process.
+BLAS_THREADS = 1
 #: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
 DENSE_SOLVER = "lapack"
 
@@ -43,6 +50,8 @@ class ChebProblem(FdProblem):
         if solver not in DENSE_SOLVERS:
             raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
         self.lib = library(rheology, SHEAR_CELL)
+        if not any(os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")):
+            self.lib.icidr_blas_threads(BLAS_THREADS)
         self.D = np.ascontiguousarray(D, dtype=float)
         self.N = int(self.D.shape[0])
         params = np.array(rheology.material.params, dtype=float)

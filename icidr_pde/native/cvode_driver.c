@@ -270,6 +270,17 @@ EXPORT void icidr_cheb_kernel_times(Native *p, const double *y, int reps, double
     free(J);
 }
 
+/* OpenBLAS threads of the dense LU and the BLAS products (returns 0 where the build has no BLAS) */
+EXPORT int icidr_blas_threads(int threads)
+{
+#ifdef ICIDR_BLAS
+    openblas_set_num_threads(threads);
+    return 1;
+#else
+    return 0;
+#endif
+}
+
 /* M(phi) of the law at m points (for chi of (A18)) */
 EXPORT void icidr_law_M(Native *p, int m, const double *phi, double *out)
 {

@@ -23,6 +23,7 @@ void cblas_dgemv(int order, int trans, int m, int n, double alpha, const double 
                  int incx, double beta, double *y, int incy);
 void cblas_dgemm(int order, int trans_a, int trans_b, int m, int n, int k, double alpha, const double *a,
                  int lda, const double *b, int ldb, double beta, double *c, int ldc);
+void openblas_set_num_threads(int threads);
 #endif
 
 /* out = D x (D row-major n x n) */
