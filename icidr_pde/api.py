@@ -270,7 +270,7 @@ def run(
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
         engine: 'pde' (this run path), 'auto' or 'native': the native engine
             (:mod:`icidr_pde.native`: C kernels and CVODE, no Python in the loop) where it
-            applies (fd, CVODE, analytic Jacobian, no file, movie, live plot or wall limit),
+            applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live plot or wall limit),
             else this path; 'native' says on stderr why it fell back
 
     A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is

@@ -248,7 +248,7 @@ def add_run_parser(subparsers):
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--engine", choices=ENGINES, default="auto",
                    help="auto: the native engine (C kernels and CVODE compiled once per installation, no "
-                        "Python in the loop, no py-pde import) where it applies: fd, CVODE, analytic Jacobian, "
+                        "Python in the loop, no py-pde import) where it applies: fd or cheb, CVODE, analytic Jacobian, "
                         "no --save/--movie; else the py-pde path. native: the same, saying why when it falls "
                         "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy)")
     p.set_defaults(func=cmd_run)
