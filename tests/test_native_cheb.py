@@ -213,3 +213,28 @@ def test_cli_auto_runs_cheb_natively_and_a_failed_run_exits_3(tmp_path):
     pde_data = json.loads(pde_path.read_text())
     assert "engine" not in pde_data["settings"] and set(pde_data) == set(data)
     assert data["t_star"] == pytest.approx(pde_data["t_star"], rel=1e-4)
+
+
+def test_without_lapack_the_plain_loops_compute_the_same(monkeypatch):
+    """Where scikit-sundae ships no LAPACK solver (and so no OpenBLAS) the library is built with
+    SUNDIALS' own dense LU and plain C loops for the products with D: the same rates and
+    Jacobian as the numba/numpy kernels, the same t* as the LAPACK build to the tolerance."""
+    from icidr_pde.case import build_case
+    from icidr_pde.native import build, cheb
+
+    lapack_run = run_native("mui", "shear", 101, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)
+    monkeypatch.setattr(build, "_lapack_dense", lambda libs: [])
+    N = 29
+    c = build_case("icidr", "sine", "cheb", N)
+    case = ChebCase("icidr", "sine", N)
+    problem = case.problem()
+    assert "lapackdense" not in " ".join(str(p) for p in build.sundials()[1])
+    y = perturbed(case, 3)
+    theirs, mine = c.pde.make_rates(c.state)(y.reshape(3, N)), problem.rates(y).reshape(3, N)
+    for k in range(3):
+        assert np.max(np.abs(mine[k] - theirs[k])) <= 1e-13 * np.max(np.abs(theirs[k])), k
+    J_ref = c.pde.make_jacobian(c.state)(0.0, y)
+    assert np.max(np.abs(problem.jacobian_dense(y) - J_ref)) <= 1e-13 * np.max(np.abs(J_ref))
+    plain = run_native("mui", "shear", 101, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)
+    assert plain.blew_up and plain.t_star == pytest.approx(lapack_run.t_star, rel=1e-5)
+    assert cheb.DENSE_SOLVER == "lapack"  # asked for, and SUNDIALS' own taken: the build has no other
