@@ -234,7 +234,7 @@ def run(
     series_times=None,
     backend: str = "numba",
     max_wall: float | None = None,
-    engine: str = "pde",
+    engine: str = "auto",
     **scene_params,
 ) -> Result:
     """Run `scene` with `rheology` and return a :class:`~icidr_pde.result.Result`.
@@ -268,10 +268,12 @@ def run(
         series_times: times of the max|w| series (default: dense log+linear; empty: none)
         backend: 'numba' (compiled kernels, cached on disk) or 'numpy'
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
-        engine: 'pde' (this run path), 'auto' or 'native': the native engine
-            (:mod:`icidr_pde.native`: C kernels and CVODE, no Python in the loop) where it
-            applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live plot or wall limit),
-            else this path; 'native' says on stderr why it fell back
+        engine: 'auto' (default, as the CLI's --engine), 'native' or 'pde': 'auto' and 'native'
+            take the native engine (:mod:`icidr_pde.native`: C kernels and CVODE, no Python in the
+            loop) where it applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live plot
+            or wall limit), else this path; 'native' says on stderr why it fell back; 'pde' is always
+            this path (the one the regression anchors are pinned on). Both return the same Result
+            fields; CVODE's step choices may differ by round-off (README, Engines)
 
     A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.

@@ -278,7 +278,7 @@ def cmd_run(args) -> int:
                 from .api import run
 
                 result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
-                             **options)
+                             engine="pde", **options)
         except KeyboardInterrupt:  # before the integration started: nothing computed
             print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
             return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
