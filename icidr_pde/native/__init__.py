@@ -37,7 +37,7 @@ import numpy as np
 
 from .build import NativeUnavailable
 
-__all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "ghost_coefficients",
+__all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
            "cell_centres", "MAX_N"]
 
 MAX_N = 100_000  # ShearCellPDE.max_N
@@ -240,14 +240,15 @@ class FdProblem:
                          "newton_failures"), map(int, out)))
 
 
-class FdCase:
-    """Scene, law and initial state of a 1-D fd run without py-pde: what
-    :func:`icidr_pde.case.build_case` builds for ``discretization="fd"``, with the same checks
-    (the scene's parameters, the law, phi0 in the law's range, N, the advection option)."""
+class NativeCase:
+    """What the native cases share: the scene, the law and N checked as
+    :func:`icidr_pde.case.build_case` checks them, and the validity check of a state."""
 
-    discretization = "fd"
+    discretization = ""
+    max_N = MAX_N
 
-    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
+    def _scene_law_and_size(self, rheology, scene, N, material, scene_params, memory_need, what):
+        """Set scene, rheology and N; `memory_need(N)` bytes, `what` the arrays they hold (for the error)."""
         from ..rheology import get_rheology
         from ..scenes import get_scene
         from ..validation import ParameterError, format_bytes, integer, memory_bytes
@@ -258,16 +259,44 @@ class FdCase:
         self.rheology = get_rheology(rheology, material)
         getattr(self.rheology, "check_runnable", lambda: None)()
         self.rheology.material.check_phi(self.scene.phi0, "phi0")
+        self.N = N = integer("N", N, 4)
+        need, have = memory_need(N), memory_bytes()
+        if N > self.max_N or (have is not None and need > 0.5 * have):
+            raise ParameterError(
+                f"`N` = {N} is too large for discretization {self.discretization!r}: the maximum is {self.max_N}, "
+                f"and N = {N} needs about {format_bytes(need)} of memory ({what}); this machine has "
+                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        return N
+
+    def phi(self, y) -> np.ndarray:
+        raise NotImplementedError
+
+    def check_state(self, y) -> str | None:
+        """Why the state `y` is invalid (as the stiff solver's check), or None."""
+        if not np.all(np.isfinite(y)):
+            return "state became non-finite"
+        phi = self.phi(y)
+        lo, hi = self.rheology.material.phi_range
+        if np.all(phi > lo) and np.all(phi < hi):
+            return None
+        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
+        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
+                f"min {phi.min():.6g}, max {phi.max():.6g}")
+
+
+class FdCase(NativeCase):
+    """Scene, law and initial state of a 1-D fd run without py-pde: what
+    :func:`icidr_pde.case.build_case` builds for ``discretization="fd"``, with the same checks
+    (the scene's parameters, the law, phi0 in the law's range, N, the advection option)."""
+
+    discretization = "fd"
+
+    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
         self.advection = "upwind" if advection is None else advection
         if self.advection not in ("upwind", "central"):
             raise ValueError(f"`advection` must be one of ('upwind', 'central'); got {self.advection!r}")
-        self.N = N = integer("N", N, 4)
-        need, have = 4000.0 * N, memory_bytes()
-        if N > MAX_N or (have is not None and need > 0.5 * have):
-            raise ParameterError(
-                f"`N` = {N} is too large for discretization 'fd': the maximum is {MAX_N}, and N = {N} needs "
-                f"about {format_bytes(need)} of memory (banded Jacobian and work vectors); this machine has "
-                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        N = self._scene_law_and_size(rheology, scene, N, material, scene_params, lambda n: 4000.0 * n,
+                                     "banded Jacobian and work vectors")
         self.V0 = 1.0
         self.H = float(self.scene.H)
         self.h = self.H / N
@@ -282,17 +311,8 @@ class FdCase:
         """(3, N) fields of the interleaved state vector `y`."""
         return np.ascontiguousarray(np.asarray(y).reshape(self.N, 3).T)
 
-    def check_state(self, y) -> str | None:
-        """Why the interleaved state `y` is invalid (as the stiff solver's check), or None."""
-        if not np.all(np.isfinite(y)):
-            return "state became non-finite"
-        phi = y[0::3]
-        lo, hi = self.rheology.material.phi_range
-        if np.all(phi > lo) and np.all(phi < hi):
-            return None
-        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
-        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
+    def phi(self, y) -> np.ndarray:
+        return np.asarray(y)[0::3]  # interleaved
 
     def mass(self, data) -> float:
         """Midpoint rule of phi (ShearCellPDE.integral)."""

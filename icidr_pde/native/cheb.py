@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from . import FdProblem, NativeUnavailable, _pointer
+from . import FdProblem, NativeCase, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
 
@@ -87,34 +87,20 @@ class ChebProblem(FdProblem):
         return float(out[0]), float(out[1])
 
 
-class ChebCase:
+class ChebCase(NativeCase):
     """Scene, law and initial state of a Chebyshev run without py-pde (see the module docstring)."""
 
     discretization = "cheb"
+    max_N = MAX_N
 
     def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
         from ..chebyshev import cc_weights, cgl_nodes, diff_matrix
-        from ..rheology import get_rheology
-        from ..scenes import get_scene
-        from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
-        self.scene = get_scene(scene, **(scene_params or {}))
-        if getattr(self.scene, "dim", 1) != 1:
-            raise NativeUnavailable("a 2-D scene")
-        self.rheology = get_rheology(rheology, material)
-        getattr(self.rheology, "check_runnable", lambda: None)()
-        self.rheology.material.check_phi(self.scene.phi0, "phi0")
         if advection is not None:
             raise ValueError("`advection` is not an option of discretization 'cheb'")
         self.advection = None
-        self.N = N = integer("N", N, 4)
-        need, have = memory_estimate(N), memory_bytes()
-        if N > MAX_N or (have is not None and need > 0.5 * have):
-            raise ParameterError(
-                f"`N` = {N} is too large for discretization 'cheb': the maximum is {MAX_N}, and N = {N} needs "
-                f"about {format_bytes(need)} of memory (dense 3N x 3N Jacobian, its LU and the N x N "
-                f"differentiation matrix); this machine has "
-                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        N = self._scene_law_and_size(rheology, scene, N, material, scene_params, memory_estimate,
+                                     "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix")
         self.V0 = 1.0
         self.H = float(self.scene.H)
         self.z = cgl_nodes(N, self.H)
@@ -135,18 +121,6 @@ class ChebCase:
 
     def phi(self, y) -> np.ndarray:
         return np.asarray(y)[:self.N]
-
-    def check_state(self, y) -> str | None:
-        """Why the state `y` is invalid (as ShearCellBase.check_state), or None."""
-        if not np.all(np.isfinite(y)):
-            return "state became non-finite"
-        phi = self.phi(y)
-        lo, hi = self.rheology.material.phi_range
-        if np.all(phi > lo) and np.all(phi < hi):
-            return None
-        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
-        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
 
     def mass(self, data) -> float:
         """Clenshaw-Curtis integral of phi (ChebyshevShearCellPDE.integral)."""
