@@ -49,7 +49,8 @@ from pde import CartesianGrid, FieldCollection, ScalarField
 from pde.pdes.base import PDEBase
 
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
-from ..validation import ParameterError, format_bytes, integer, memory_bytes, real
+from ..grid_size import FD, GridLimit, check_N
+from ..validation import real
 
 __all__ = ["ShearCellBase", "DISCRETIZATIONS", "get_discretization"]
 
@@ -109,25 +110,16 @@ class ShearCellBase(PDEBase):
 
     # --- grid and state -------------------------------------------------------------------
 
-    #: documented largest N, and what a run on N points needs (bytes, roughly)
-    max_N: ClassVar[int] = 100_000
-    memory_note: ClassVar[str] = "state, Jacobian and work vectors"
-
-    @staticmethod
-    def memory_estimate(N: int) -> float:
-        return 4000.0 * N
+    #: documented largest N, and what a run on N points needs (:mod:`icidr_pde.grid_size`)
+    grid_limit: ClassVar[GridLimit] = FD
+    max_N: ClassVar[int] = FD.max_N
+    memory_note: ClassVar[str] = FD.memory_note
+    memory_estimate = staticmethod(FD.memory_estimate)
 
     @classmethod
     def check_N(cls, N) -> int:
         """N as an int in [4, max_N] whose memory estimate fits into half this machine's memory."""
-        N = integer("N", N, 4)
-        need, have = cls.memory_estimate(N), memory_bytes()
-        if N > cls.max_N or (have is not None and need > 0.5 * have):
-            raise ParameterError(
-                f"`N` = {N} is too large for discretization {cls.name!r}: the maximum is {cls.max_N}, "
-                f"and N = {N} needs about {format_bytes(need)} of memory ({cls.memory_note}); "
-                f"this machine has {format_bytes(have) if have is not None else 'an unknown amount'}")
-        return N
+        return check_N(cls.name, N, cls.grid_limit)
 
     @classmethod
     def make_grid(cls, N: int, H: float = 30.0) -> CartesianGrid:

@@ -41,6 +41,7 @@ from pde.backends import get_backend
 
 from ..rheology import Material, Rheology
 from ..chebyshev import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
+from ..grid_size import CHEB
 from ..rheology.codegen import compose, first_call
 from .base import ShearCellBase
 
@@ -103,12 +104,10 @@ class ChebyshevShearCellPDE(ShearCellBase):
     name = "cheb"
     label = "Chebyshev"
     default_N = 65
-    max_N = 4001  # the dense 3N x 3N Jacobian and its LU: ~2.5 GB at N = 4001
-    memory_note = "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix"
-
-    @staticmethod
-    def memory_estimate(N: int) -> float:
-        return 8.0 * (3 * 9 * N**2 + 2 * N**2)
+    grid_limit = CHEB
+    max_N = CHEB.max_N
+    memory_note = CHEB.memory_note
+    memory_estimate = staticmethod(CHEB.memory_estimate)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, **options):

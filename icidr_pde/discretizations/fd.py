@@ -36,6 +36,7 @@ from pde.backends import get_backend
 from scipy import sparse
 
 from ..rheology import Material, Rheology
+from ..grid_size import FD
 from ..rheology.codegen import compose, first_call
 from .base import ShearCellBase
 
@@ -91,8 +92,9 @@ class ShearCellPDE(ShearCellBase):
     label = "finite volumes"
     default_N = 201
     options = {"advection": ADVECTION_SCHEMES}
-    max_N = 100_000  # memory ~4 kB per cell; the run time grows like N^2
-    memory_note = "banded Jacobian and work vectors"
+    grid_limit = FD
+    max_N = FD.max_N
+    memory_note = FD.memory_note
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):

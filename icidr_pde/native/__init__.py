@@ -35,12 +35,13 @@ import time as _time
 
 import numpy as np
 
+from ..grid_size import FD
 from .build import NativeUnavailable
 
 __all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
            "cell_centres", "MAX_N"]
 
-MAX_N = 100_000  # ShearCellPDE.max_N
+MAX_N = FD.max_N
 MIN_STEP_FRACTION = 1e-11  # integrator.MIN_STEP_FRACTION: of the fastest time scale
 #: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar
 #: act between calls, and a call costs ~1 us of Python
@@ -245,13 +246,13 @@ class NativeCase:
     :func:`icidr_pde.case.build_case` checks them, and the validity check of a state."""
 
     discretization = ""
-    max_N = MAX_N
+    grid_limit = FD
 
-    def _scene_law_and_size(self, rheology, scene, N, material, scene_params, memory_need, what):
-        """Set scene, rheology and N; `memory_need(N)` bytes, `what` the arrays they hold (for the error)."""
+    def _scene_law_and_size(self, rheology, scene, N, material, scene_params):
+        """Set scene, rheology and N (checked against :attr:`grid_limit`, :mod:`icidr_pde.grid_size`)."""
+        from ..grid_size import check_N
         from ..rheology import get_rheology
         from ..scenes import get_scene
-        from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
         self.scene = get_scene(scene, **(scene_params or {}))
         if getattr(self.scene, "dim", 1) != 1:
@@ -259,13 +260,7 @@ class NativeCase:
         self.rheology = get_rheology(rheology, material)
         getattr(self.rheology, "check_runnable", lambda: None)()
         self.rheology.material.check_phi(self.scene.phi0, "phi0")
-        self.N = N = integer("N", N, 4)
-        need, have = memory_need(N), memory_bytes()
-        if N > self.max_N or (have is not None and need > 0.5 * have):
-            raise ParameterError(
-                f"`N` = {N} is too large for discretization {self.discretization!r}: the maximum is {self.max_N}, "
-                f"and N = {N} needs about {format_bytes(need)} of memory ({what}); this machine has "
-                f"{format_bytes(have) if have is not None else 'an unknown amount'}")
+        self.N = N = check_N(self.discretization, N, self.grid_limit)
         return N
 
     def phi(self, y) -> np.ndarray:
@@ -295,8 +290,7 @@ class FdCase(NativeCase):
         self.advection = "upwind" if advection is None else advection
         if self.advection not in ("upwind", "central"):
             raise ValueError(f"`advection` must be one of ('upwind', 'central'); got {self.advection!r}")
-        N = self._scene_law_and_size(rheology, scene, N, material, scene_params, lambda n: 4000.0 * n,
-                                     "banded Jacobian and work vectors")
+        N = self._scene_law_and_size(rheology, scene, N, material, scene_params)
         self.V0 = 1.0
         self.H = float(self.scene.H)
         self.h = self.H / N

@@ -14,11 +14,13 @@ import os
 
 import numpy as np
 
+from ..grid_size import CHEB
 from . import FdProblem, NativeCase, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
 
-MAX_N = 4001  # ChebyshevShearCellPDE.max_N
+MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.grid_size)
+memory_estimate = CHEB.memory_estimate
 DENSE_LU_DELTA_GAMMA = 1.0  # integrator.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
@@ -29,11 +31,6 @@ DENSE_SOLVERS = ("lapack", "sundials")
 BLAS_THREADS = 1
 #: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
 DENSE_SOLVER = "lapack"
-
-
-def memory_estimate(N: int) -> float:
-    """ChebyshevShearCellPDE.memory_estimate: dense 3N x 3N Jacobian, its LU, D."""
-    return 8.0 * (3 * 9 * N**2 + 2 * N**2)
 
 
 class ChebProblem(FdProblem):
@@ -91,7 +88,7 @@ class ChebCase(NativeCase):
     """Scene, law and initial state of a Chebyshev run without py-pde (see the module docstring)."""
 
     discretization = "cheb"
-    max_N = MAX_N
+    grid_limit = CHEB
 
     def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
         from ..chebyshev import cc_weights, cgl_nodes, diff_matrix
@@ -99,8 +96,7 @@ class ChebCase(NativeCase):
         if advection is not None:
             raise ValueError("`advection` is not an option of discretization 'cheb'")
         self.advection = None
-        N = self._scene_law_and_size(rheology, scene, N, material, scene_params, memory_estimate,
-                                     "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix")
+        N = self._scene_law_and_size(rheology, scene, N, material, scene_params)
         self.V0 = 1.0
         self.H = float(self.scene.H)
         self.z = cgl_nodes(N, self.H)
