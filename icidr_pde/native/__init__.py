@@ -38,7 +38,7 @@ import numpy as np
 from ..grid_size import FD
 from .build import NativeUnavailable
 
-__all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
+__all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
            "cell_centres", "MAX_N"]
 
 MAX_N = FD.max_N
@@ -131,29 +131,29 @@ def _pointer(array):
     return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
 
-class FdProblem:
-    """The compiled finite-volume problem of `rheology` on N cells of height H (interleaved
-    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE; valid while
-    lo < phi < hi, `bounds` (default: the law's range of phi).
+class NativeProblem:
+    """What the compiled problems share (:class:`FdProblem`, :class:`~.cheb.ChebProblem`): the
+    library of `rheology`, its parameters and the valid range (lo, hi) of phi (`bounds`,
+    default the law's), the right-hand side, the time scale, the kernels' timings, M(phi) and
+    CVODE on the problem's handle. A subclass allocates the handle (:meth:`_attach`)."""
 
-    The band is ``jb[col, row - col + 5]`` (11 entries a column, :meth:`jacobian_band`);
-    :meth:`jacobian_dense` spreads it into the (3N, 3N) matrix."""
+    #: repeats of :meth:`kernel_times` by default (fewer where a Jacobian is expensive)
+    kernel_repeats = 200
 
-    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0, bounds=None):
+    def _open(self, rheology, bounds):
         from ..rheology import SHEAR_CELL
         from .build import library
 
         self.lib = library(rheology, SHEAR_CELL)
-        self.N, self.H, self.h = int(N), float(H), float(H) / int(N)
-        self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
-        params = np.array(rheology.material.params, dtype=float)
+        self._params = np.array(rheology.material.params, dtype=float)
         lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
         self.bounds = (lo, hi)
-        self.handle = self.lib.icidr_fd_problem(self.N, self.h, int(advection == "upwind"), _pointer(self.ghost),
-                                                _pointer(params), params.size, lo, hi)
-        if not self.handle:
-            raise MemoryError(f"native problem of N = {N} not allocated")
-        self._params = params
+        return self._params, lo, hi
+
+    def _attach(self, handle):
+        if not handle:
+            raise MemoryError(f"native problem of N = {self.N} not allocated")
+        self.handle = handle
 
     def __del__(self):
         handle, self.handle = getattr(self, "handle", None), None
@@ -163,32 +163,18 @@ class FdProblem:
     def rates(self, y) -> np.ndarray:
         y = np.ascontiguousarray(y, dtype=float)
         out = np.empty(3 * self.N)
-        self.lib.icidr_fd_rates(self.handle, _pointer(y), _pointer(out))
+        self.lib.icidr_rates(self.handle, _pointer(y), _pointer(out))
         return out
-
-    def jacobian_band(self, y) -> np.ndarray:
-        y = np.ascontiguousarray(y, dtype=float)
-        jb = np.empty((3 * self.N, 11))
-        self.lib.icidr_fd_jacobian(self.handle, _pointer(y), _pointer(jb))
-        return jb
-
-    def jacobian_dense(self, y) -> np.ndarray:
-        jb, n = self.jacobian_band(y), 3 * self.N
-        J = np.zeros((n, n))
-        for offset in range(-5, 6):
-            cols = np.arange(max(0, -offset), min(n, n - offset))
-            J[cols + offset, cols] = jb[cols, offset + 5]
-        return J
 
     def time_scale(self, y, iterations: int = 20) -> float:
         y = np.ascontiguousarray(y, dtype=float)
-        return float(self.lib.icidr_fd_time_scale(self.handle, _pointer(y), iterations))
+        return float(self.lib.icidr_time_scale(self.handle, _pointer(y), iterations))
 
-    def kernel_times(self, y, repeats: int = 200) -> tuple[float, float]:
-        """Best-of-`repeats` seconds of one right-hand side and one band Jacobian, timed in C."""
+    def kernel_times(self, y, repeats: int | None = None) -> tuple[float, float]:
+        """Best-of-`repeats` seconds of one right-hand side and one Jacobian, timed in C."""
         y = np.ascontiguousarray(y, dtype=float)
         out = np.empty(2)
-        self.lib.icidr_fd_kernel_times(self.handle, _pointer(y), repeats, _pointer(out))
+        self.lib.icidr_kernel_times(self.handle, _pointer(y), repeats or self.kernel_repeats, _pointer(out))
         return float(out[0]), float(out[1])
 
     def M(self, phi) -> np.ndarray:
@@ -239,6 +225,36 @@ class FdProblem:
         self.lib.icidr_cvode_counts(self.handle, out)
         return dict(zip(("steps", "rhs", "jac", "lu", "error_test_failures", "newton_iterations",
                          "newton_failures"), map(int, out)))
+
+
+class FdProblem(NativeProblem):
+    """The compiled finite-volume problem of `rheology` on N cells of height H (interleaved
+    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE; valid while
+    lo < phi < hi, `bounds` (default: the law's range of phi).
+
+    The band is ``jb[col, row - col + 5]`` (11 entries a column, :meth:`jacobian_band`);
+    :meth:`jacobian_dense` spreads it into the (3N, 3N) matrix."""
+
+    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0, bounds=None):
+        params, lo, hi = self._open(rheology, bounds)
+        self.N, self.H, self.h = int(N), float(H), float(H) / int(N)
+        self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
+        self._attach(self.lib.icidr_fd_problem(self.N, self.h, int(advection == "upwind"), _pointer(self.ghost),
+                                               _pointer(params), params.size, lo, hi))
+
+    def jacobian_band(self, y) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        jb = np.empty((3 * self.N, 11))
+        self.lib.icidr_fd_jacobian(self.handle, _pointer(y), _pointer(jb))
+        return jb
+
+    def jacobian_dense(self, y) -> np.ndarray:
+        jb, n = self.jacobian_band(y), 3 * self.N
+        J = np.zeros((n, n))
+        for offset in range(-5, 6):
+            cols = np.arange(max(0, -offset), min(n, n - offset))
+            J[cols + offset, cols] = jb[cols, offset + 5]
+        return J
 
 
 class NativeCase:

@@ -178,15 +178,13 @@ def _declare(lib) -> None:
     ptr = ctypes.POINTER
     signatures = {
         "icidr_fd_problem": (P, [I, D, I, ptr(D), ptr(D), I, D, D]),
-        "icidr_fd_rates": (None, [P, ptr(D), ptr(D)]),
+        "icidr_rates": (None, [P, ptr(D), ptr(D)]),
         "icidr_fd_jacobian": (None, [P, ptr(D), ptr(D)]),
-        "icidr_fd_time_scale": (D, [P, ptr(D), I]),
+        "icidr_time_scale": (D, [P, ptr(D), I]),
         "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
-        "icidr_fd_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
+        "icidr_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
-        "icidr_cheb_rates": (None, [P, ptr(D), ptr(D)]),
         "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
-        "icidr_cheb_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_blas_threads": (I, [I]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ptr(D), ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from ..grid_size import CHEB
-from . import FdProblem, NativeCase, NativeUnavailable, _pointer
+from . import NativeCase, NativeProblem, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
 
@@ -33,38 +33,26 @@ BLAS_THREADS = 1
 DENSE_SOLVER = "lapack"
 
 
-class ChebProblem(FdProblem):
+class ChebProblem(NativeProblem):
     """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
     `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`)."""
 
+    kernel_repeats = 20
+
     def __init__(self, rheology, D, *, bounds=None, solver: str = "lapack",
                  delta_gamma: float = DENSE_LU_DELTA_GAMMA):
-        from ..rheology import SHEAR_CELL
-        from .build import library
-
         if solver not in DENSE_SOLVERS:
             raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
-        self.lib = library(rheology, SHEAR_CELL)
+        params, lo, hi = self._open(rheology, bounds)
         if not any(os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")):
             self.lib.icidr_blas_threads(BLAS_THREADS)
         self.D = np.ascontiguousarray(D, dtype=float)
         self.N = int(self.D.shape[0])
-        params = np.array(rheology.material.params, dtype=float)
-        lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
-        self.bounds, self.solver = (lo, hi), solver
-        self.handle = self.lib.icidr_cheb_problem(self.N, _pointer(self.D), _pointer(params), params.size, lo, hi,
-                                                  int(solver == "lapack"), float(delta_gamma))
-        if not self.handle:
-            raise MemoryError(f"native problem of N = {self.N} not allocated")
-        self._params = params
-
-    def rates(self, y) -> np.ndarray:
-        y = np.ascontiguousarray(y, dtype=float)
-        out = np.empty(3 * self.N)
-        self.lib.icidr_cheb_rates(self.handle, _pointer(y), _pointer(out))
-        return out
+        self.solver = solver
+        self._attach(self.lib.icidr_cheb_problem(self.N, _pointer(self.D), _pointer(params), params.size, lo, hi,
+                                                 int(solver == "lapack"), float(delta_gamma)))
 
     def jacobian_dense(self, y) -> np.ndarray:
         """The (3N, 3N) Jacobian d rates / d y."""
@@ -72,16 +60,6 @@ class ChebProblem(FdProblem):
         J = np.empty((3 * self.N, 3 * self.N), order="F")
         self.lib.icidr_cheb_jacobian(self.handle, _pointer(y), _pointer(J))
         return J
-
-    def jacobian_band(self, y):
-        raise NotImplementedError("the Chebyshev Jacobian is dense: jacobian_dense")
-
-    def kernel_times(self, y, repeats: int = 20) -> tuple[float, float]:
-        """Best-of-`repeats` seconds of one right-hand side and one dense Jacobian, timed in C."""
-        y = np.ascontiguousarray(y, dtype=float)
-        out = np.empty(2)
-        self.lib.icidr_cheb_kernel_times(self.handle, _pointer(y), repeats, _pointer(out))
-        return float(out[0]), float(out[1])
 
 
 class ChebCase(NativeCase):

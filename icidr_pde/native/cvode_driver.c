@@ -116,7 +116,7 @@ static double norm2(const double *x, int m)
 }
 
 /* 1/rho(J(y0)) by power iteration on difference quotients (integrator.fastest_time_scale) */
-EXPORT double icidr_fd_time_scale(Native *p, const double *y0, int iterations)
+EXPORT double icidr_time_scale(Native *p, const double *y0, int iterations)
 {
     int m = 3 * p->n;
     double *f0 = malloc(sizeof(double) * m), *v = malloc(sizeof(double) * m);
@@ -147,26 +147,44 @@ EXPORT double icidr_fd_time_scale(Native *p, const double *y0, int iterations)
     return isfinite(rho) && rho > 0 ? 1.0 / rho : 1.0;
 }
 
-/* the problem without CVODE: for the right-hand side, the Jacobian and the time scale alone */
-EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost, const double *params,
-                                int n_params, double lo, double hi)
+EXPORT void icidr_free(Native *p);
+
+/* what every problem holds: n points, the law's parameters, the valid range of phi, `work`
+   doubles of scratch and the last good state; NULL where memory runs out */
+static Native *problem_new(int kind, int n, const double *params, int n_params, double lo, double hi,
+                           size_t work)
 {
     Native *p = calloc(1, sizeof(Native));
     if (!p)
         return NULL;
+    p->kind = kind;
     p->n = n;
+    p->lo = lo;
+    p->hi = hi;
+    p->params = malloc(sizeof(double) * (n_params > 0 ? n_params : 1));
+    p->work = malloc(sizeof(double) * work);
+    p->y_good = malloc(sizeof(double) * 3 * (size_t)n);
+    if (!p->params || !p->work || !p->y_good) {
+        icidr_free(p);
+        return NULL;
+    }
+    memcpy(p->params, params, sizeof(double) * n_params);
+    return p;
+}
+
+/* the problem without CVODE: for the right-hand side, the Jacobian and the time scale alone */
+EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost, const double *params,
+                                int n_params, double lo, double hi)
+{
+    Native *p = problem_new(KIND_FD, n, params, n_params, lo, hi, FD_WORK(n));
+    if (!p)
+        return NULL;
     p->h = h;
     p->upwind = upwind;
     memcpy(p->ghost, ghost, sizeof p->ghost);
-    p->params = malloc(sizeof(double) * (n_params > 0 ? n_params : 1));
-    memcpy(p->params, params, sizeof(double) * n_params);
-    p->lo = lo;
-    p->hi = hi;
-    p->work = malloc(sizeof(double) * FD_WORK(n));
     p->jb = malloc(sizeof(double) * FD_BAND * 3 * (size_t)n);
-    p->y_good = malloc(sizeof(double) * 3 * (size_t)n);
-    if (!p->params || !p->work || !p->jb || !p->y_good) {
-        free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p);
+    if (!p->jb) {
+        icidr_free(p);
         return NULL;
     }
     return p;
@@ -176,25 +194,17 @@ EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost
 EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, int n_params, double lo,
                                   double hi, int lapack, double delta_gamma)
 {
-    Native *p = calloc(1, sizeof(Native));
+    Native *p = problem_new(KIND_CHEB, n, params, n_params, lo, hi, CHEB_WORK(n));
     if (!p)
         return NULL;
-    p->kind = KIND_CHEB;
-    p->n = n;
-    p->lo = lo;
-    p->hi = hi;
     p->lapack = lapack;
     p->delta_gamma = delta_gamma;
-    p->params = malloc(sizeof(double) * (n_params > 0 ? n_params : 1));
-    p->work = malloc(sizeof(double) * CHEB_WORK(n));
-    p->y_good = malloc(sizeof(double) * 3 * (size_t)n);
     p->D = malloc(sizeof(double) * (size_t)n * n);
     p->DT = malloc(sizeof(double) * (size_t)n * n);
-    if (!p->params || !p->work || !p->y_good || !p->D || !p->DT) {
-        free(p->params); free(p->work); free(p->y_good); free(p->D); free(p->DT); free(p);
+    if (!p->D || !p->DT) {
+        icidr_free(p);
         return NULL;
     }
-    memcpy(p->params, params, sizeof(double) * n_params);
     memcpy(p->D, D, sizeof(double) * (size_t)n * n);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++)
@@ -202,20 +212,15 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     return p;
 }
 
-EXPORT void icidr_cheb_rates(Native *p, const double *y, double *out)
+EXPORT void icidr_rates(Native *p, const double *y, double *out)
 {
-    cheb_rates(p->n, p->D, p->params, y, out, p->work);
+    problem_rates(p, y, out);
 }
 
 /* J: (3n, 3n) column-major */
 EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
 {
     cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
-}
-
-EXPORT void icidr_fd_rates(Native *p, const double *y, double *out)
-{
-    fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, out, p->work);
 }
 
 EXPORT void icidr_fd_jacobian(Native *p, const double *y, double *jb)
@@ -230,38 +235,25 @@ static double seconds(void)
     return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-/* best of `reps` timings (seconds) of one right-hand side (out[0]) and one band Jacobian
-   with its copy into a band array (out[1]): the kernels' own cost, for the benchmark's roofline */
-EXPORT void icidr_fd_kernel_times(Native *p, const double *y, int reps, double *out)
+/* best of `reps` timings (seconds) of one right-hand side (out[0]) and one Jacobian (out[1]): fd's
+   band Jacobian with its copy into a band array, cheb's dense one; the kernels' own cost, for the
+   benchmark's roofline */
+EXPORT void icidr_kernel_times(Native *p, const double *y, int reps, double *out)
 {
     int neq = 3 * p->n;
-    double *f = malloc(sizeof(double) * neq), *band = malloc(sizeof(double) * FD_BAND * (size_t)neq);
+    size_t jac_size = p->kind == KIND_CHEB ? (size_t)neq * neq : FD_BAND * (size_t)neq;
+    double *f = malloc(sizeof(double) * neq), *J = malloc(sizeof(double) * jac_size);
     out[0] = out[1] = INFINITY;
     for (int r = 0; r < reps; r++) {
         double start = seconds();
-        fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, f, p->work);
+        problem_rates(p, y, f);
         double mid = seconds();
-        fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, y, p->jb, p->work);
-        memcpy(band, p->jb, sizeof(double) * FD_BAND * (size_t)neq);
-        double end = seconds();
-        out[0] = mid - start < out[0] ? mid - start : out[0];
-        out[1] = end - mid < out[1] ? end - mid : out[1];
-    }
-    free(f);
-    free(band);
-}
-
-/* best of `reps` timings of one Chebyshev right-hand side (out[0]) and one dense Jacobian (out[1]) */
-EXPORT void icidr_cheb_kernel_times(Native *p, const double *y, int reps, double *out)
-{
-    int neq = 3 * p->n;
-    double *f = malloc(sizeof(double) * neq), *J = malloc(sizeof(double) * (size_t)neq * neq);
-    out[0] = out[1] = INFINITY;
-    for (int r = 0; r < reps; r++) {
-        double start = seconds();
-        cheb_rates(p->n, p->D, p->params, y, f, p->work);
-        double mid = seconds();
-        cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+        if (p->kind == KIND_CHEB) {
+            cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+        } else {
+            fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, y, p->jb, p->work);
+            memcpy(J, p->jb, sizeof(double) * jac_size);
+        }
         double end = seconds();
         out[0] = mid - start < out[0] ? mid - start : out[0];
         out[1] = end - mid < out[1] ? end - mid : out[1];
@@ -297,7 +289,7 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
 {
     int neq = 3 * p->n;
     int direction[2] = {-1, -1};
-    *time_scale = icidr_fd_time_scale(p, y0, 20);
+    *time_scale = icidr_time_scale(p, y0, 20);
     if (SUNContext_Create(SUN_COMM_NULL, &p->ctx) < 0) {
         snprintf(error, error_len, "SUNContext_Create failed");
         return -1;
