@@ -174,16 +174,22 @@ def child(code):
     return proc
 
 
+def cli_in_fresh_process(argv):
+    """`icidr-pde argv` in a new interpreter: (process, exit status, top-level modules it imported)."""
+    code = (f"import sys, json, icidr_pde.cli\nstatus = icidr_pde.cli.main({argv!r})\n"
+            "print(json.dumps([status, sorted({m.split('.')[0] for m in sys.modules})]))")
+    proc = child(code)
+    status, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    return proc, status, modules
+
+
 def test_warm_cli_run_imports_no_heavy_library(tmp_path):
     from icidr_pde import cli
 
     argv = ["run", "--N", "11", "--t-end", "0.5", "--no-progress"]
     assert cli.main(argv + ["--json", str(tmp_path / "warm.json")]) == 0  # builds the library if missing
     target = tmp_path / "r.json"
-    code = (f"import sys, json, icidr_pde.cli\nstatus = icidr_pde.cli.main({argv + ['--json', str(target)]!r})\n"
-            "print(json.dumps([status, sorted({m.split('.')[0] for m in sys.modules})]))")
-    proc = child(code)
-    status, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    proc, status, modules = cli_in_fresh_process(argv + ["--json", str(target)])
     assert status == 0, proc.stderr
     assert "compiling" not in proc.stderr
     assert not set(HEAVY) & set(modules), set(HEAVY) & set(modules)

@@ -192,16 +192,13 @@ def test_cli_auto_runs_cheb_natively_and_a_failed_run_exits_3(tmp_path):
     exits 3 with its JSON; --engine pde keeps the py-pde path."""
     from icidr_pde import cli
 
-    from .test_native import child
+    from .test_native import cli_in_fresh_process
 
     argv = ["run", "--rheology", "mui", "--discretization", "cheb", "--N", "101", "--t-end", "1",
             "--no-progress"]
     assert cli.main(argv + ["--json", str(tmp_path / "warm.json")]) == 3  # builds the library if missing
     target = tmp_path / "t.json"
-    code = (f"import sys, json, icidr_pde.cli\nstatus = icidr_pde.cli.main({argv + ['--json', str(target)]!r})\n"
-            "print(json.dumps([status, sorted({m.split('.')[0] for m in sys.modules})]))")
-    proc = child(code)
-    status, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    proc, status, modules = cli_in_fresh_process(argv + ["--json", str(target)])
     assert status == 3, proc.stderr
     assert "compiling" not in proc.stderr
     assert not set(HEAVY) & set(modules), set(HEAVY) & set(modules)
