@@ -162,6 +162,13 @@ def _printers():
         def _print_Piecewise(self, expr):
             return _nested(self, expr, "numpy.where({c}, {e}, {rest})")
 
+        # nested binary calls: sympy's own form, functools.reduce, needs an import the header lacks
+        def _print_Max(self, expr):
+            return _folded(self, expr, "numpy.maximum")
+
+        def _print_Min(self, expr):
+            return _folded(self, expr, "numpy.minimum")
+
     def _nested(printer, expr, form):
         *pairs, (last, cond) = expr.args
         if cond != sp.true:
@@ -169,6 +176,12 @@ def _printers():
         out = printer._print(last)
         for e, c in reversed(pairs):
             out = form.format(e=printer._print(e), c=printer._print(c), rest=out)
+        return out
+
+    def _folded(printer, expr, function):
+        out = printer._print(expr.args[-1])
+        for arg in reversed(expr.args[:-1]):
+            out = f"{function}({printer._print(arg)}, {out})"
         return out
 
     return (Scalar(dict(fully_qualified_modules=True, user_functions={"rsqrt0": "_rsqrt0"})),
