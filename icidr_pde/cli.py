@@ -1,6 +1,7 @@
 """Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law}``.
 
-Exit status of every subcommand: 0 success; 2 bad input (nothing was run or written);
+Exit status of every subcommand: 0 success; 2 bad input (nothing was written; nothing was run,
+except a Python law file, which is a program run to read the law: docs/security.md);
 3 the run failed (blow-up, non-finite state, phi left (0, phi_c)), results written;
 4 a result could not be written (the others were); 130 interrupted by SIGINT (Ctrl-C),
 143 by SIGTERM, with what was computed up to then written.

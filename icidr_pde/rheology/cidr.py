@@ -614,6 +614,7 @@ def _probe(namespace, functions, argnames, material, where) -> None:
     """Call the file's law functions once on the placeholder symbols: their errors, a result that
     is not an expression, not finite (nan, zoo, oo) or in a symbol that is not the law's, as one line."""
     import sympy as sp
+    from sympy.core.function import AppliedUndef
 
     table = _placeholder_table()
     args = [table[a] for a in argnames]
@@ -632,7 +633,7 @@ def _probe(namespace, functions, argnames, material, where) -> None:
         bad = [a for a in (sp.nan, sp.zoo, sp.oo, -sp.oo) if expr.has(a)]
         if bad:
             raise ValueError(f"{where}: {function}() is not finite (it is {sp.sstr(expr)[:80]})")
-        strangers = sorted(map(str, expr.free_symbols - allowed))
+        strangers = sorted(map(str, (expr.free_symbols - allowed) | expr.atoms(AppliedUndef)))
         if strangers:
             raise ValueError(f"{where}: {function}() uses {', '.join(strangers)}, not a symbol of the law; "
                              f"its symbols: {', '.join(argnames)} and the material's "

@@ -81,6 +81,7 @@ def test_the_shipped_laws_are_defined_where_they_are_run():
     ("(norm_S / Psi)**2 + 1/(phi - phi)", "not finite"),
     ("(norm_S / Psi)**2 * sp.Symbol('gamma')", "uses gamma, not a symbol of the law"),
     ("'(norm_S / Psi)**2'", "must return a sympy expression"),
+    ("(norm_S / Psi)**2 * sp.Function('f')(phi)", "uses f(phi), not a symbol of the law"),
 ])
 def test_law_function_errors_are_one_line(tmp_path, capsys, body, expected):
     f = law_file(tmp_path, "faulty", text="import sympy as sp\n" + DIRECT.format(name="faulty", p=body))
