@@ -54,6 +54,7 @@ _KEYS = {"cidr": ("yield_function", "dilatancy_function"), "direct": ("pressure"
 _OTHER_KEYS = ("name", "label", "equation_of_state", "parameters", "material")
 MAX_LENGTH = 10_000          # characters of one expression
 MAX_EXPONENT = 64            # |n| of a number raised to a number (sympy evaluates it exactly)
+MAX_FILE_BYTES = 1 << 20     # a law is a few formulas
 
 
 class _Refused(ValueError):
@@ -175,6 +176,9 @@ def _read_toml(path: pathlib.Path) -> dict:
         import tomllib
     except ModuleNotFoundError:   # Python < 3.11: the same parser, packaged (a dependency there)
         import tomli as tomllib
+    size = path.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise ValueError(f"law file {str(path)!r} has {size} bytes; a law file has at most {MAX_FILE_BYTES}")
     try:
         return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as err:
@@ -218,10 +222,18 @@ def load_declarative_law(path) -> type:
 
     Registered under its ``name`` (default: the file's stem), which may not be a built-in law's.
     """
+    try:
+        return _declared_law(path)
+    except ValueError as err:
+        text = str(err)
+        raise ValueError(text if str(path) in text else f"law file {str(path)!r}: {text}") from None
+
+
+def _declared_law(path) -> type:
     import sympy as sp
 
     from . import symbols as s
-    from .cidr import define_cidr_law, define_direct_law, pressure_symbol
+    from .cidr import check_law_name, define_cidr_law, define_direct_law, pressure_symbol
     from .material import Material
 
     path = pathlib.Path(path)
@@ -247,6 +259,7 @@ def load_declarative_law(path) -> type:
     for key, value in (("name", name), ("label", label)):
         if value is not None and not isinstance(value, str):
             raise ValueError(f"{where}: `{key}` must be a string; got {value!r}")
+    check_law_name(name)
     key = f"declarative {name}\n{path.read_text()}"
     if kind == "cidr":
         return define_cidr_law(name, exprs["yield_function"], exprs["dilatancy_function"], label=label,

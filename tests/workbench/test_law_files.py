@@ -203,6 +203,10 @@ def test_declarative_errors_name_file_key_expression_and_token(tmp_path, capsys)
     assert "is not valid TOML" in one_line_error(capsys, ["law", "check", f])
     f = law_file(tmp_path, "typo", suffix=".toml", text='pressure = "1"\nshear_stres = "1"\n')
     assert "must define yield_function and dilatancy_function" in one_line_error(capsys, ["law", "check", f])
+    f = law_file(tmp_path, "material", suffix=".toml",
+                 text='pressure = "(norm_S / Psi)**2"\nc = "M"\n[material]\nmu_s = "low"\n')
+    err = one_line_error(capsys, ["law", "check", f])
+    assert err.startswith(f"icidr-pde: error: law file {f!r}: ") and "`mu_s` must be a finite number" in err
 
 
 def test_define_rheology_reads_text_with_the_safe_parser():
