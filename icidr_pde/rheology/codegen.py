@@ -285,8 +285,26 @@ def law_expressions(rheology, kinematics):
     return args, list(material.parameter_names()), outputs, jac, names
 
 
+def unprintable(err, language: str) -> str:
+    """One line saying that a law uses a function sympy cannot print in `language` (`err`, sympy's)."""
+    from .declarative import FUNCTIONS
+
+    what = str(err).splitlines()[0] if str(err) else type(err).__name__
+    return (f"its {language} kernels cannot be generated ({what}); the printers know "
+            f"{', '.join(dict.fromkeys(f for f, *_ in FUNCTIONS.values()))}, powers and Piecewise")
+
+
 def generated_source(rheology, kinematics) -> str:
     """Python source of the law module of `rheology` for `kinematics` (see the docstring)."""
+    try:
+        return _generated_source(rheology, kinematics)
+    except NotImplementedError as err:   # sympy's PrintMethodNotImplementedError: a function it cannot print
+        from .cidr import LawError
+
+        raise LawError(rheology.name, unprintable(err, "numba/numpy")) from None
+
+
+def _generated_source(rheology, kinematics) -> str:
     args, pnames, outputs, jac, names = law_expressions(rheology, kinematics)
     material = rheology.material
     scalar, array = _printers()

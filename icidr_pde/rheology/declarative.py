@@ -11,7 +11,8 @@ expressions are parsed by :func:`parse_expression`, a whitelist over Python's :m
   ``phi, div_u, norm_S, M, Psi`` for a law given as p and ||tau|| (or c = ||tau||/||S||),
   the material's parameters by name (``mu_s, phi_c, ...``), the file's own ``[parameters]``
   and ``pi``;
-* the functions of :data:`FUNCTIONS` (``sqrt, exp, log, tanh, Abs, Max, Min`` ...).
+* the functions of :data:`FUNCTIONS` (``sqrt, exp, log, tanh, Abs, Max, Min`` ...: those the
+  numba, numpy and C printers of :mod:`.codegen` and :mod:`.ccode` all print).
 
 Anything else (a name, an attribute, a call of anything else, a comparison, a subscript, a
 string, ...) is refused by a one-line error naming the file, the key, the expression and the
@@ -43,7 +44,7 @@ DECLARATIVE_SUFFIXES = (".toml",)
 #: function name -> (sympy attribute, least and most number of arguments)
 FUNCTIONS = {
     "sqrt": ("sqrt", 1, 1), "exp": ("exp", 1, 1), "log": ("log", 1, 1), "tanh": ("tanh", 1, 1),
-    "sinh": ("sinh", 1, 1), "cosh": ("cosh", 1, 1), "atan": ("atan", 1, 1), "erf": ("erf", 1, 1),
+    "sinh": ("sinh", 1, 1), "cosh": ("cosh", 1, 1), "atan": ("atan", 1, 1),
     "Abs": ("Abs", 1, 1), "abs": ("Abs", 1, 1), "Max": ("Max", 2, 16), "max": ("Max", 2, 16),
     "Min": ("Min", 2, 16), "min": ("Min", 2, 16),
 }
