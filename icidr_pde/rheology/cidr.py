@@ -32,7 +32,9 @@ A law given directly as p and ||tau|| on invariants (like mu(I),Phi(I)) is a
 A law written in a file (:func:`load_law_file`) defines ``yield_function`` and
 ``dilatancy_function`` (or ``pressure`` and ``shear_stress``) of
 (p, I, phi, M, Psi, prm) resp. (phi, div_u, norm_S, M, Psi, prm); M = mu(Psi(phi)) and
-Psi = Psi(phi) of the material, prm the material parameters by name.
+Psi = Psi(phi) of the material, prm the material parameters by name. Such a Python file is a
+program and loading it runs it; a declarative ``*.toml`` file (:mod:`.declarative`) gives the
+same law as formulas read by a whitelist, nothing run (docs/security.md).
 """
 
 from __future__ import annotations
