@@ -1,8 +1,9 @@
 """Build and load the native engine's shared library for a law: C generated once, compiled once.
 
 The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, the
-finite-volume and Chebyshev templates ``discretizations/templates/fd.c`` and ``cheb.c`` and
-the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
+finite-volume and Chebyshev kernels printed from their numba templates
+``discretizations/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (with
+``kernel_support.c``) and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
 (``$CC``) into the kernel cache directory (:func:`icidr_pde.rheology.codegen.kernel_dir`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
 found from the package's location without importing it; its LAPACK dense solver where
@@ -47,10 +48,25 @@ def _text(name: str) -> str:
     return importlib.resources.files(__package__).joinpath(name).read_text()
 
 
-def _template() -> str:
+def _scheme_templates() -> tuple[str, str]:
+    """The numba templates of fd and cheb, the one source of each scheme's kernels."""
     # by path: importing icidr_pde.discretizations would import py-pde
     templates = pathlib.Path(__file__).parent.parent / "discretizations" / "templates"
-    return "\n".join((templates / name).read_text() for name in ("fd.c", "cheb.c"))
+    return tuple((templates / name).read_text() for name in ("fd.py", "cheb.py"))
+
+
+def _template() -> str:
+    """What the scheme kernels' C is made of (for the key): the templates and their printer."""
+    return "\n".join([*_scheme_templates(), _text("translate.py"), _text("kernel_support.c")])
+
+
+def _scheme_kernels() -> str:
+    """C of the fd and cheb kernels, printed from the numba templates (:mod:`.translate`)."""
+    from .translate import translate
+
+    fd, cheb = _scheme_templates()
+    return "\n".join([_text("kernel_support.c"), translate(fd, "fd_", {"J": "FD_BAND_AT"}),
+                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT"})])
 
 
 def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
@@ -109,7 +125,7 @@ def _source(rheology, kinematics, index, libs=()) -> str:
     return "\n".join([f"#define SUNINDEXTYPE {index}",
                       "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
                       _text("sundials_api.h"),
-                      c_law_source(rheology, kinematics), _template(), _text("cvode_driver.c")])
+                      c_law_source(rheology, kinematics), _scheme_kernels(), _text("cvode_driver.c")])
 
 
 def library(rheology, kinematics) -> ctypes.CDLL:

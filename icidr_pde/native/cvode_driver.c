@@ -3,7 +3,7 @@
 
    The same CVODE set-up as icidr_pde.integrator.CvodeEngine (through scikit-sundae) on
    the same problem: BDF up to order 5, scalar tolerances, the band linear solver with
-   bandwidths (5, 5) and the analytic band Jacobian (fd_jacobian), at most 3 Newton
+   bandwidths (5, 5) and the analytic band Jacobian (fd_jacobian_interleaved), at most 3 Newton
    iterations and 10 convergence failures a step, 1e6 steps, the minimum step
    min_step_fraction x the fastest time scale 1/rho(J(y0)) (power iteration on difference
    quotients, as integrator.fastest_time_scale), and the validity root function
@@ -13,7 +13,9 @@
    (cheb_jacobian) and the dense LU, LAPACK's (SUNLinSol_LapackDense, OpenBLAS) where the
    build found it, else SUNDIALS' own; the factored Newton matrix kept until gamma changed
    by delta_gamma (integrator.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
-   Placed after the law (icidr_pde.rheology.ccode), templates/fd.c and templates/cheb.c;
+   Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
+   printed from the numba templates discretizations/templates/fd.py and cheb.py
+   (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
    sundials_api.h declares the part of the SUNDIALS C API used here. */
 
 #include <stdlib.h>
@@ -32,9 +34,10 @@ typedef struct {
     int upwind;
     double ghost[12];
     double *params;
+    int n_params;
     double lo, hi;
     double *work, *jb, *y_good;
-    double *D, *DT;       /* cheb: differentiation matrix and its transpose */
+    double *D;            /* cheb: differentiation matrix, row-major */
     int lapack;           /* cheb: LAPACK's dense LU (else SUNDIALS' own) */
     double delta_gamma;   /* cheb: refactor when gamma changed by more than this (0: SUNDIALS' 0.3) */
     double t_good;
@@ -51,12 +54,47 @@ typedef struct {
 #define PHI_AT(p, i) ((p)->kind == KIND_CHEB ? (i) : 3 * (i))
 #define W_AT(p, i) ((p)->kind == KIND_CHEB ? 2 * (p)->n + (i) : 3 * (i) + 2)
 
+/* scratch doubles a problem of n points needs: fd's fields and rates in the templates' layout */
+#define FD_WORK(n) (6 * (size_t)(n))
+#define CHEB_WORK(n) 1
+
+/* fd: CVODE's interleaved vector y[3 i + k] (the band ordering) as the template's fields (3, n);
+   cheb's vector is in blocks, the fields themselves */
+static void fd_fields(int n, const double *y, double *data)
+{
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            data[k * n + i] = y[3 * i + k];
+}
+
 static void problem_rates(Native *p, const double *y, double *out)
 {
-    if (p->kind == KIND_CHEB)
-        cheb_rates(p->n, p->D, p->params, y, out, p->work);
-    else
-        fd_rates(p->n, p->h, p->upwind, p->ghost, p->params, y, out, p->work);
+    int n = p->n;
+    if (p->kind == KIND_CHEB) {
+        cheb_rates((double *)y, 3, n, p->D, n, n, p->params, p->n_params, out, 3, n);
+        return;
+    }
+    double *data = p->work, *rates = p->work + 3 * n;
+    fd_fields(n, y, data);
+    fd_rates(data, 3, n, p->ghost, 3, 2, 2, p->h, p->upwind, p->params, p->n_params, rates, 3, n);
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            out[3 * i + k] = rates[k * n + i];
+}
+
+/* cheb: the dense column-major Jacobian; fd: the compact band (FD_BAND_AT of kernel_support.c),
+   zero outside the entries the template writes */
+static void problem_jacobian(Native *p, const double *y, double *J)
+{
+    int n = p->n;
+    if (p->kind == KIND_CHEB) {
+        cheb_jacobian((double *)y, 3, n, p->D, n, n, p->params, p->n_params, J, 3 * n, 3 * n);
+        return;
+    }
+    fd_fields(n, y, p->work);
+    memset(J, 0, sizeof(double) * FD_BAND * 3 * (size_t)n);
+    fd_jacobian_interleaved(p->work, 3, n, p->ghost, 3, 2, 2, p->h, p->upwind, p->params, p->n_params, J, 3 * n,
+                            3 * n);
 }
 
 static int rhs_fn(sunrealtype t, N_Vector y, N_Vector ydot, void *user_data)
@@ -71,10 +109,10 @@ static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *use
     Native *p = (Native *)user_data;
     int neq = 3 * p->n;
     if (p->kind == KIND_CHEB) {
-        cheb_jacobian(p->n, p->D, p->DT, p->params, N_VGetArrayPointer(y), SUNDenseMatrix_Data(J), p->work);
+        problem_jacobian(p, N_VGetArrayPointer(y), SUNDenseMatrix_Data(J));
         return 0;
     }
-    fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, N_VGetArrayPointer(y), p->jb, p->work);
+    problem_jacobian(p, N_VGetArrayPointer(y), p->jb);
     for (int col = 0; col < neq; col++) {
         sunrealtype *column = SUNBandMatrix_Column(J, col);  /* column[row - col] */
         int first = col - FD_LOWER < 0 ? 0 : col - FD_LOWER;
@@ -169,6 +207,7 @@ static Native *problem_new(int kind, int n, const double *params, int n_params, 
         return NULL;
     }
     memcpy(p->params, params, sizeof(double) * n_params);
+    p->n_params = n_params;
     return p;
 }
 
@@ -200,15 +239,11 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     p->lapack = lapack;
     p->delta_gamma = delta_gamma;
     p->D = malloc(sizeof(double) * (size_t)n * n);
-    p->DT = malloc(sizeof(double) * (size_t)n * n);
-    if (!p->D || !p->DT) {
+    if (!p->D) {
         icidr_free(p);
         return NULL;
     }
     memcpy(p->D, D, sizeof(double) * (size_t)n * n);
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++)
-            p->DT[(size_t)j * n + i] = D[(size_t)i * n + j];
     return p;
 }
 
@@ -220,12 +255,12 @@ EXPORT void icidr_rates(Native *p, const double *y, double *out)
 /* J: (3n, 3n) column-major */
 EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
 {
-    cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+    problem_jacobian(p, y, J);
 }
 
 EXPORT void icidr_fd_jacobian(Native *p, const double *y, double *jb)
 {
-    fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, y, jb, p->work);
+    problem_jacobian(p, y, jb);
 }
 
 static double seconds(void)
@@ -249,9 +284,9 @@ EXPORT void icidr_kernel_times(Native *p, const double *y, int reps, double *out
         problem_rates(p, y, f);
         double mid = seconds();
         if (p->kind == KIND_CHEB) {
-            cheb_jacobian(p->n, p->D, p->DT, p->params, y, J, p->work);
+            problem_jacobian(p, y, J);
         } else {
-            fd_jacobian(p->n, p->h, p->upwind, p->ghost, p->params, y, p->jb, p->work);
+            problem_jacobian(p, y, p->jb);
             memcpy(J, p->jb, sizeof(double) * jac_size);
         }
         double end = seconds();
@@ -460,6 +495,6 @@ EXPORT void icidr_free(Native *p)
         N_VDestroy(p->y);
     if (p->ctx)
         SUNContext_Free(&p->ctx);
-    free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D); free(p->DT);
+    free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D);
     free(p);
 }

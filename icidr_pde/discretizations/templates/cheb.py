@@ -1,7 +1,11 @@
-"""Chebyshev collocation right-hand side of the shear cell, a template for any law.
+"""Chebyshev collocation right-hand side of the shear cell and its analytic Jacobian, a template for any law.
 
-Combined with a law module by :func:`icidr_pde.rheology.codegen.compose`, which replaces
-the ``__law__`` import below; see :mod:`icidr_pde.discretizations.cheb` for the scheme.
+The one source of the scheme's kernels: combined with a law module by
+:func:`icidr_pde.rheology.codegen.compose` (which replaces the ``__law__`` import below) for
+numba, and printed as C for the native engine by :func:`icidr_pde.native.translate.translate`
+(hence the typed parameters and the plain loops: the subset that module accepts); see
+:mod:`icidr_pde.discretizations.cheb` for the scheme. The products with D are ``numpy.dot``
+(BLAS in both forms).
 """
 import numpy
 from numba import njit
@@ -10,7 +14,7 @@ import __law__ as law
 
 
 @njit(cache=True, error_model="numpy")
-def rates(data, D, params, out):
+def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: "float64[:, :]"):
     """Evolution rates (3, n) of (phi, u, w) at the collocation points into `out`."""
     phi = data[0]
     u = data[1]
@@ -20,11 +24,13 @@ def rates(data, D, params, out):
     wz = numpy.dot(D, w)
     flux_u = numpy.empty(n)
     flux_w = numpy.empty(n)
+    mass = numpy.empty(n)
     for j in range(n):
         p, txz, tzz = law.stress(phi[j], uz[j], wz[j], params)
         flux_u[j] = txz
         flux_w[j] = tzz - p
-    div_mass = numpy.dot(D, phi * w)
+        mass[j] = phi[j] * w[j]
+    div_mass = numpy.dot(D, mass)
     div_u = numpy.dot(D, flux_u)
     div_w = numpy.dot(D, flux_w)
     for j in range(n):
@@ -35,3 +41,63 @@ def rates(data, D, params, out):
     out[1, n - 1] = 0.0
     out[2, 0] = 0.0
     out[2, n - 1] = 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J: "float64[:, :]"):
+    """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks
+    (phi, u, w): the chain rule through D, with D diag(dF/d(u_z, w_z)) D for the velocity
+    columns; the wall rows of u and w are 0 (Dirichlet)."""
+    phi = data[0]
+    u = data[1]
+    w = data[2]
+    n = phi.shape[0]
+    uz = numpy.dot(D, u)
+    wz = numpy.dot(D, w)
+    flux_u = numpy.empty(n)
+    flux_w = numpy.empty(n)
+    dflux = numpy.empty((6, n))  # dF_u/d(phi, u_z, w_z), then dF_w/d(phi, u_z, w_z), F_w = tau_zz - p
+    interior = numpy.empty(n)
+    inv_phi = numpy.empty(n)
+    for j in range(n):
+        p, txz, tzz = law.stress(phi[j], uz[j], wz[j], params)
+        d = law.stress_jacobian(phi[j], uz[j], wz[j], params)
+        flux_u[j] = txz
+        flux_w[j] = tzz - p
+        for a in range(3):
+            dflux[a, j] = d[3 + a]
+            dflux[3 + a, j] = d[6 + a] - d[a]
+        interior[j] = 0.0 if j == 0 or j == n - 1 else 1.0
+        inv_phi[j] = interior[j] / phi[j]
+    div_u = numpy.dot(D, flux_u)
+    div_w = numpy.dot(D, flux_w)
+    for r in range(3 * n):
+        for c in range(3 * n):
+            J[r, c] = 0.0
+    for i in range(n):  # the phi columns; the mass rows' w columns
+        for j in range(n):
+            J[i, j] = -D[i, j] * w[j]
+            J[i, 2 * n + j] = -D[i, j] * phi[j]
+            J[n + i, j] = inv_phi[i] * D[i, j] * dflux[0, j]
+            J[2 * n + i, j] = inv_phi[i] * D[i, j] * dflux[3, j]
+        J[n + i, i] -= interior[i] * div_u[i] / (phi[i] * phi[i])
+        J[2 * n + i, i] -= interior[i] * div_w[i] / (phi[i] * phi[i])
+    scaled = numpy.empty((n, n))
+    product = numpy.empty((n, n))
+    for block in range(4):  # rows of u (F_u), w (F_w) by columns of u (d/du_z), w (d/dw_z)
+        row = block // 2
+        col = block % 2
+        for i in range(n):
+            for k in range(n):
+                scaled[i, k] = D[i, k] * dflux[3 * row + 1 + col, k]
+        numpy.dot(scaled, D, product)
+        for i in range(n):
+            for j in range(n):
+                J[(1 + row) * n + i, (1 + col) * n + j] = inv_phi[i] * product[i, j]
+    for i in range(n):  # the advection -w D u, -w D w
+        adv = interior[i] * w[i]
+        for j in range(n):
+            J[n + i, n + j] -= adv * D[i, j]
+            J[2 * n + i, 2 * n + j] -= adv * D[i, j]
+        J[n + i, 2 * n + i] -= interior[i] * uz[i]
+        J[2 * n + i, 2 * n + i] -= interior[i] * wz[i]

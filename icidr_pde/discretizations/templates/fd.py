@@ -1,7 +1,10 @@
-"""Finite-volume right-hand side of the shear cell, a template for any law.
+"""Finite-volume right-hand side of the shear cell and its analytic Jacobian, a template for any law.
 
-Combined with a law module by :func:`icidr_pde.rheology.codegen.compose`, which replaces
-the ``__law__`` import below; see :mod:`icidr_pde.discretizations.fd` for the scheme.
+The one source of the scheme's kernels: combined with a law module by
+:func:`icidr_pde.rheology.codegen.compose` (which replaces the ``__law__`` import below) for
+numba, and printed as C for the native engine by :func:`icidr_pde.native.translate.translate`
+(hence the typed parameters and the plain loops: the subset that module accepts); see
+:mod:`icidr_pde.discretizations.fd` for the scheme.
 """
 import numpy
 from numba import njit
@@ -10,23 +13,24 @@ import __law__ as law
 
 
 @njit(cache=True, error_model="numpy")
-def padded(data, ghost):
-    """data (3, n) with one ghost cell per side: ghost[k, side] = (alpha, beta) gives
+def padded(data: "float64[:, :]", ghost: "float64[:, :, :]", g: "float64[:, :]"):
+    """g = data (3, n) with one ghost cell per side: ghost[k, side] = (alpha, beta) gives
     alpha * (edge value) + beta, the affine map of py-pde's boundary setter of field k."""
     n = data.shape[1]
-    g = numpy.empty((data.shape[0], n + 2))
     for k in range(data.shape[0]):
-        g[k, 1:n + 1] = data[k]
+        for i in range(n):
+            g[k, i + 1] = data[k, i]
         g[k, 0] = ghost[k, 0, 0] * data[k, 0] + ghost[k, 0, 1]
         g[k, n + 1] = ghost[k, 1, 0] * data[k, n - 1] + ghost[k, 1, 1]
-    return g
 
 
 @njit(cache=True, error_model="numpy")
-def rates(data, ghost, h, upwind, params, out):
+def rates(data: "float64[:, :]", ghost: "float64[:, :, :]", h: "float64", upwind: "boolean",
+          params: "float64[:]", out: "float64[:, :]"):
     """Evolution rates (3, n) of (phi, u, w) into `out`; fluxes on the n + 1 faces."""
     n = data.shape[1]
-    g = padded(data, ghost)
+    g = numpy.empty((data.shape[0], n + 2))
+    padded(data, ghost, g)
     mass = numpy.empty(n + 1)
     flux_u = numpy.empty(n + 1)
     flux_w = numpy.empty(n + 1)
@@ -63,7 +67,8 @@ def rates(data, ghost, h, upwind, params, out):
 
 
 @njit(cache=True, error_model="numpy")
-def _add(J, n, ghost, i, k, j, m, value):
+def _add(J: "float64[:, :]", n: "int64", ghost: "float64[:, :, :]", i: "int64", k: "int64", j: "int64",
+         m: "int64", value: "float64"):
     """J[row of (cell i, field k), column of (cell j, field m)] += value in the interleaved
     ordering 3 * cell + field; a ghost cell j = -1 or n maps onto its edge cell by alpha."""
     if j < 0:
@@ -76,7 +81,8 @@ def _add(J, n, ghost, i, k, j, m, value):
 
 
 @njit(cache=True, error_model="numpy")
-def jacobian_interleaved(data, ghost, h, upwind, params, J):
+def jacobian_interleaved(data: "float64[:, :]", ghost: "float64[:, :, :]", h: "float64", upwind: "boolean",
+                         params: "float64[:]", J: "float64[:, :]"):
     """Analytic Jacobian of :func:`rates` into the (3n, 3n) array `J`, interleaved ordering
     (phi_0, u_0, w_0, phi_1, ...), band (5, 5). Only the 3 x 3 blocks of cells i, i +- 1 are
     written (zeroed, then accumulated); entries outside them are left as they are.
@@ -85,9 +91,11 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
     so the phi rows are exact differences of face fluxes: every column of the phi rows sums
     to zero, as the mass flux does."""
     n = data.shape[1]
-    g = padded(data, ghost)
+    g = numpy.empty((data.shape[0], n + 2))
+    padded(data, ghost, g)
     flux_u = numpy.empty(n + 1)
     flux_w = numpy.empty(n + 1)
+    dflux = numpy.empty((2, 3))  # partials of F_u = tau_xz (row 0) and F_w = tau_zz - p by (phi_f, u_z, w_z)
     for i in range(n):
         for j in range(max(i - 1, 0), min(i + 2, n)):
             for k in range(3):
@@ -104,9 +112,9 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
         p, txz, tzz = law.stress(phi_f, uz, wz, params)
         flux_u[f] = txz
         flux_w[f] = tzz - p
-        # partials of F_u = tau_xz and F_w = tau_zz - p by (phi_f, u_z, w_z)
-        fu = (d[3], d[4], d[5])
-        fw = (d[6] - d[0], d[7] - d[1], d[8] - d[2])
+        for a in range(3):
+            dflux[0, a] = d[3 + a]
+            dflux[1, a] = d[6 + a] - d[a]
         if upwind:
             up = left if w_f > 0 else right
             phi_up = g[0, f] if w_f > 0 else g[0, f + 1]
@@ -114,10 +122,11 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
             up = -2
             phi_up = phi_f
         # cell i receives +F(face i + 1)/h - F(face i)/h: face f enters cell f - 1 with +, cell f with -
-        for cell, sign in ((left, 1.0), (right, -1.0)):
+        for side in range(2):
+            cell = left if side == 0 else right
             if cell < 0 or cell >= n:
                 continue
-            s = sign / h
+            s = (1.0 if side == 0 else -1.0) / h
             inv_phi = 1.0 / g[0, cell + 1]
             # mass: -(mass[i + 1] - mass[i])/h
             if up == -2:
@@ -127,14 +136,15 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
                 _add(J, n, ghost, cell, 0, up, 0, -s * w_f)
             _add(J, n, ghost, cell, 0, left, 2, -s * 0.5 * phi_up)
             _add(J, n, ghost, cell, 0, right, 2, -s * 0.5 * phi_up)
-            for k, dflux in ((1, fu), (2, fw)):
-                c = s * inv_phi
-                _add(J, n, ghost, cell, k, left, 0, c * 0.5 * dflux[0])
-                _add(J, n, ghost, cell, k, right, 0, c * 0.5 * dflux[0])
-                _add(J, n, ghost, cell, k, left, 1, -c * dflux[1] / h)
-                _add(J, n, ghost, cell, k, right, 1, c * dflux[1] / h)
-                _add(J, n, ghost, cell, k, left, 2, -c * dflux[2] / h)
-                _add(J, n, ghost, cell, k, right, 2, c * dflux[2] / h)
+            for q in range(2):  # the u rows (F_u), then the w rows (F_w)
+                k = q + 1
+                sc = s * inv_phi
+                _add(J, n, ghost, cell, k, left, 0, sc * 0.5 * dflux[q, 0])
+                _add(J, n, ghost, cell, k, right, 0, sc * 0.5 * dflux[q, 0])
+                _add(J, n, ghost, cell, k, left, 1, -sc * dflux[q, 1] / h)
+                _add(J, n, ghost, cell, k, right, 1, sc * dflux[q, 1] / h)
+                _add(J, n, ghost, cell, k, left, 2, -sc * dflux[q, 2] / h)
+                _add(J, n, ghost, cell, k, right, 2, sc * dflux[q, 2] / h)
     for i in range(n):  # 1/phi factor and advection -w d_z
         c = i + 1
         phi = g[0, c]
@@ -159,7 +169,7 @@ def jacobian_interleaved(data, ghost, h, upwind, params, J):
             du = (g[1, c + 1] - g[1, c - 1]) / (2 * h)
             dw = (g[2, c + 1] - g[2, c - 1]) / (2 * h)
             scale = 0.5 / h
-        for k in (1, 2):
+        for k in range(1, 3):
             _add(J, n, ghost, i, k, hi, k, -w * scale)
             _add(J, n, ghost, i, k, lo, k, w * scale)
         J[3 * i + 1, 3 * i + 2] -= du
