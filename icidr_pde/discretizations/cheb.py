@@ -21,10 +21,11 @@ included; D is Trefethen's differentiation matrix mapped to [0, H].
   D(phi w), the discrete mass sum_j c_j phi_j changes at the rate
   -(phi w)(H) + (phi w)(0) = 0: mass is conserved to round-off.
 * the Jacobian of the right-hand side is dense; :meth:`make_jacobian` builds it
-  analytically by the chain rule, D diag(dF/d.) D, from ``Rheology.stress_jacobian``.
-* the compiled right-hand side is ``templates/cheb.py`` combined with the law
+  analytically by the chain rule, D diag(dF/d.) D, from the law's exact partials.
+* the compiled right-hand side and Jacobian are ``templates/cheb.py`` combined with the law
   (:func:`icidr_pde.rheology.codegen.compose`): D is an argument, so one compilation per
-  rheology serves every N, and it is cached on disk.
+  rheology serves every N, and it is cached on disk. The same template, printed as C, is
+  the native engine's (:mod:`icidr_pde.native.translate`).
 
 py-pde grids are uniform, so the state lives on a *carrier* ``CartesianGrid([[0, H]], N)``
 of N cells, which is used for storage only; :meth:`nodes` gives the true positions.
@@ -163,11 +164,14 @@ class ChebyshevShearCellPDE(ShearCellBase):
 
     # --- right-hand side -------------------------------------------------------------
 
+    def _loops(self):
+        return compose(_TEMPLATE, self.rheology.kernels(self.kinematics), name="cheb")
+
     def make_rates(self, state: FieldCollection) -> Callable:
         """rhs(data, t) from the compiled collocation kernel (cached on disk, D an argument)."""
         self.check_grid(state.grid)
         D = self.operators(state.grid)[1]
-        loops = compose(_TEMPLATE, self.rheology.kernels(self.kinematics), name="cheb")
+        loops = self._loops()
         kernel = loops.rates
         params = self.material.params
 
@@ -188,7 +192,7 @@ class ChebyshevShearCellPDE(ShearCellBase):
         if backend.name != "numpy":
             key = (self.rheology, self._size(state.grid))
             if key not in _RHS_CACHE:
-                kernel = compose(_TEMPLATE, self.rheology.kernels(self.kinematics), name="cheb").rates
+                kernel = self._loops().rates
 
                 def pde_rhs(state_data, t=0.0):
                     out = np.empty(state_data.shape)
@@ -215,52 +219,34 @@ class ChebyshevShearCellPDE(ShearCellBase):
         return None
 
     def make_jacobian(self, state) -> Callable:
-        """Analytic dense Jacobian jac(t, y) (3N x 3N) of the flattened right-hand side."""
+        """Analytic dense Jacobian jac(t, y) (3N x 3N) of the flattened right-hand side: the
+        compiled chain rule of ``templates/cheb.py`` (``assemble_jacobian``) on the law's
+        exact partials and the products D diag(dF/d.) D, evaluated here by numpy (the law's
+        numpy kernels and numpy's BLAS, whose dgemm differs from the one numba calls in the
+        last bit at N = 201), as before the template held the chain rule, so that the py-pde
+        runs keep their numbers to the last bit. The template's ``jacobian`` evaluates them
+        in compiled code, for the native engine."""
         self.check_grid(state.grid)
-        _, D, _ = self.operators(state.grid)
-        return _cheb_jacobian(self.rheology, D)
+        D = self.operators(state.grid)[1]
+        n = D.shape[0]
+        assemble = self._loops().assemble_jacobian
+        kernels, params = self.rheology.kernels(self.kinematics), self.material.params
+
+        def jacobian(t, y):
+            data = np.ascontiguousarray(y, dtype=float).reshape(3, n)
+            uz, wz = D @ data[1], D @ data[2]
+            p, txz, tzz = kernels.stress_numpy(data[0], uz, wz, params)
+            d = kernels.stress_jacobian_numpy(data[0], uz, wz, params)
+            dflux = np.array([*d[3:6], *(d[6 + k] - d[k] for k in range(3))])
+            products = np.array([(D * dflux[3 * a + 1 + b][None, :]) @ D for a in (0, 1) for b in (0, 1)])
+            J = np.empty((3 * n, 3 * n))
+            assemble(data, D, uz, wz, np.array([txz, tzz - p]), dflux, products, J)
+            return J
+
+        return jacobian
 
     def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
         """(z, phi, u_z, w_z) at the collocation points, where the stresses live."""
         z, D, _ = self.operators(grid)
         return z.copy(), np.array(data[0]), D @ data[1], D @ data[2]
 
-
-def _cheb_jacobian(rheology: Rheology, D: np.ndarray) -> Callable:
-    """Analytic Jacobian of the collocation right-hand side (chain rule through D)."""
-    n = D.shape[0]
-    interior = np.ones(n)
-    interior[[0, -1]] = 0.0
-
-    kernels = rheology.kernels()  # generated from the same definition as the right-hand side
-    stress, stress_jacobian = kernels.stress_numpy, kernels.stress_jacobian_numpy
-    params = rheology.material.params
-
-    def jacobian(t, y):
-        phi, u, w = y.reshape(3, n)
-        uz, wz = D @ u, D @ w
-        p, txz, tzz = stress(phi, uz, wz, params)
-        d = stress_jacobian(phi, uz, wz, params)
-        dfu = d[3:6]
-        dfw = [d[6 + k] - d[k] for k in range(3)]
-        J = np.zeros((3 * n, 3 * n))
-        # mass: -D(phi w)
-        J[:n, :n] = -D * w[None, :]
-        J[:n, 2 * n:] = -D * phi[None, :]
-        inv_phi = (interior / phi)[:, None]
-        for row, flux, dflux in ((1, txz, dfu), (2, tzz - p, dfw)):
-            block = slice(row * n, (row + 1) * n)
-            divf = D @ flux
-            J[block, :n] = inv_phi * D * dflux[0][None, :]
-            J[block, :n][np.diag_indices(n)] -= interior * divf / phi**2
-            J[block, n:2 * n] = inv_phi * ((D * dflux[1][None, :]) @ D)
-            J[block, 2 * n:] = inv_phi * ((D * dflux[2][None, :]) @ D)
-        # advection: -w D u in the u rows, -w D w in the w rows
-        adv = (interior * w)[:, None] * D
-        J[n:2 * n, n:2 * n] -= adv
-        J[n:2 * n, 2 * n:][np.diag_indices(n)] -= interior * uz
-        J[2 * n:, 2 * n:] -= adv
-        J[2 * n:, 2 * n:][np.diag_indices(n)] -= interior * wz
-        return J
-
-    return jacobian

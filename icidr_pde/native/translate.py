@@ -163,6 +163,12 @@ class _Function:
             return self.index(e)
         raise SyntaxError(f"line {e.lineno}: expression {ast.unparse(e)!r} not in the subset")
 
+    def names(self, args, lineno) -> list[str]:
+        """The names of array arguments (numpy.dot takes arrays by name only)."""
+        if not all(isinstance(a, ast.Name) and a.id in self.arrays for a in args):
+            raise SyntaxError(f"line {lineno}: numpy.dot takes arrays by name (a row: assign it first)")
+        return [a.id for a in args]
+
     def arguments(self, args) -> str:
         out = []
         for a in args:
@@ -219,7 +225,7 @@ class _Function:
                 self.allocated.append(name)
                 return True
             if owner == "numpy" and attr == "dot":
-                a, b = (x.id for x in call.args)
+                a, b = self.names(call.args, lineno)
                 name = target.id
                 nb = self.arrays[b]
                 self.assign_call(target, ast.Call(
@@ -241,7 +247,7 @@ class _Function:
             call = s.value
             if isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute) and call.func.attr == "dot" \
                     and len(call.args) == 3:  # numpy.dot(a, b, out)
-                a, b, out = (x.id for x in call.args)
+                a, b, out = self.names(call.args, s.lineno)
                 if self.arrays[b] == 1:
                     self.emit(depth, f"kernel_dot_mv({a}, {a}_shape0, {a}_shape1, {b}, {out});")
                 else:

@@ -45,30 +45,55 @@ def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: 
 
 @njit(cache=True, error_model="numpy")
 def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J: "float64[:, :]"):
-    """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks
-    (phi, u, w): the chain rule through D, with D diag(dF/d(u_z, w_z)) D for the velocity
-    columns; the wall rows of u and w are 0 (Dirichlet)."""
+    """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks (phi, u, w):
+    the law's fluxes and exact partials at the points and the products D diag(dF/du_z) D,
+    then :func:`assemble_jacobian`."""
     phi = data[0]
     u = data[1]
     w = data[2]
     n = phi.shape[0]
     uz = numpy.dot(D, u)
     wz = numpy.dot(D, w)
-    flux_u = numpy.empty(n)
-    flux_w = numpy.empty(n)
-    dflux = numpy.empty((6, n))  # dF_u/d(phi, u_z, w_z), then dF_w/d(phi, u_z, w_z), F_w = tau_zz - p
-    interior = numpy.empty(n)
-    inv_phi = numpy.empty(n)
+    flux = numpy.empty((2, n))
+    dflux = numpy.empty((6, n))
     for j in range(n):
         p, txz, tzz = law.stress(phi[j], uz[j], wz[j], params)
         d = law.stress_jacobian(phi[j], uz[j], wz[j], params)
-        flux_u[j] = txz
-        flux_w[j] = tzz - p
+        flux[0, j] = txz
+        flux[1, j] = tzz - p
         for a in range(3):
             dflux[a, j] = d[3 + a]
             dflux[3 + a, j] = d[6 + a] - d[a]
+    products = numpy.empty((4, n, n))
+    scaled = numpy.empty((n, n))
+    for block in range(4):  # (F_u, F_w) by (u_z, w_z)
+        for i in range(n):
+            for k in range(n):
+                scaled[i, k] = D[i, k] * dflux[3 * (block // 2) + 1 + block % 2, k]
+        product = products[block]
+        numpy.dot(scaled, D, product)
+    assemble_jacobian(data, D, uz, wz, flux, dflux, products, J)
+
+
+@njit(cache=True, error_model="numpy")
+def assemble_jacobian(data: "float64[:, :]", D: "float64[:, :]", uz: "float64[:]", wz: "float64[:]",
+                      flux: "float64[:, :]", dflux: "float64[:, :]", products: "float64[:, :, :]",
+                      J: "float64[:, :]"):
+    """The chain rule through D into `J` (3n, 3n), given the rates uz = D u, wz = D w, the
+    fluxes flux = (F_u, F_w) = (tau_xz, tau_zz - p) and their partials dflux = (dF_u/d(phi,
+    u_z, w_z), dF_w/d(phi, u_z, w_z)) at the points, and the velocity columns' products
+    D diag(dF/d(u_z, w_z)) D: products[2 * a + b] for F_u, F_w (a) by u_z, w_z (b). The wall
+    rows of u and w are 0 (Dirichlet)."""
+    phi = data[0]
+    w = data[2]
+    n = phi.shape[0]
+    interior = numpy.empty(n)
+    inv_phi = numpy.empty(n)
+    for j in range(n):
         interior[j] = 0.0 if j == 0 or j == n - 1 else 1.0
         inv_phi[j] = interior[j] / phi[j]
+    flux_u = flux[0]
+    flux_w = flux[1]
     div_u = numpy.dot(D, flux_u)
     div_w = numpy.dot(D, flux_w)
     for r in range(3 * n):
@@ -82,18 +107,12 @@ def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J:
             J[2 * n + i, j] = inv_phi[i] * D[i, j] * dflux[3, j]
         J[n + i, i] -= interior[i] * div_u[i] / (phi[i] * phi[i])
         J[2 * n + i, i] -= interior[i] * div_w[i] / (phi[i] * phi[i])
-    scaled = numpy.empty((n, n))
-    product = numpy.empty((n, n))
     for block in range(4):  # rows of u (F_u), w (F_w) by columns of u (d/du_z), w (d/dw_z)
         row = block // 2
         col = block % 2
         for i in range(n):
-            for k in range(n):
-                scaled[i, k] = D[i, k] * dflux[3 * row + 1 + col, k]
-        numpy.dot(scaled, D, product)
-        for i in range(n):
             for j in range(n):
-                J[(1 + row) * n + i, (1 + col) * n + j] = inv_phi[i] * product[i, j]
+                J[(1 + row) * n + i, (1 + col) * n + j] = inv_phi[i] * products[block, i, j]
     for i in range(n):  # the advection -w D u, -w D w
         adv = interior[i] * w[i]
         for j in range(n):
