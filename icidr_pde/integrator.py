@@ -30,6 +30,7 @@ from . import cvode_counters
 from .colored_fd import colored_fd_jacobian
 
 from .conservative_jacobian import ConservativeDifferenceQuotients
+from .time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .validation import ParameterError, choice, real
 
 __all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
@@ -192,29 +193,6 @@ class ScipyEngine(Engine):
 #: decompositions, t* error against the converged t* 3.5e-5 -> 9.9e-6, max|w| error 6.4e-5 -> 5.1e-5
 #: (0.6: 160 and 113 LUs; 1.5: 138 and 109)
 DENSE_LU_DELTA_GAMMA = 1.0
-
-MIN_STEP_FRACTION = 1e-11  # of the fastest time scale: 9e-15 for mu(I), fd N = 201 (was 1e-14)
-
-
-def fastest_time_scale(fun, t0: float, y0: np.ndarray, iterations: int = 20) -> float:
-    """1/rho(J) at (t0, y0): the inverse spectral radius of the Jacobian, estimated by power
-    iteration on difference quotients J v (within 1 % of the largest |eigenvalue| for the
-    shear cell). Measured: 1.5e-5 (iCIDR, fd N = 201), 8.8e-4 (mu(I), fd N = 201),
-    4.5e-15 (iCIDR, phi0 = 0.816999), 1.1e-13 (iCIDR, H = 0.01, N = 47)."""
-    y0 = np.asarray(y0, dtype=float)
-    f0 = fun(t0, y0)
-    v = np.cos(np.arange(y0.size) * 2.0) + 0.5  # a fixed start: runs are reproducible
-    v /= np.linalg.norm(v)
-    e = 1e-7 * max(np.linalg.norm(y0), 1e-300)
-    rho = 0.0
-    for _ in range(iterations):
-        jv = (fun(t0, y0 + e * v) - f0) / e
-        rho = float(np.linalg.norm(jv))
-        if not np.isfinite(rho) or rho == 0:
-            break
-        v = jv / rho
-    return 1.0 / rho if np.isfinite(rho) and rho > 0 else 1.0
-
 
 class _CapturedOutput:
     """Collect what scikit-sundae prints (its SUNDIALS error handler calls Python's print)."""

@@ -36,13 +36,13 @@ import time as _time
 import numpy as np
 
 from ..grid_size import FD
+from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
 __all__ = ["run_native", "try_native", "ENGINES", "unavailable", "NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
            "cell_centres", "MAX_N"]
 
 MAX_N = FD.max_N
-MIN_STEP_FRACTION = 1e-11  # integrator.MIN_STEP_FRACTION: of the fastest time scale
 #: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar
 #: act between calls, and a call costs ~1 us of Python
 _CHUNK = (8, 1, 1024)  # first, smallest, largest
@@ -139,6 +139,8 @@ class NativeProblem:
 
     #: repeats of :meth:`kernel_times` by default (fewer where a Jacobian is expensive)
     kernel_repeats = 200
+    #: right-hand sides evaluated outside CVODE (the time scale of :meth:`start`)
+    _own_rhs = 0
 
     def _open(self, rheology, bounds):
         from ..rheology import SHEAR_CELL
@@ -167,8 +169,9 @@ class NativeProblem:
         return out
 
     def time_scale(self, y, iterations: int = 20) -> float:
-        y = np.ascontiguousarray(y, dtype=float)
-        return float(self.lib.icidr_time_scale(self.handle, _pointer(y), iterations))
+        """1/rho(J(y)) of the compiled right-hand side (the stiff solvers' estimate,
+        :func:`icidr_pde.time_scale.fastest_time_scale`)."""
+        return fastest_time_scale(lambda t, v: self.rates(v), 0.0, y, iterations)
 
     def kernel_times(self, y, repeats: int | None = None) -> tuple[float, float]:
         """Best-of-`repeats` seconds of one right-hand side and one Jacobian, timed in C."""
@@ -187,17 +190,21 @@ class NativeProblem:
 
     def start(self, y0, *, rtol: float, atol: float, t0: float = 0.0, max_step: float = np.inf,
               first_step: float | None = None) -> float:
-        """Start CVODE at (t0, y0); returns the fastest time scale 1/rho(J(y0))."""
+        """Start CVODE at (t0, y0) with the smallest step MIN_STEP_FRACTION x the fastest time
+        scale 1/rho(J(y0)) (:meth:`time_scale`, its evaluations counted as the run's); returns
+        that time scale."""
         y0 = np.ascontiguousarray(y0, dtype=float)
-        scale = ctypes.c_double()
+        evaluations = []
+        scale = fastest_time_scale(lambda t, v: evaluations.append(1) or self.rates(v), t0, y0)
+        self._own_rhs = len(evaluations)
         error = ctypes.create_string_buffer(1024)
         status = self.lib.icidr_cvode_start(
-            self.handle, t0, _pointer(y0), rtol, atol, MIN_STEP_FRACTION,
+            self.handle, t0, _pointer(y0), rtol, atol, MIN_STEP_FRACTION * scale,
             max_step if np.isfinite(max_step) else 1e300, 1_000_000, 0.0 if first_step is None else first_step,
-            ctypes.byref(scale), error, len(error))
+            error, len(error))
         if status != 0:
             raise RuntimeError(f"CVODE could not start: {error.value.decode(errors='replace')}")
-        return scale.value
+        return scale
 
     def advance(self, times, store, max_w, states):
         """CVODE through `times`; see icidr_cvode_advance. Returns (n_done, status, flag)."""
@@ -223,6 +230,7 @@ class NativeProblem:
     def counts(self) -> dict:
         out = (ctypes.c_long * 7)()
         self.lib.icidr_cvode_counts(self.handle, out)
+        out[1] += self._own_rhs
         return dict(zip(("steps", "rhs", "jac", "lu", "error_test_failures", "newton_iterations",
                          "newton_failures"), map(int, out)))
 

@@ -4,9 +4,9 @@
    The same CVODE set-up as icidr_pde.integrator.CvodeEngine (through scikit-sundae) on
    the same problem: BDF up to order 5, scalar tolerances, the band linear solver with
    bandwidths (5, 5) and the analytic band Jacobian (fd_jacobian_interleaved), at most 3 Newton
-   iterations and 10 convergence failures a step, 1e6 steps, the minimum step
-   min_step_fraction x the fastest time scale 1/rho(J(y0)) (power iteration on difference
-   quotients, as integrator.fastest_time_scale), and the validity root function
+   iterations and 10 convergence failures a step, 1e6 steps, the minimum step the caller
+   gives (a fraction of the fastest time scale 1/rho(J(y0)), icidr_pde.time_scale), and the
+   validity root function
    (min phi - lo, hi - max phi, direction -1, terminal). Output at requested times by
    CV_NORMAL calls (CVODE's interpolant): no output time changes CVODE's steps.
    Chebyshev (as CvodeEngine's dense 'analytic' mode): the analytic dense Jacobian
@@ -41,7 +41,6 @@ typedef struct {
     int lapack;           /* cheb: LAPACK's dense LU (else SUNDIALS' own) */
     double delta_gamma;   /* cheb: refactor when gamma changed by more than this (0: SUNDIALS' 0.3) */
     double t_good;
-    long own_rhs;
     void *cvode;
     SUNContext ctx;
     N_Vector y;
@@ -143,46 +142,6 @@ static void error_handler(int line, const char *func, const char *file, const ch
 {
     Native *p = (Native *)err_user_data;
     snprintf(p->message, sizeof p->message, "%s", msg ? msg : "");
-}
-
-static double norm2(const double *x, int m)
-{
-    double s = 0.0;
-    for (int k = 0; k < m; k++)
-        s += x[k] * x[k];
-    return sqrt(s);
-}
-
-/* 1/rho(J(y0)) by power iteration on difference quotients (integrator.fastest_time_scale) */
-EXPORT double icidr_time_scale(Native *p, const double *y0, int iterations)
-{
-    int m = 3 * p->n;
-    double *f0 = malloc(sizeof(double) * m), *v = malloc(sizeof(double) * m);
-    double *yp = malloc(sizeof(double) * m), *jv = malloc(sizeof(double) * m);
-    double rho = 0.0;
-    problem_rates(p, y0, f0);
-    p->own_rhs++;
-    for (int k = 0; k < m; k++)
-        v[k] = cos(k * 2.0) + 0.5;
-    double nv = norm2(v, m), ny = norm2(y0, m);
-    for (int k = 0; k < m; k++)
-        v[k] /= nv;
-    double e = 1e-7 * (ny > 1e-300 ? ny : 1e-300);
-    for (int it = 0; it < iterations; it++) {
-        for (int k = 0; k < m; k++)
-            yp[k] = y0[k] + e * v[k];
-        problem_rates(p, yp, jv);
-        p->own_rhs++;
-        for (int k = 0; k < m; k++)
-            jv[k] = (jv[k] - f0[k]) / e;
-        rho = norm2(jv, m);
-        if (!isfinite(rho) || rho == 0)
-            break;
-        for (int k = 0; k < m; k++)
-            v[k] = jv[k] / rho;
-    }
-    free(f0); free(v); free(yp); free(jv);
-    return isfinite(rho) && rho > 0 ? 1.0 / rho : 1.0;
 }
 
 EXPORT void icidr_free(Native *p);
@@ -319,12 +278,11 @@ EXPORT void icidr_law_M(Native *p, int m, const double *phi, double *out)
 
 /* Start CVODE at (t0, y0) on the problem `p`; 0 on success, else -1 with `error` set. */
 EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol, double atol,
-                             double min_step_fraction, double max_step, long max_num_steps,
-                             double first_step, double *time_scale, char *error, int error_len)
+                             double min_step, double max_step, long max_num_steps, double first_step,
+                             char *error, int error_len)
 {
     int neq = 3 * p->n;
     int direction[2] = {-1, -1};
-    *time_scale = icidr_time_scale(p, y0, 20);
     if (SUNContext_Create(SUN_COMM_NULL, &p->ctx) < 0) {
         snprintf(error, error_len, "SUNContext_Create failed");
         return -1;
@@ -372,7 +330,7 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeRootInit(p->cvode, 2, root_fn));
     CHECK(CVodeSetRootDirection(p->cvode, direction));
     CHECK(CVodeSetInitStep(p->cvode, first_step));
-    CHECK(CVodeSetMinStep(p->cvode, min_step_fraction * *time_scale));
+    CHECK(CVodeSetMinStep(p->cvode, min_step));
     CHECK(CVodeSetMaxStep(p->cvode, max_step));
     CHECK(CVodeSetMaxOrd(p->cvode, 5));
     CHECK(CVodeSetMaxNumSteps(p->cvode, max_num_steps));
@@ -464,7 +422,7 @@ EXPORT void icidr_cvode_message(Native *p, int flag, char *out, int out_len)
     free(name);
 }
 
-/* steps, RHS evaluations (CVODE's and the time scale's), Jacobians, LU set-ups, error-test
+/* steps, RHS evaluations (CVODE's), Jacobians, LU set-ups, error-test
    failures, Newton iterations, Newton convergence failures */
 EXPORT void icidr_cvode_counts(Native *p, long *out)
 {
@@ -473,7 +431,7 @@ EXPORT void icidr_cvode_counts(Native *p, long *out)
     if (!p->cvode)
         return;
     CVodeGetNumSteps(p->cvode, &v); out[0] = v;
-    CVodeGetNumRhsEvals(p->cvode, &v); out[1] = v + p->own_rhs;
+    CVodeGetNumRhsEvals(p->cvode, &v); out[1] = v;
     CVodeGetNumJacEvals(p->cvode, &v); out[2] = v;
     CVodeGetNumLinSolvSetups(p->cvode, &v); out[3] = v;
     CVodeGetNumErrTestFails(p->cvode, &v); out[4] = v;
