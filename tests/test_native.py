@@ -1,8 +1,8 @@
 """The native engine (icidr_pde.native): C kernels and CVODE without Python in the loop.
 
-Against independent truth: the numba kernels (themselves tested against exact solutions)
-and py-pde's grid and boundary setters; a fourth-order difference of the native right-hand
-side for its Jacobian; the converged references of data/reference to the accuracy the
+Against independent truth: py-pde's grid and boundary setters; a fourth-order difference
+of the native right-hand side for its Jacobian (the C is printed from the numba template:
+tests/test_translate.py); the converged references of data/reference to the accuracy the
 README states for CVODE at N = 201; mass conservation; the failure of mu(I),Phi(I) (t* of
 the py-pde path's CVODE, the same integrator); the imports of a warm run in a fresh process.
 No timings.
@@ -55,28 +55,6 @@ def test_grid_walls_and_initial_state_are_py_pdes():
         assert light.mass(data) == pytest.approx(c.pde.integral(data[0], c.grid), rel=1e-15)
 
 
-@pytest.mark.parametrize("rheology", ["icidr", "mui"])
-@pytest.mark.parametrize("advection", ["upwind", "central"])
-def test_native_rates_and_band_jacobian_equal_the_numba_kernels(rheology, advection):
-    from icidr_pde.case import build_case
-
-    N = 41
-    c = build_case(rheology, "sine", "fd", N, options=dict(advection=advection))
-    problem = FdProblem(c.pde.rheology, N, 30.0, advection=advection)
-    perm = c.pde.interleaving(c.state)[0]
-    rhs, jac = c.pde.make_rates(c.state), c.pde.make_band_jacobian(c.state)
-    rng = np.random.default_rng(3)
-    for trial in range(4):
-        data = c.state.data + (0.02 * trial) * rng.standard_normal(c.state.data.shape)
-        data[0] = np.clip(data[0], 0.5, 0.8)
-        y = data.ravel()[perm]
-        expected = rhs(data).ravel()[perm]
-        assert np.max(np.abs(problem.rates(y) - expected)) <= 1e-13 * np.max(np.abs(expected))
-        J = np.zeros((3 * N, 3 * N))
-        jac(y, J)
-        assert np.max(np.abs(problem.jacobian_dense(y) - J)) <= 1e-13 * np.max(np.abs(J))
-
-
 def test_native_jacobian_is_the_derivative_of_the_native_rates():
     """Fourth-order central differences of the C right-hand side, on a state with u_z != 0 and
     w > 0 everywhere (the stresses and the upwind choice are smooth there)."""
@@ -95,15 +73,6 @@ def test_native_jacobian_is_the_derivative_of_the_native_rates():
         column = (8 * (problem.rates(y + d) - problem.rates(y - d))
                   - (problem.rates(y + 2 * d) - problem.rates(y - 2 * d))) / (12 * d[j])
         assert np.allclose(J[:, j], column, rtol=1e-6, atol=1e-7 * np.max(np.abs(J))), j
-
-
-def test_time_scale_is_the_stiff_solvers():
-    from icidr_pde.integrator import fastest_time_scale
-
-    case = FdCase("icidr", "sine", 201)
-    problem = FdProblem(case.rheology, 201, case.H)
-    expected = fastest_time_scale(lambda t, y: problem.rates(y), 0.0, case.y0)
-    assert problem.time_scale(case.y0) == pytest.approx(expected, rel=1e-12)
 
 
 @pytest.mark.parametrize("case", ["icidr-shear", "icidr-sine"])

@@ -3,14 +3,15 @@
 :func:`run_native` runs what ``run(..., discretization="fd", method="CVODE")`` runs (same
 scheme, same CVODE settings, same output times and Result) with no Python in the loop:
 the law printed as C from its sympy definition (:mod:`icidr_pde.rheology.ccode`), the
-finite-volume right-hand side and analytic band Jacobian in C
-(``discretizations/templates/fd.c``, a mirror of the numba template) and a C driver that
+finite-volume right-hand side and analytic band Jacobian in C, printed from the numba
+template ``discretizations/templates/fd.py`` by :mod:`.translate` (the scheme's one source),
+and a C driver that
 calls CVODE (``cvode_driver.c``), compiled once per installation (:mod:`.build`). A warm
 run imports neither py-pde, numba, scipy, sympy nor scikit-sundae: only numpy, ctypes and
 the light parts of the package (rheology classes, scenes, presets, Result).
 
 Chebyshev collocation (``discretization="cheb"``) runs the same way (:mod:`.cheb`):
-``templates/cheb.c`` mirrors the numba right-hand side and the numpy dense Jacobian, with
+the C printed from ``templates/cheb.py`` (the right-hand side and the dense Jacobian), with
 the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.chebyshev`), and
 CVODE's dense LU (LAPACK's where scikit-sundae ships it) kept as the py-pde path keeps it.
 

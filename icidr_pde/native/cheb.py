@@ -1,7 +1,7 @@
 """The native engine's Chebyshev collocation: problem and case without py-pde.
 
-:class:`ChebProblem` is the compiled Chebyshev problem (``discretizations/templates/cheb.c``,
-a mirror of the numba template and of the numpy dense Jacobian) with CVODE's dense linear
+:class:`ChebProblem` is the compiled Chebyshev problem (the C printed from the numba
+template ``discretizations/templates/cheb.py``: rates and dense Jacobian) with CVODE's dense linear
 solver; :class:`ChebCase` is what :func:`icidr_pde.case.build_case` builds for
 ``discretization="cheb"`` (the same checks, points, walls and initial state), from the
 numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's vector

@@ -37,11 +37,12 @@ _CMP = {ast.Gt: ">", ast.GtE: ">=", ast.Lt: "<", ast.LtE: "<=", ast.Eq: "==", as
 _LAW = {"stress": "LAW_N_OUTPUTS", "stress_jacobian": "LAW_N_OUTPUTS * LAW_N_ARGS"}
 
 
-def _annotation(node) -> tuple[str, int]:
-    """('double' | 'long' | 'int', ndim) of a numba type string."""
+def _annotation(arg: ast.arg) -> tuple[str, int]:
+    """('double' | 'long' | 'int', ndim) of a parameter's numba type string."""
+    node = arg.annotation
     text = node.value if isinstance(node, ast.Constant) else None
     if not isinstance(text, str):
-        raise SyntaxError(f"line {node.lineno}: parameters need a numba type string")
+        raise SyntaxError(f"line {arg.lineno}: parameters need a numba type string ({arg.arg!r})")
     base = text.split("[")[0].strip()
     ndim = text.count(":") if "[" in text else 0
     kind = {"float64": "double", "int64": "long", "boolean": "int"}.get(base)
@@ -60,7 +61,7 @@ class _Function:
         self.scalars: dict[str, str] = {}  # name -> C type
         self.allocated: list[str] = []
         for arg in node.args.args:
-            kind, ndim = _annotation(arg.annotation)
+            kind, ndim = _annotation(arg)
             if ndim:
                 self.arrays[arg.arg] = ndim
             else:
@@ -329,7 +330,7 @@ class _Function:
     def signature(self) -> str:
         parts = []
         for arg in self.node.args.args:
-            kind, ndim = _annotation(arg.annotation)
+            kind, ndim = _annotation(arg)
             if ndim:
                 parts += [f"double *{arg.arg}"] + [f"long {arg.arg}_shape{k}" for k in range(ndim)]
             else:
