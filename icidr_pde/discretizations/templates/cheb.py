@@ -14,14 +14,23 @@ import __law__ as law
 
 
 @njit(cache=True, error_model="numpy")
-def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: "float64[:, :]"):
-    """Evolution rates (3, n) of (phi, u, w) at the collocation points into `out`."""
-    phi = data[0]
+def gradients(data: "float64[:, :]", D: "float64[:, :]", uz: "float64[:]", wz: "float64[:]"):
+    """uz = D u and wz = D w at the collocation points."""
     u = data[1]
     w = data[2]
-    n = phi.shape[0]
-    uz = numpy.dot(D, u)
-    wz = numpy.dot(D, w)
+    numpy.dot(D, u, uz)
+    numpy.dot(D, w, wz)
+
+
+@njit(cache=True, error_model="numpy")
+def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: "float64[:, :]"):
+    """Evolution rates (3, n) of (phi, u, w) at the collocation points into `out`."""
+    n = data.shape[1]
+    uz = numpy.empty(n)
+    wz = numpy.empty(n)
+    gradients(data, D, uz, wz)
+    phi = data[0]
+    w = data[2]
     flux_u = numpy.empty(n)
     flux_w = numpy.empty(n)
     mass = numpy.empty(n)
@@ -48,12 +57,11 @@ def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J:
     """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks (phi, u, w):
     the law's fluxes and exact partials at the points and the products D diag(dF/du_z) D,
     then :func:`assemble_jacobian`."""
+    n = data.shape[1]
+    uz = numpy.empty(n)
+    wz = numpy.empty(n)
+    gradients(data, D, uz, wz)
     phi = data[0]
-    u = data[1]
-    w = data[2]
-    n = phi.shape[0]
-    uz = numpy.dot(D, u)
-    wz = numpy.dot(D, w)
     flux = numpy.empty((2, n))
     dflux = numpy.empty((6, n))
     for j in range(n):
