@@ -239,7 +239,7 @@ class ChebyshevShearCellPDE(ShearCellBase):
             d = kernels.stress_jacobian_numpy(data[0], uz, wz, params)
             dflux = np.array([*d[3:6], *(d[6 + k] - d[k] for k in range(3))])
             products = np.array([(D * dflux[3 * a + 1 + b][None, :]) @ D for a in (0, 1) for b in (0, 1)])
-            J = np.empty((3 * n, 3 * n))
+            J = np.empty((3 * n, 3 * n), order="F")  # the kernel writes down the columns
             assemble(data, D, uz, wz, np.array([txz, tzz - p]), dflux, products, J)
             return J
 

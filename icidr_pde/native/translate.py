@@ -335,7 +335,7 @@ class _Function:
                 parts += [f"double *{arg.arg}"] + [f"long {arg.arg}_shape{k}" for k in range(ndim)]
             else:
                 parts.append(f"{kind} {arg.arg}")
-        return f"static void {self.prefix}{self.node.name}({', '.join(parts)})"
+        return f"static inline void {self.prefix}{self.node.name}({', '.join(parts)})"
 
     def source(self) -> str:
         self.block(self.node.body, 1)

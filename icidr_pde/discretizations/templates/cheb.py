@@ -104,27 +104,31 @@ def assemble_jacobian(data: "float64[:, :]", D: "float64[:, :]", uz: "float64[:]
     flux_w = flux[1]
     div_u = numpy.dot(D, flux_u)
     div_w = numpy.dot(D, flux_w)
-    for r in range(3 * n):
-        for c in range(3 * n):
+    # every loop over J runs down the columns (rows innermost): the native engine's J is
+    # column-major (SUNDIALS' dense matrix), the py-pde path's is allocated so (order F)
+    for c in range(3 * n):
+        for r in range(3 * n):
             J[r, c] = 0.0
-    for i in range(n):  # the phi columns; the mass rows' w columns
-        for j in range(n):
+    for j in range(n):  # the phi columns; the mass rows' w columns
+        for i in range(n):
             J[i, j] = -D[i, j] * w[j]
             J[i, 2 * n + j] = -D[i, j] * phi[j]
             J[n + i, j] = inv_phi[i] * D[i, j] * dflux[0, j]
             J[2 * n + i, j] = inv_phi[i] * D[i, j] * dflux[3, j]
+    for i in range(n):
         J[n + i, i] -= interior[i] * div_u[i] / (phi[i] * phi[i])
         J[2 * n + i, i] -= interior[i] * div_w[i] / (phi[i] * phi[i])
     for block in range(4):  # rows of u (F_u), w (F_w) by columns of u (d/du_z), w (d/dw_z)
         row = block // 2
         col = block % 2
-        for i in range(n):
-            for j in range(n):
-                J[(1 + row) * n + i, (1 + col) * n + j] = inv_phi[i] * products[block, i, j]
-    for i in range(n):  # the advection -w D u, -w D w
-        adv = interior[i] * w[i]
         for j in range(n):
+            for i in range(n):
+                J[(1 + row) * n + i, (1 + col) * n + j] = inv_phi[i] * products[block, i, j]
+    for j in range(n):  # the advection -w D u, -w D w
+        for i in range(n):
+            adv = interior[i] * w[i]
             J[n + i, n + j] -= adv * D[i, j]
             J[2 * n + i, 2 * n + j] -= adv * D[i, j]
+    for i in range(n):
         J[n + i, 2 * n + i] -= interior[i] * uz[i]
         J[2 * n + i, 2 * n + i] -= interior[i] * wz[i]
