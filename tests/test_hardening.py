@@ -388,3 +388,19 @@ def test_rheology_default_is_shown():
     parser = cli.make_parser()
     text = dict(_subparsers(parser))[("run",)].format_help()
     assert "default: icidr" in text
+
+
+@pytest.mark.parametrize("engine", ["native", "pde"])
+def test_one_bad_phi0_is_reported_as_one_value(capsys, engine):
+    """A scalar --phi0 outside (0, phi_c) is echoed as the number given, not as a range."""
+    status = cli.main(["run", "--phi0", "0.9", "--N", "9", "--t-end", "0.1", "--no-progress", "--engine", engine])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.rstrip().endswith("`--phi0` must lie in (0, phi_c) = (0, 0.817); got 0.9"), err
+
+
+def test_a_bad_phi_profile_is_reported_by_its_range():
+    from icidr_pde.rheology import get_rheology
+
+    with pytest.raises(ValueError, match=r"got values in \[0.5, 0.9\]$"):
+        get_rheology("icidr").material.check_phi(np.array([0.5, 0.9]), "phi")
