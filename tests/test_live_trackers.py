@@ -46,7 +46,32 @@ def test_progress_failure_stops_at_t_star_and_says_why():
                                                               "stop_reason": "step size underflow"}})
     assert bar.phase == "failed" and bar.bar.n == pytest.approx(0.01486)
     last = stream.getvalue().rsplit("\r", 1)[-1]
-    assert "FAILED at t* = 0.01486: step size underflow" in last and "100%" not in last
+    assert "FAILED at t* = 0.01486 (step size underflow)" in last and "100%" not in last
+    assert "t = 0.01486/10 [" in last and ": :" not in last  # the bar shows the failure time
+
+
+def test_progress_shows_the_time_without_a_stray_separator():
+    """tqdm puts ", " before {postfix}: the time must read "t = 0/1", "t = 0.5/1"."""
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream, log_interval=0)
+    _drive(bar, _state(), [0.0, 0.5], {"controller": {"successful": True, "t_final": 1.0}})
+    lines = [line.strip() for line in stream.getvalue().replace("\n", "\r").split("\r") if line.strip()]
+    assert lines[0].startswith("compiling:") and "t = 0/1 [" in lines[0]
+    assert any(line.startswith("integrating (compiled in 1.2 s)") and "t = 0.5/1 [" in line for line in lines)
+    assert lines[-1].startswith("done: 100%") and "t = 1/1 [" in lines[-1]
+    assert not any("t = ," in line for line in lines)
+
+
+@pytest.mark.parametrize("stop, outcome", [({"successful": False, "stop_reason": "User interrupted simulation"},
+                                            "interrupted at t = 0.25"),
+                                           ({"successful": True, "stop_reason": "timeout after 1 s wall"},
+                                            "stopped at t = 0.25 (timeout after 1 s wall)")])
+def test_progress_of_a_run_ended_early_says_so(stop, outcome):
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream)
+    _drive(bar, _state(), [0.0, 0.25], {"controller": {"t_final": 0.25, **stop}})
+    last = stream.getvalue().rsplit("\r", 1)[-1]
+    assert last.startswith(outcome) and "done" not in last and "t = 0.25/1 [" in last
 
 
 def test_progress_needs_t_end_without_interrupts():
@@ -98,7 +123,29 @@ def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
     err = capsys.readouterr().err
     last = err.rsplit("\r", 1)[-1]
     assert f"FAILED at t* = {res.t_star:.5g}" in last and "100%" not in last and "compiling" in err
+    assert f"t = {res.t_star:.4g}/1 [" in last
     import imageio_ffmpeg
 
     n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
     assert n_frames == np.sum(frame_times(1.0, 0.01) <= res.t_star) + 1  # frames before t*, and t*
+
+
+def test_native_progress_ends_at_the_failure_time(capsys):
+    """The native engine's bar (the same TimeBar): a failed run ends at t* with the reason."""
+    from icidr_pde.native import run_native
+
+    res = run_native("mui", "shear", 201, 10.0, [0], progress=True)
+    assert res.blew_up
+    last = capsys.readouterr().err.rsplit("\r", 1)[-1]
+    assert last.startswith(f"FAILED at t* = {res.t_star:.5g} (") and ": :" not in last
+    assert f"t = {res.t_star:.4g}/10 [" in last and "100%" not in last
+
+
+def test_native_progress_of_a_run_that_ends_says_done(capsys):
+    from icidr_pde.native import run_native
+
+    res = run_native("icidr", "shear", 21, 0.5, progress=True)
+    assert not res.blew_up
+    err = capsys.readouterr().err
+    assert "integrating (native, ready in" in err
+    assert err.rsplit("\r", 1)[-1].startswith("done: 100%") and "t = 0.5/0.5 [" in err and "t = ," not in err
