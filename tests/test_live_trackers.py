@@ -120,8 +120,9 @@ def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
     res = run("mui", "shear", 101, 1.0, [0], method="BDF", rtol=1e-6, atol=1e-9, progress=True,
               movie=str(path), frame_dt=0.01)
     assert res.blew_up
-    err = capsys.readouterr().err
-    last = err.rsplit("\r", 1)[-1]
+    err, frames_bar = capsys.readouterr().err.split("m.mp4: frames", 1)  # the movie's bar comes after the run's
+    assert "100%" in frames_bar
+    last = err.rstrip("\r").rsplit("\r", 1)[-1]
     assert f"FAILED at t* = {res.t_star:.5g}" in last and "100%" not in last and "compiling" in err
     assert f"t = {res.t_star:.4g}/1 [" in last
     import imageio_ffmpeg
