@@ -196,6 +196,7 @@ class LivePlotTracker(TrackerBase):
         super().__init__(interrupts=interrupts)
         self.z = np.asarray(z, dtype=float)
         self.t_end = float(t_end)
+        self._t_range = (dense_times(self.t_end)[1], self.t_end)  # the first time after 0 to t_end
         self.chi = chi
         self.max_overhead = max_overhead
         self.title = title
@@ -214,6 +215,7 @@ class LivePlotTracker(TrackerBase):
     # -- figure ---------------------------------------------------------------------------
     def _make_figure(self):
         import matplotlib
+        from matplotlib.ticker import LogFormatter
 
         interactive = matplotlib.get_backend().lower() not in {
             "agg", "pdf", "ps", "svg", "cairo", "template", "module://matplotlib_inline.backend_inline"}
@@ -238,11 +240,14 @@ class LivePlotTracker(TrackerBase):
             (self._lines[name],) = ax.plot(self.z, np.zeros_like(self.z), color="k")
             ax.set_xlabel("z")
             ax.set_ylabel(name)
-        ax = axes[3]
-        (self._lines["max_w"],) = ax.semilogy([], [], color="tab:red")
+        ax = axes[3]  # log t: a mu(I) blow-up at t ~ 1e-2 of t_end = 10 is visible (t = 0 is not drawn)
+        (self._lines["max_w"],) = ax.loglog([], [], color="tab:red")
+        for axis in (ax.xaxis, ax.yaxis):  # plain "1e-2" labels: narrower and quicker than mathtext
+            axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
+            axis.set_minor_formatter(LogFormatter(labelOnlyBase=True))
         ax.set_xlabel("t")
         ax.set_ylabel("max|w|")
-        ax.set_xlim(0, self.t_end)
+        ax.set_xlim(*self._t_range)
         if self.chi is not None:
             ax = axes[4]
             (self._lines["chi"],) = ax.plot([], [], color="tab:purple")
@@ -251,7 +256,8 @@ class LivePlotTracker(TrackerBase):
             ax.set_ylabel(r"$\chi$ (A18)")
         self._axes = axes
         self._suptitle = fig.suptitle(self.title, fontsize=10)
-        fig.subplots_adjust(left=0.05, right=0.99, bottom=0.17, top=0.85, wspace=0.4)  # fixed: no re-layout
+        # fixed (no re-layout per redraw), wide enough for tick labels of the form -0.0005 and 1e-10
+        fig.subplots_adjust(left=0.06, right=0.99, bottom=0.17, top=0.85, wspace=0.6)
         return fig
 
     def _draw(self, data, t: float, status: str = "") -> None:
@@ -265,7 +271,7 @@ class LivePlotTracker(TrackerBase):
         for ax in self._axes:
             ax.relim()
             ax.autoscale_view()
-        self._axes[3].set_xlim(0, self.t_end)
+        self._axes[3].set_xlim(*self._t_range)
         self._suptitle.set_text(f"{self.title}  t = {t:.5g}{status}")
         if self._mode == "jupyter":
             if self._handle is None:

@@ -150,3 +150,37 @@ def test_native_progress_of_a_run_that_ends_says_done(capsys):
     err = capsys.readouterr().err
     assert "integrating (native, ready in" in err
     assert err.rsplit("\r", 1)[-1].startswith("done: 100%") and "t = 0.5/0.5 [" in err and "t = ," not in err
+
+
+def _overlap(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_live_plot_shows_an_early_blow_up_and_labels_clear_of_the_ticks():
+    """The max|w| panel spans decades of t (a mu(I) failure at t ~ 1e-2 of t_end = 10 is not squashed
+    into the first pixel column), and no y-label overlaps a tick label or the panel to its left."""
+    state = _state()
+    live = LivePlotTracker(state.grid.axes_coords[0], 10.0, interrupts=0.001, show=False,
+                           chi=lambda data: (state.grid.axes_coords[0], data[2]))
+    info = {"controller": {"t_start": 0.0, "t_end": 10.0}, "solver": {}}
+    live.initialize(state, info=info)
+    for t in (0.0, 0.001, 0.005, 0.01):
+        state.data[2] *= 10.0
+        live.handle(state, t)
+    live.finalize(info={"controller": {"successful": False, "t_final": 0.0148, "stop_reason": "x",
+                                       "state_data": state.data * 1e6}})
+    ax = live._axes[3]
+    x_fraction = ax.transAxes.inverted().transform(ax.transData.transform((0.0148, 1.0)))[0]  # t* along the t axis
+    assert 0.25 < x_fraction < 0.75, x_fraction
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(live.fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for k, ax in enumerate(live._axes):
+        label = ax.yaxis.label.get_window_extent(renderer)
+        ticks = [t.get_window_extent(renderer) for t in ax.get_yticklabels() if t.get_text()]
+        assert ticks and not any(_overlap(label, t) for t in ticks), k
+        if k:
+            left = live._axes[k - 1].get_tightbbox(renderer)
+            assert label.x0 >= left.x1, k
