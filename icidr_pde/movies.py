@@ -338,22 +338,22 @@ class MovieSpec:
 # ode15s-like settings as in the paper: BDF, rtol 1e-6, atol 1e-9.
 _PAPER = dict(method="BDF", rtol=1e-6, atol=1e-9)
 MOVIES = {
-    "movie1": MovieSpec("movie1", "mu(I),Phi(I), IC (3.16), finite differences N = 201: blow-up (fig 3a)",
+    "movie1": MovieSpec("movie1", "mu(I),Phi(I), IC (3.16), finite volumes N = 201: blow-up (fig 3a)",
                         dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
                         frame_dt=2.5e-4),
     "movie2": MovieSpec("movie2", "mu(I),Phi(I), IC (3.16), Chebyshev N = 201: blow-up (fig 3b)",
                         dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
                         frame_dt=2.5e-4),
-    "movie3": MovieSpec("movie3", "mu(I),Phi(I), IC (3.16), finite differences N = 47: decays (fig 3c)",
+    "movie3": MovieSpec("movie3", "mu(I),Phi(I), IC (3.16), finite volumes N = 47: decays (fig 3c)",
                         dict(rheology="mui", scene="shear", N=47, t_end=10.0, discretization="fd", **_PAPER),
                         frame_dt=0.1),
-    "movie4": MovieSpec("movie4", "iCIDR, IC (3.16), finite differences N = 201 (fig 6)",
+    "movie4": MovieSpec("movie4", "iCIDR, IC (3.16), finite volumes N = 201 (fig 6)",
                         dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
                         frame_dt=0.1),
     "movie5": MovieSpec("movie5", "iCIDR, IC (3.16), Chebyshev N = 201 (fig 6)",
                         dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
                         frame_dt=0.1),
-    "movie6": MovieSpec("movie6", "iCIDR, IC (5.7), finite differences N = 201 (fig 7)",
+    "movie6": MovieSpec("movie6", "iCIDR, IC (5.7), finite volumes N = 201 (fig 7)",
                         dict(rheology="icidr", scene="sine", N=201, t_end=20.0, discretization="fd", **_PAPER),
                         frame_dt=0.2),
 }

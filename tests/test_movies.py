@@ -146,3 +146,11 @@ def test_a_movie_draws_its_figure_in_full_a_fixed_number_of_times(tmp_path, monk
     few = count(3)
     assert count(30) == few <= 2
     assert count(30, "blow-up") == few + 1
+
+
+def test_movie_captions_name_the_scheme_as_the_discretization_does():
+    from icidr_pde.discretizations import DISCRETIZATIONS
+
+    for spec in MOVIES.values():
+        label = DISCRETIZATIONS[spec.run["discretization"]].label
+        assert label in spec.caption and "differences" not in spec.caption, spec.name
