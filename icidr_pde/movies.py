@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 from pde.trackers.base import TrackerBase
 
+from .progress import short_reason
+
 __all__ = ["MOVIES", "MOVIES_2D", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
            "frame_times", "write_field_movie", "movie_from_results_2d"]
 
@@ -42,8 +44,8 @@ def ffmpeg_exe() -> str | None:
         return None
 
 
-#: imageio-ffmpeg's quality, 1-10 (8: H.264 crf 10, thin lines stay sharp)
-MP4_QUALITY = 8
+#: imageio-ffmpeg's quality, 1-10 (6: H.264 crf 20, about the size of ffmpeg's default crf 23)
+MP4_QUALITY = 6
 
 
 DEFAULT_FRAMES = 200  # frames of the uniform part of the default schedule
@@ -115,7 +117,7 @@ class _FrameFigure:
         if note:  # the failure state: its values can be far outside the regular frames
             for k, ax in enumerate(self.axes[:3]):
                 ax.relim()
-                ax.autoscale_view()
+                ax.autoscale(axis="y")  # on again: the limits of the regular frames were set by hand
         if t > 0:
             self.marker.set_data([t], [np.interp(t, self.max_w_t, self.max_w)])
         self.suptitle.set_text(f"{self.title}    t = {t:.4g}{note}")
@@ -240,7 +242,7 @@ def _write_movie(fig, path, suffix, fps, add_frames, *, animated=(), n_frames=No
 def _add_frames(plot, times, frames, failed_reason, grab):
     last = len(times) - 1
     for k, (t, frame) in enumerate(zip(times, frames)):
-        note = f"  FAILED at t* ({failed_reason})" if failed_reason and k == last else ""
+        note = f"  FAILED at t* ({short_reason(failed_reason)})" if failed_reason and k == last else ""
         grab(plot.fig, plot.update(t, frame, note))
 
 

@@ -154,3 +154,19 @@ def test_movie_captions_name_the_scheme_as_the_discretization_does():
     for spec in MOVIES.values():
         label = DISCRETIZATIONS[spec.run["discretization"]].label
         assert label in spec.caption and "differences" not in spec.caption, spec.name
+
+
+def test_the_failure_frame_shows_the_state_at_t_star(tmp_path, monkeypatch):
+    """The last frame of a failed run is rescaled to the state at t* (1e6 times the regular frames here)
+    and its title gives the head of the reason."""
+    import icidr_pde.movies as movies
+
+    plots = []
+    figure = movies._FrameFigure
+    monkeypatch.setattr(movies, "_FrameFigure", lambda *a: plots.append(figure(*a)) or plots[-1])
+    z, times, frames = _frames(n=4)
+    frames[-1, 2] *= 1e6
+    write_movie(tmp_path / "m.mp4", z, times, frames, failed_reason="integrator failed (a long message)")
+    plot = plots[0]
+    assert plot.axes[2].get_ylim()[1] >= np.max(frames[-1, 2])
+    assert plot.suptitle.get_text().endswith("FAILED at t* (integrator failed)")
