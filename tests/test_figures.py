@@ -215,3 +215,15 @@ def test_draft_never_overwrites_the_committed_gallery(tmp_path, monkeypatch, cap
     assert (gallery / "numbers.json").read_text() == committed and not (gallery / "fig8.png").exists()
     assert main(["figures", "--draft", "--only", "fig8", "--out", "docs/figures", "--force"]) == 0
     assert json.loads((gallery / "numbers.json").read_text())["figures"]["fig8"]["draft"] is True
+
+
+def test_tstar_plot_names_the_scheme_as_the_discretization_does(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from icidr_pde.studies.plots import plot_tstar
+
+    legends = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: legends.extend(
+        t.get_text() for ax in self.axes if ax.get_legend() for t in ax.get_legend().get_texts()))
+    plot_tstar({"fd": {"61": 0.66, "59": None}}, str(tmp_path / "t.png"), t_end=20.0)
+    assert any(text.startswith("finite volumes, all fail for N >= 61") for text in legends), legends
