@@ -96,7 +96,8 @@ def _view_trackers(case: Case, t_end, progress, live_plot, movie, frame_dt) -> l
                 return z_s, case.pde.rheology.chi(phi, uz, wz)
         trackers.append(LivePlotTracker(case.nodes(), t_end, chi=chi, title=title))
     if movie:  # rendered by run() after the timing
-        trackers.append(MovieTracker(movie, case.nodes(), t_end, frame_dt, title=title, write_on_finalize=False))
+        trackers.append(MovieTracker(movie, case.nodes(), t_end, frame_dt, title=title, write_on_finalize=False,
+                                     progress=progress))
     return trackers
 
 

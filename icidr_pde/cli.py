@@ -209,7 +209,8 @@ def add_run_parser(subparsers):
 
     p = subparsers.add_parser(
         "run", help="run one scene with one rheology",
-        description="Integrate the 1-D shear cell (3.9) with one rheology from one initial condition; "
+        description="Integrate the shear cell (3.9), 1-D, or 2-D x-periodic with a 2-D scene (cells: --Nx, --Nz), "
+                    "with one rheology from one initial condition; "
                     "print the outcome and optionally write a JSON summary, a figure and the snapshots.\n"
                     "exit status: 0 reached --t-end; 2 bad input; 3 failed (blow-up, state left "
                     "(0, phi_c)); 4 an output could not be written; 130/143 interrupted (SIGINT/SIGTERM).")
@@ -219,7 +220,9 @@ def add_run_parser(subparsers):
                         "*.py (a Python program: it is RUN with your rights; only files you would run yourself; "
                         "see docs/security.md and `law check`)")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear",
-                   help="initial condition: shear (3.16) or sine (5.7)")
+                   help="initial condition; " + "; ".join(
+                       f"{dim}-D: " + ", ".join(sorted(n for n, c in SCENES.items() if getattr(c, "dim", 1) == dim))
+                       for dim in (1, 2)) + " (shear: (3.16), sine: (5.7))")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
                    help="preset for discretization, N, method and tolerances (measured: see README)")
     p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
@@ -364,7 +367,7 @@ def make_parser(commands=None) -> argparse.ArgumentParser:
     top-level ``--help`` and for the choices of an unknown command.
     """
     parser = Parser(
-        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the 1-D shear cell (Schaeffer et al. 2019)",
+        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the shear cell, 1-D and 2-D x-periodic (Schaeffer et al. 2019)",
         epilog="exit status: 0 success, 2 bad input, 3 run failed, 4 output not written, "
                "130/143 interrupted")
     subparsers = parser.add_subparsers(dest="command", required=True, parser_class=Parser)

@@ -19,6 +19,9 @@ the blow-ups of fig 3(a,b) snapshots every 0.0025 up to t*.
 
 ``draft=True`` (tests, notebooks in CI) replaces N = 201 by N = 101 and keeps every
 other setting: the same figures, qualitatively the same findings, a fraction of the cost.
+``icidr-pde figures --draft`` writes into ``figures-draft/`` (:data:`DRAFT_OUT`), never over
+the committed gallery ``docs/figures`` unless told to (``--out docs/figures --force``); its
+headings and movie titles name the grids drawn (:func:`at_resolution`).
 
 Adding a figure: define its runs in :data:`RUNS` (or compute them inside the drawing
 function, cached in the :class:`RunCache`) and decorate the drawing function with
@@ -33,6 +36,7 @@ run on the small grids); the 2-D movie ``movie2d`` is drawn from ``bump2d``'s ru
 from __future__ import annotations
 
 import json
+import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -43,13 +47,15 @@ import numpy as np
 from .datafiles import data_dir
 
 __all__ = ["FIGURES", "RUNS", "FigureSpec", "RunCache", "register_figure", "make_figures", "make_movies",
-           "positive_intervals", "add_parser", "DATA"]
+           "positive_intervals", "sign_changes", "chi_infinite_z", "at_resolution", "add_parser", "DATA"]
 
 DATA = data_dir()  # the committed results (repository data/, or icidr_pde/data in a wheel)
 PAPER_TSTAR_CHEB = 0.01052  # fig 4(a) caption
 PAPER_SETTINGS = dict(method="BDF", rtol=1e-6, atol=1e-9)  # ode15s-like
 FIG6_TIMES = (0.0, 0.5, 1.0, 2.0, 5.0, 10.0)
 FIG7_TIMES = (0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0)
+GALLERY = "docs/figures"  # the committed gallery (paper resolution)
+DRAFT_OUT = "figures-draft"  # where `icidr-pde figures --draft` writes unless told otherwise
 BLOWUP_DT = 2.5e-4  # snapshot interval of the mu(I) fine runs (figure lines every 0.0025, movie frames)
 
 
@@ -114,6 +120,16 @@ class RunCache:
         return self._results[key]
 
 
+def at_resolution(text: str, draft: bool) -> str:
+    """`text`, which names the paper's grids (N = 201), with each N read as the one a draft
+    run uses (:data:`RUNS`: N = 201 -> 101; N = 47 stays)."""
+    if not draft:
+        return text
+    for paper, drafted in {spec.N for spec in RUNS.values() if spec.N[0] != spec.N[1]}:
+        text = re.sub(rf"\b{paper}\b", str(drafted), text)
+    return text
+
+
 # --- registry ----------------------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -127,6 +143,18 @@ class FigureSpec:
     dims: str = "1d"
     source: str = "computed"  # or a committed data file
     command: str = field(default="")
+
+    def heading(self, numbers: dict, draft: bool = False) -> str:
+        """The one-line caption, its ``{fields}`` filled from the figure's `numbers` (counts
+        that come from the data), at the resolution drawn (:func:`at_resolution`)."""
+        return at_resolution(self.caption.format_map(_Unknown(numbers)), draft)
+
+
+class _Unknown(dict):
+    """Numbers for a caption; a field a figure's (older) numbers lack reads "?"."""
+
+    def __missing__(self, key):
+        return "?"
 
 
 FIGURES: dict[str, FigureSpec] = {}
@@ -165,6 +193,23 @@ def positive_intervals(z, values) -> list[list[float]]:
     return intervals
 
 
+def sign_changes(x, y) -> list[float]:
+    """The zeros of the piecewise-linear interpolant of y(x): each x where y is 0 at a node, and
+    x0 - y0 (x1 - x0) / (y1 - y0) between neighbours x0, x1 where y changes sign."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    k = np.nonzero(y[:-1] * y[1:] < 0)[0]
+    between = x[k] - y[k] * (x[k + 1] - x[k]) / (y[k + 1] - y[k])
+    return sorted(float(r) for r in np.concatenate([x[y == 0], between]))
+
+
+def chi_infinite_z(result, k=0) -> list[float]:
+    """Where chi (A18) of snapshot `k` is infinite: its denominator |u_z| vanishes where u_z, the
+    face gradient of u (finite volumes: (u_i+1 - u_i) / (z_i+1 - z_i) at the face between), changes
+    sign; located between faces by linear interpolation. On no node is chi exactly infinite."""
+    z, u = np.asarray(result.z), np.asarray(result.u[k])
+    return sign_changes(0.5 * (z[1:] + z[:-1]), np.diff(u) / np.diff(z))
+
+
 def _snapshot(result, t):
     """Index of the snapshot at time t (exact match of a requested time)."""
     k = int(np.argmin(np.abs(result.times - t)))
@@ -175,6 +220,13 @@ def _snapshot(result, t):
 
 def _colors(n):
     return _plt().cm.viridis(np.linspace(0, 0.85, max(n, 1)))
+
+
+def _scheme(result) -> str:
+    """The discretization's name in labels ("finite volumes", "Chebyshev")."""
+    from .discretizations import DISCRETIZATIONS
+
+    return DISCRETIZATIONS[result.discretization].label
 
 
 def _tstar_label(result):
@@ -258,15 +310,15 @@ def fig3(runs):
     plt = _plt()
     fd, cheb, coarse = runs["mui-fd-fine"], runs["mui-cheb-fine"], runs["mui-fd-coarse"]
     fig, axes = plt.subplots(1, 3, figsize=(14, 4))
-    _blowup_panel(axes[0], fd, "a", f"finite differences, N = {fd.N}: {_tstar_label(fd)}")
-    _blowup_panel(axes[1], cheb, "b", f"Chebyshev, N = {cheb.N}: {_tstar_label(cheb)}")
+    _blowup_panel(axes[0], fd, "a", f"{_scheme(fd)}, N = {fd.N}: {_tstar_label(fd)}")
+    _blowup_panel(axes[1], cheb, "b", f"{_scheme(cheb)}, N = {cheb.N}: {_tstar_label(cheb)}")
     ax = axes[2]
     shown = [t for t in FIG6_TIMES if t > 0]
     for t, c in zip(shown, _colors(len(shown))):
         ax.plot(coarse.z, coarse.w[_snapshot(coarse, t)], color=c, label=f"t = {t:g}")
     ax.plot(coarse.z, coarse.w[0], "k--", lw=1.2, label="t = 0 (3.16)")
     ax.set(xlabel="z", ylabel="w", xlim=(0, 30),
-           title=f"(c) finite differences, N = {coarse.N}: {_tstar_label(coarse)}")
+           title=f"(c) {_scheme(coarse)}, N = {coarse.N}: {_tstar_label(coarse)}")
     ax.legend(fontsize=7)
     fig.tight_layout()
     return fig, {"t_star_fd_fine": fd.t_star, "t_star_cheb_fine": cheb.t_star, "N_fine": fd.N,
@@ -297,8 +349,7 @@ def fig4(runs):
                            ("mui-fd-coarse", "tab:blue", "--"), ("mui-cheb-coarse", "tab:blue", "-")):
         res = runs[key]
         keep = res.max_w_t > 0
-        name = "finite differences" if res.discretization == "fd" else "Chebyshev"
-        ax.loglog(res.max_w_t[keep], res.max_w[keep], ls=ls, color=color, label=f"{name}, N = {res.N}")
+        ax.loglog(res.max_w_t[keep], res.max_w[keep], ls=ls, color=color, label=f"{_scheme(res)}, N = {res.N}")
         if res.blew_up:  # the value at t* (1e6-1e10) is off the axis: the cross sits at its top
             ax.plot([res.t_star], [min(res.max_w[-1], 5.0)], "x", color=color, ms=8, clip_on=False)
         numbers[f"t_star_{key}"] = res.t_star
@@ -308,7 +359,8 @@ def fig4(runs):
         ax.axvline(cheb.t_star, color="k", lw=0.7)
         ax.annotate(f"Chebyshev t* = {cheb.t_star:.4g}\n(paper, N = 201: {PAPER_TSTAR_CHEB})", (cheb.t_star, 0.5),
                     xycoords=("data", "axes fraction"), xytext=(4, 0), textcoords="offset points", fontsize=8)
-    ax.set(xlabel="t", ylabel="max|w|", title="(a)  x: failure", xlim=(1e-4, 10), ylim=(1e-4, 5))
+    ax.plot([], [], "x", color="k", ms=8, label="failure at t* (max|w| off the axis)")
+    ax.set(xlabel="t", ylabel="max|w|", title="(a) max|w|(t) of the four runs", xlim=(1e-4, 10), ylim=(1e-4, 5))
     ax.legend(fontsize=8, loc="lower left")
     ax = axes[1]
     N, t = _load_tstar("mui_shear_cheb_BDF_rtol1e-6_atol1e-9.json")
@@ -415,7 +467,7 @@ def fig7(runs):
     z_chi, chi = fine.chi_z, fine.chi[0]
     intervals = positive_intervals(z_chi, chi)
     ax.plot(z_chi, np.where(np.isfinite(chi), chi, np.nan), "k")
-    inf_z = z_chi[np.isinf(chi)]
+    inf_z = chi_infinite_z(fine)
     for a, b in intervals:
         ax.axvspan(a, b, color="tab:red", alpha=0.15)
     for zi in inf_z:
@@ -494,7 +546,8 @@ def fig1(runs):
                  "max_abs_phi_minus_table1": residual_phi, "fit": summary.get("fit"), **numbers}
 
 
-@register_figure("fig8", "iCIDR (Table 1) against the mean of 10 DEM runs from IC (5.7): phi, u, w and max|w|(t)",
+@register_figure("fig8", "iCIDR (Table 1) against the mean of {dem_runs} DEM runs from IC (5.7): phi, u, w and "
+                 "max|w|(t)",
                  "Fig 8: (a-c) phi, u, w profiles, DEM mean (circles) +- std (bars) against iCIDR; (d) max|w|(t)",
                  source="data/dem/transient_ensemble.npz")
 def fig8(runs):
@@ -514,13 +567,14 @@ def fig8(runs):
     axes[0].legend(fontsize=6)
     ax = axes[3]
     icidr_max = np.max(np.abs(ens["icidr_table1_w"]), axis=1)
-    ax.plot(tt, ens["max_w"], "ko", mfc="none", ms=3, label=f"DEM mean of {int(ens['repeats'])} runs")
+    repeats = int(ens["repeats"])
+    ax.plot(tt, ens["max_w"], "ko", mfc="none", ms=3, label=f"DEM mean of {repeats} runs")
     ax.plot(tt, icidr_max, color="tab:red", label="iCIDR (Table 1), same bins")
     ax.set(xlabel="t", ylabel="max|w| (2d bins)", yscale="log", title="(d)")
     ax.legend(fontsize=8)
     fig.tight_layout()
     summary = json.loads((DATA / "dem" / "transient.json").read_text())
-    return fig, {"rel_error_table1_max": summary["rel_error_table1_summary"]["max"],
+    return fig, {"dem_runs": repeats, "rel_error_table1_max": summary["rel_error_table1_summary"]["max"],
                  "secondary_max_w_peak": summary.get("secondary_max_w_peak")}
 
 
@@ -896,7 +950,7 @@ def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, ru
     for name in names:
         start = time.perf_counter()
         if verbose:
-            print(f"{name}: {FIGURES[name].caption}", flush=True)
+            print(f"{name} ...", flush=True)
         fig, nums = FIGURES[name].draw(runs)
         path = out / f"{name}.png"
         fig.savefig(path, dpi=dpi)
@@ -904,7 +958,7 @@ def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, ru
         nums = {"png": path.name, "seconds": round(time.perf_counter() - start, 2), "draft": draft, **nums}
         numbers[name] = nums
         if verbose:
-            print(f"  -> {path} ({nums['seconds']} s)")
+            print(f"  {FIGURES[name].heading(nums, draft)} -> {path} ({nums['seconds']} s)")
     return numbers
 
 
@@ -945,9 +999,10 @@ def make_movies(only=None, out="docs/figures", *, draft=False, runs: RunCache | 
         res = runs[key_of[name]]
         start = time.perf_counter()
         path = movie_from_result(res, Path(out) / f"{name}{suffix}", frame_dt=spec.frame_dt,
-                                 title=f"movie {name[5:]}: {spec.caption}" + (" [draft]" if draft else ""))
+                                 title=f"movie {name[5:]}: {at_resolution(spec.caption, draft)}"
+                                       + (" [draft]" if draft else ""))
         written[name] = {"file": path.name, "frame_dt": spec.frame_dt, "seconds": round(time.perf_counter() - start, 1),
-                         "t_star": res.t_star}
+                         "t_star": res.t_star, "draft": draft}
         if verbose:
             print(f"{name}: {path} ({written[name]['seconds']} s)")
     return written
@@ -976,7 +1031,7 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
     lines = ["# Figures of Schaeffer et al. (2019), recomputed", "",
              "Generated by `icidr-pde figures` (this page too: do not edit by hand). Each figure names the command "
              "that redraws it and the numbers a reader compares with the paper. Settings: BDF, rtol 1e-6, "
-             "atol 1e-9 (ode15s-like), finite differences unless stated; the paper's captions give no snapshot "
+             "atol 1e-9 (ode15s-like), finite volumes unless stated; the paper's captions give no snapshot "
              "times, so we use those listed in `icidr_pde/figures.py`.", ""]
     if meta:
         lines += [f"Last full run: {meta.get('date', '?')}, {meta.get('total_s', 0):.0f} s wall on 2 shared cores "
@@ -986,7 +1041,7 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
         if name not in numbers:
             continue
         nums = numbers[name]
-        lines += [f"## {name}: {spec.caption}", "", f"![{name}]({nums['png']})", "",
+        lines += [f"## {name}: {spec.heading(nums, nums.get('draft', False))}", "", f"![{name}]({nums['png']})", "",
                   f"*Paper:* {spec.paper}.  ", f"*Command:* `{spec.command}`  (source: {spec.source}; "
                   f"{nums['seconds']} s{', draft' if nums.get('draft') else ''})", ""]
         shown = {k: v for k, v in nums.items() if k not in _HIDDEN}
@@ -1011,7 +1066,8 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
                   "| movie | content | frame interval | file |", "| --- | --- | --- | --- |"]
         for name, info in movies.items():
             spec = {**MOVIES, **MOVIES_2D}[name]
-            lines.append(f"| {name[5:]} | {spec.caption} | {info['frame_dt']:.4g} | [{info['file']}]({info['file']}) |")
+            caption = at_resolution(spec.caption, info.get("draft", False))
+            lines.append(f"| {name[5:]} | {caption} | {info['frame_dt']:.4g} | [{info['file']}]({info['file']}) |")
         lines.append("")
     path = out / "README.md"
     path.write_text("\n".join(lines))
@@ -1022,10 +1078,17 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
 
 def add_parser(subparsers):
     p = subparsers.add_parser("figures", help="redraw the paper's figures (and movies 1-6) into docs/figures")
+    p.description = ("Redraw the paper's figures (and movies) with numbers.json and a gallery page README.md. "
+                     f"A --draft run writes into {DRAFT_OUT}/ unless --out names another folder, and never "
+                     "into a folder holding a full-resolution gallery (docs/figures) without --force.")
     p.add_argument("--only", nargs="+", default=None, metavar="NAME",
                    help=f"figures to draw (default: all): {' '.join(FIGURES)}")
-    p.add_argument("--out", default="docs/figures", help="output folder (PNGs, numbers.json, README.md)")
+    p.add_argument("--out", default=None,
+                   help=f"output folder (PNGs, numbers.json, README.md) "
+                        f"(default: {GALLERY}, with --draft {DRAFT_OUT})")
     p.add_argument("--draft", action="store_true", help="N = 101 instead of 201 (same findings, a fraction of the cost)")
+    p.add_argument("--force", action="store_true",
+                   help="with --draft: write into --out even where it holds a full-resolution gallery")
     p.add_argument("--movies", nargs="*", default=None, metavar="MOVIE",
                    help="also write the movies (all, or those named: movie1 ... movie6, movie2d)")
     p.add_argument("--gif", action="store_true", help="movies as GIF instead of MP4")
@@ -1033,11 +1096,24 @@ def add_parser(subparsers):
     return p
 
 
+def _full_resolution(out: Path) -> bool:
+    """True where `out` holds a gallery (numbers.json) with a figure drawn at the paper's resolution."""
+    store = out / "numbers.json"
+    try:
+        figures = json.loads(store.read_text()).get("figures", {})
+    except (OSError, ValueError):
+        return False
+    return any(not nums.get("draft", False) for nums in figures.values())
+
+
 def cmd_figures(args) -> int:
     import datetime
 
     start = time.perf_counter()
-    out = Path(args.out)
+    out = Path(args.out if args.out is not None else DRAFT_OUT if args.draft else GALLERY)
+    if args.draft and not args.force and _full_resolution(out):
+        raise ValueError(f"`out` {out} holds a full-resolution gallery that a draft would overwrite: "
+                         f"omit --out (a draft goes to {DRAFT_OUT}), name another folder, or add --force")
     runs = RunCache(draft=args.draft, verbose=True)
     numbers = make_figures(args.only, out, draft=args.draft, runs=runs)
     movies = None

@@ -15,12 +15,12 @@ t)``, ``finalize(info)`` with ``info["controller"]``); a failed run reaches
 
 from __future__ import annotations
 
-import sys
 import time
 
 import numpy as np
 from pde.trackers.base import TrackerBase
 
+from .progress import TimeBar, in_jupyter
 from .times import dense_times
 
 __all__ = ["MaxWTracker", "ChiTracker", "ProgressBarTracker", "LivePlotTracker", "dense_times"]
@@ -81,18 +81,8 @@ class ChiTracker(TrackerBase):
         self.values.append(self.pde.rheology.chi(phi, uz, wz))
 
 
-def _in_jupyter() -> bool:
-    """True inside a Jupyter kernel (where figures are shown as rich outputs)."""
-    try:
-        from IPython import get_ipython
-    except ImportError:
-        return False
-    shell = get_ipython()
-    return shell is not None and "IPKernelApp" in getattr(shell, "config", {})
-
-
 class ProgressBarTracker(TrackerBase):
-    """Progress of a run as a tqdm.auto bar over simulated time (a widget in Jupyter,
+    """Progress of a run as a :class:`~icidr_pde.progress.TimeBar` over simulated time (a widget in Jupyter,
     one line in a terminal, a few lines in a log file).
 
     Phases: "compiling" from initialisation until the first step (py-pde initialises
@@ -125,64 +115,47 @@ class ProgressBarTracker(TrackerBase):
         self.t_end = t_end
         self.log_interval = log_interval
         self.file = file
-        self.bar = None
-        self.phase = "created"
+        self.time_bar: TimeBar | None = None
+        self.bar = None  # the tqdm bar
         self.compile_s: float | None = None
         self._info: dict = {}
         self._t_last = 0.0
 
     def initialize(self, field, info=None) -> float:
-        from tqdm.auto import tqdm
-
         result = super().initialize(field, info)
         self._info = info or {}
         controller = self._info.get("controller", {})
         self.t_end = float(self.t_end if self.t_end is not None else controller.get("t_end", 1.0))
-        stream = self.file if self.file is not None else sys.stderr
-        terminal = _in_jupyter() or getattr(stream, "isatty", lambda: False)()
-        self.bar = tqdm(total=self.t_end, initial=0.0, file=self.file, leave=True,
-                        mininterval=0.1 if terminal else self.log_interval,
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {postfix} [{elapsed}<{remaining}]")
-        self.bar.set_description_str("compiling", refresh=False)
-        self.bar.set_postfix_str(f"0/{self.t_end:g}")
-        self.phase = "compiling"
+        self.time_bar = TimeBar(self.t_end, "compiling", file=self.file, log_interval=self.log_interval)
+        self.bar = self.time_bar.bar
         self._t_compile = time.perf_counter()
         return result
+
+    @property
+    def phase(self) -> str:
+        return self.time_bar.phase if self.time_bar is not None else "created"
 
     def handle(self, field, t: float) -> None:
         if self.phase == "compiling":
             solver_info = self._info.get("solver", {})
             self.compile_s = solver_info.get("compile_s", time.perf_counter() - self._t_compile)
-            self.phase = "integrating"
-            self.bar.reset(total=self.t_end)  # rate and ETA count integration only
-            self.bar.set_description_str(f"integrating (compiled in {self.compile_s:.1f} s)", refresh=False)
+            self.time_bar.integrating(f"compiled in {self.compile_s:.1f} s")
         self._t_last = float(t)
-        self.bar.n = min(float(t), self.t_end)
-        self.bar.set_postfix_str(f"{t:.4g}/{self.t_end:g}")  # refreshes at most every mininterval
+        self.time_bar.advance(t)
 
     def finalize(self, info=None) -> None:
         super().finalize(info)
-        if self.bar is None:
+        if self.time_bar is None:
             return
         controller = (info or {}).get("controller", {})
         t_final = float(controller.get("t_final", self._t_last))
-        successful = controller.get("successful", t_final >= self.t_end * (1 - 1e-9))
-        if successful:
-            self.phase = "done"
-            self.bar.n = self.t_end
-            self.bar.set_description_str("done", refresh=False)
+        reached = t_final >= self.t_end * (1 - 1e-9)
+        reason = controller.get("stop_reason", "stopped early")
+        if controller.get("successful", reached):
+            outcome = "done" if reached else "stopped"  # a tracker ended it early (FinishedSimulation)
         else:
-            self.phase = "failed"
-            reason = controller.get("stop_reason", "stopped early")
-            self.bar.n = min(t_final, self.t_end)
-            self.bar.set_description_str(f"FAILED at t* = {t_final:.5g}: {reason}", refresh=False)
-            try:
-                self.bar.colour = "red"
-            except Exception:  # colour is cosmetic; older tqdm lacks it on some bars
-                pass
-        self.bar.set_postfix_str(f"{min(t_final, self.t_end):.4g}/{self.t_end:g}", refresh=False)
-        self.bar.refresh()
-        self.bar.close()
+            outcome = "interrupted" if "interrupted" in reason else "failed"
+        self.time_bar.close(t_final, outcome, "" if outcome == "done" else reason)
 
 
 class LivePlotTracker(TrackerBase):
@@ -223,6 +196,7 @@ class LivePlotTracker(TrackerBase):
         super().__init__(interrupts=interrupts)
         self.z = np.asarray(z, dtype=float)
         self.t_end = float(t_end)
+        self._t_range = (dense_times(self.t_end)[1], self.t_end)  # the first time after 0 to t_end
         self.chi = chi
         self.max_overhead = max_overhead
         self.title = title
@@ -241,10 +215,11 @@ class LivePlotTracker(TrackerBase):
     # -- figure ---------------------------------------------------------------------------
     def _make_figure(self):
         import matplotlib
+        from matplotlib.ticker import LogFormatter
 
         interactive = matplotlib.get_backend().lower() not in {
             "agg", "pdf", "ps", "svg", "cairo", "template", "module://matplotlib_inline.backend_inline"}
-        if self.show is not False and _in_jupyter():
+        if self.show is not False and in_jupyter():
             self._mode = "jupyter"
         elif self.show is not False and interactive:
             self._mode = "window"
@@ -265,11 +240,14 @@ class LivePlotTracker(TrackerBase):
             (self._lines[name],) = ax.plot(self.z, np.zeros_like(self.z), color="k")
             ax.set_xlabel("z")
             ax.set_ylabel(name)
-        ax = axes[3]
-        (self._lines["max_w"],) = ax.semilogy([], [], color="tab:red")
+        ax = axes[3]  # log t: a mu(I) blow-up at t ~ 1e-2 of t_end = 10 is visible (t = 0 is not drawn)
+        (self._lines["max_w"],) = ax.loglog([], [], color="tab:red")
+        for axis in (ax.xaxis, ax.yaxis):  # plain "1e-2" labels: narrower and quicker than mathtext
+            axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
+            axis.set_minor_formatter(LogFormatter(labelOnlyBase=True))
         ax.set_xlabel("t")
         ax.set_ylabel("max|w|")
-        ax.set_xlim(0, self.t_end)
+        ax.set_xlim(*self._t_range)
         if self.chi is not None:
             ax = axes[4]
             (self._lines["chi"],) = ax.plot([], [], color="tab:purple")
@@ -278,7 +256,8 @@ class LivePlotTracker(TrackerBase):
             ax.set_ylabel(r"$\chi$ (A18)")
         self._axes = axes
         self._suptitle = fig.suptitle(self.title, fontsize=10)
-        fig.subplots_adjust(left=0.05, right=0.99, bottom=0.17, top=0.85, wspace=0.4)  # fixed: no re-layout
+        # fixed (no re-layout per redraw), wide enough for tick labels of the form -0.0005 and 1e-10
+        fig.subplots_adjust(left=0.06, right=0.99, bottom=0.17, top=0.85, wspace=0.6)
         return fig
 
     def _draw(self, data, t: float, status: str = "") -> None:
@@ -292,7 +271,7 @@ class LivePlotTracker(TrackerBase):
         for ax in self._axes:
             ax.relim()
             ax.autoscale_view()
-        self._axes[3].set_xlim(0, self.t_end)
+        self._axes[3].set_xlim(*self._t_range)
         self._suptitle.set_text(f"{self.title}  t = {t:.5g}{status}")
         if self._mode == "jupyter":
             if self._handle is None:

@@ -12,7 +12,7 @@ import pytest
 from scipy.optimize import brentq
 
 from icidr_pde import run
-from icidr_pde.figures import (FIGURES, PAPER_SETTINGS, RunCache, make_figures, positive_intervals,
+from icidr_pde.figures import (DATA, FIGURES, PAPER_SETTINGS, RUNS, RunCache, make_figures, positive_intervals,
                                write_gallery, yield_ratio)
 from icidr_pde.rheology import ICIDR, Material
 
@@ -123,3 +123,107 @@ def test_fig4_paper_resolution_chebyshev_tstar(tmp_path):
     numbers = make_figures(["fig4"], tmp_path, verbose=False)
     assert numbers["fig4"]["t_star_mui-cheb-fine"] == pytest.approx(0.01052, rel=0.01)
     assert json.dumps(numbers)
+
+
+# --- labels that say what is drawn (issue 21) ----------------------------------------------------------------------
+
+
+def test_fig7_draws_chi_infinite_where_u_z_changes_sign():
+    """chi (A18) is infinite where its denominator |u_z| vanishes. For IC (5.7), u = z/H + a sin(2 pi z/H),
+    u_z = 0 at two points either side of the centre (brentq on the closed form); the figure finds them
+    between the faces to O(h^2) and draws one dotted line at each."""
+    runs = RunCache(draft=True)
+    fig, numbers = FIGURES["fig7"].draw(runs)
+    fine = runs["icidr-sine-fd-fine"]
+    H, a = fine.scene_params["H"], fine.scene_params["a"]
+
+    def u_z(z):
+        return 1 / H + a * 2 * np.pi / H * np.cos(2 * np.pi * z / H)
+
+    exact = [brentq(u_z, 0.4 * H, H / 2), brentq(u_z, H / 2, 0.6 * H)]
+    h = H / fine.N
+    assert numbers["chi_infinite_z"] == pytest.approx(exact, abs=h * h / 4)
+    dotted = [line.get_xdata()[0] for line in fig.axes[3].get_lines() if line.get_linestyle() == ":"]
+    assert dotted == pytest.approx(numbers["chi_infinite_z"])
+
+
+def test_sign_changes_interpolates_between_nodes():
+    from icidr_pde.figures import sign_changes
+
+    x = np.linspace(0, 1, 11)
+    assert sign_changes(x, x - 0.33) == pytest.approx([0.33])  # linear: exact
+    assert sign_changes(x, x - 0.3) == pytest.approx([0.3])  # a zero on a node, counted once
+    assert sign_changes(x, x + 1) == []
+
+
+def test_fig8_heading_counts_the_dem_runs_of_the_data(tmp_path):
+    ensemble = np.load(DATA / "dem" / "transient_ensemble.npz")
+    runs = int(ensemble["repeats"])
+    assert runs == json.loads((DATA / "dem" / "transient.json").read_text())["repeats"]
+    fig, numbers = FIGURES["fig8"].draw(RunCache(draft=True))
+    page = write_gallery({"fig8": {"png": "fig8.png", "seconds": 1.0, "draft": False, **numbers}}, tmp_path).read_text()
+    assert f"## fig8: iCIDR (Table 1) against the mean of {runs} DEM runs" in page
+
+
+def test_draft_headings_name_the_draft_grid(tmp_path):
+    """A draft is drawn at N = 101 (RUNS): its gallery headings must not say N = 201."""
+    drafted = {spec.N[1] for spec in RUNS.values()}
+    assert 201 not in drafted
+    numbers = {name: {"png": f"{name}.png", "seconds": 1.0, "draft": True, "dem_runs": 30} for name in FIGURES}
+    page = write_gallery(numbers, tmp_path).read_text()
+    headings = [line for line in page.splitlines() if line.startswith("## ")]
+    assert any("N = 101" in h for h in headings) and not any("201" in h for h in headings)
+    full = write_gallery({k: {**v, "draft": False} for k, v in numbers.items()}, tmp_path).read_text()
+    assert "N = 201 fails" in full
+
+
+class _FakeRun:
+    """Just what fig 4(a) reads of a Result."""
+
+    def __init__(self, discretization, N, t_star):
+        self.discretization, self.N, self.t_star, self.blew_up = discretization, N, t_star, t_star is not None
+        self.max_w_t = np.geomspace(1e-4, t_star or 10.0, 50)
+        self.max_w = 0.05 * np.exp(self.max_w_t / (t_star or 1e3) * 10)
+
+
+def test_fig4_legend_explains_the_failure_marks_and_names_finite_volumes():
+    runs = {"mui-fd-fine": _FakeRun("fd", 201, 0.0148), "mui-cheb-fine": _FakeRun("cheb", 201, 0.0105),
+            "mui-fd-coarse": _FakeRun("fd", 47, None), "mui-cheb-coarse": _FakeRun("cheb", 47, None)}
+    fig, _ = FIGURES["fig4"].draw(runs)
+    ax = fig.axes[0]
+    assert "x:" not in ax.get_title()
+    legend = {text.get_text(): handle for text, handle in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles)}
+    assert any("t*" in label and handle.get_marker() == "x" for label, handle in legend.items())
+    assert "finite volumes, N = 201" in legend and not any("differences" in label for label in legend)
+
+
+def test_draft_never_overwrites_the_committed_gallery(tmp_path, monkeypatch, capsys):
+    """`figures --draft` writes into figures-draft/ by default; into a folder holding a full-resolution
+    gallery only with --force."""
+    from icidr_pde.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    gallery = tmp_path / "docs" / "figures"
+    gallery.mkdir(parents=True)
+    committed = json.dumps({"meta": {}, "figures": {"fig8": {"png": "fig8.png", "draft": False}}})
+    (gallery / "numbers.json").write_text(committed)
+    assert main(["figures", "--draft", "--only", "fig8"]) == 0
+    assert (tmp_path / "figures-draft" / "fig8.png").is_file() and not (gallery / "fig8.png").exists()
+    assert main(["figures", "--draft", "--only", "fig8", "--out", "docs/figures"]) == 2
+    err = capsys.readouterr().err
+    assert "`--out` docs/figures holds a full-resolution gallery" in err and "--force" in err
+    assert (gallery / "numbers.json").read_text() == committed and not (gallery / "fig8.png").exists()
+    assert main(["figures", "--draft", "--only", "fig8", "--out", "docs/figures", "--force"]) == 0
+    assert json.loads((gallery / "numbers.json").read_text())["figures"]["fig8"]["draft"] is True
+
+
+def test_tstar_plot_names_the_scheme_as_the_discretization_does(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from icidr_pde.studies.plots import plot_tstar
+
+    legends = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: legends.extend(
+        t.get_text() for ax in self.axes if ax.get_legend() for t in ax.get_legend().get_texts()))
+    plot_tstar({"fd": {"61": 0.66, "59": None}}, str(tmp_path / "t.png"), t_end=20.0)
+    assert any(text.startswith("finite volumes, all fail for N >= 61") for text in legends), legends

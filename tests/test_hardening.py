@@ -388,3 +388,37 @@ def test_rheology_default_is_shown():
     parser = cli.make_parser()
     text = dict(_subparsers(parser))[("run",)].format_help()
     assert "default: icidr" in text
+
+
+def test_help_names_the_2d_cell_and_every_scene():
+    """2-D scenes run (scenes2d.py): the top-level and `run` help must not say the cell is 1-D only,
+    and --scene's help names every registered scene with its dimension."""
+    import re
+
+    from icidr_pde.scenes import SCENES
+
+    parser = cli.make_parser()
+    run_help = dict(_subparsers(parser))[("run",)]
+    for text in (parser.format_help(), run_help.format_help()):
+        flat = " ".join(text.split())
+        assert "1-D shear cell" not in flat and "2-D" in flat
+    scene_help = " ".join(next(a.help for a in run_help._actions if a.dest == "scene").split())
+    for dim in (1, 2):
+        listed = re.search(f"{dim}-D: ([a-z0-9, ]+)", scene_help).group(1).strip().split(", ")
+        assert sorted(listed) == sorted(n for n, c in SCENES.items() if getattr(c, "dim", 1) == dim)
+
+
+@pytest.mark.parametrize("engine", ["native", "pde"])
+def test_one_bad_phi0_is_reported_as_one_value(capsys, engine):
+    """A scalar --phi0 outside (0, phi_c) is echoed as the number given, not as a range."""
+    status = cli.main(["run", "--phi0", "0.9", "--N", "9", "--t-end", "0.1", "--no-progress", "--engine", engine])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.rstrip().endswith("`--phi0` must lie in (0, phi_c) = (0, 0.817); got 0.9"), err
+
+
+def test_a_bad_phi_profile_is_reported_by_its_range():
+    from icidr_pde.rheology import get_rheology
+
+    with pytest.raises(ValueError, match=r"got values in \[0.5, 0.9\]$"):
+        get_rheology("icidr").material.check_phi(np.array([0.5, 0.9]), "phi")

@@ -46,7 +46,32 @@ def test_progress_failure_stops_at_t_star_and_says_why():
                                                               "stop_reason": "step size underflow"}})
     assert bar.phase == "failed" and bar.bar.n == pytest.approx(0.01486)
     last = stream.getvalue().rsplit("\r", 1)[-1]
-    assert "FAILED at t* = 0.01486: step size underflow" in last and "100%" not in last
+    assert "FAILED at t* = 0.01486 (step size underflow)" in last and "100%" not in last
+    assert "t = 0.01486/10 [" in last and ": :" not in last  # the bar shows the failure time
+
+
+def test_progress_shows_the_time_without_a_stray_separator():
+    """tqdm puts ", " before {postfix}: the time must read "t = 0/1", "t = 0.5/1"."""
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream, log_interval=0)
+    _drive(bar, _state(), [0.0, 0.5], {"controller": {"successful": True, "t_final": 1.0}})
+    lines = [line.strip() for line in stream.getvalue().replace("\n", "\r").split("\r") if line.strip()]
+    assert lines[0].startswith("compiling:") and "t = 0/1 [" in lines[0]
+    assert any(line.startswith("integrating (compiled in 1.2 s)") and "t = 0.5/1 [" in line for line in lines)
+    assert lines[-1].startswith("done: 100%") and "t = 1/1 [" in lines[-1]
+    assert not any("t = ," in line for line in lines)
+
+
+@pytest.mark.parametrize("stop, outcome", [({"successful": False, "stop_reason": "User interrupted simulation"},
+                                            "interrupted at t = 0.25"),
+                                           ({"successful": True, "stop_reason": "timeout after 1 s wall"},
+                                            "stopped at t = 0.25 (timeout after 1 s wall)")])
+def test_progress_of_a_run_ended_early_says_so(stop, outcome):
+    stream = io.StringIO()
+    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream)
+    _drive(bar, _state(), [0.0, 0.25], {"controller": {"t_final": 0.25, **stop}})
+    last = stream.getvalue().rsplit("\r", 1)[-1]
+    assert last.startswith(outcome) and "done" not in last and "t = 0.25/1 [" in last
 
 
 def test_progress_needs_t_end_without_interrupts():
@@ -95,10 +120,67 @@ def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
     res = run("mui", "shear", 101, 1.0, [0], method="BDF", rtol=1e-6, atol=1e-9, progress=True,
               movie=str(path), frame_dt=0.01)
     assert res.blew_up
-    err = capsys.readouterr().err
-    last = err.rsplit("\r", 1)[-1]
+    err, frames_bar = capsys.readouterr().err.split("m.mp4: frames", 1)  # the movie's bar comes after the run's
+    assert "100%" in frames_bar
+    last = err.rstrip("\r").rsplit("\r", 1)[-1]
     assert f"FAILED at t* = {res.t_star:.5g}" in last and "100%" not in last and "compiling" in err
+    assert f"t = {res.t_star:.4g}/1 [" in last
     import imageio_ffmpeg
 
     n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
     assert n_frames == np.sum(frame_times(1.0, 0.01) <= res.t_star) + 1  # frames before t*, and t*
+
+
+def test_native_progress_ends_at_the_failure_time(capsys):
+    """The native engine's bar (the same TimeBar): a failed run ends at t* with the reason."""
+    from icidr_pde.native import run_native
+
+    res = run_native("mui", "shear", 201, 10.0, [0], progress=True)
+    assert res.blew_up
+    last = capsys.readouterr().err.rsplit("\r", 1)[-1]
+    assert last.startswith(f"FAILED at t* = {res.t_star:.5g} (") and ": :" not in last
+    assert f"t = {res.t_star:.4g}/10 [" in last and "100%" not in last
+
+
+def test_native_progress_of_a_run_that_ends_says_done(capsys):
+    from icidr_pde.native import run_native
+
+    res = run_native("icidr", "shear", 21, 0.5, progress=True)
+    assert not res.blew_up
+    err = capsys.readouterr().err
+    assert "integrating (native, ready in" in err
+    assert err.rsplit("\r", 1)[-1].startswith("done: 100%") and "t = 0.5/0.5 [" in err and "t = ," not in err
+
+
+def _overlap(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_live_plot_shows_an_early_blow_up_and_labels_clear_of_the_ticks():
+    """The max|w| panel spans decades of t (a mu(I) failure at t ~ 1e-2 of t_end = 10 is not squashed
+    into the first pixel column), and no y-label overlaps a tick label or the panel to its left."""
+    state = _state()
+    live = LivePlotTracker(state.grid.axes_coords[0], 10.0, interrupts=0.001, show=False,
+                           chi=lambda data: (state.grid.axes_coords[0], data[2]))
+    info = {"controller": {"t_start": 0.0, "t_end": 10.0}, "solver": {}}
+    live.initialize(state, info=info)
+    for t in (0.0, 0.001, 0.005, 0.01):
+        state.data[2] *= 10.0
+        live.handle(state, t)
+    live.finalize(info={"controller": {"successful": False, "t_final": 0.0148, "stop_reason": "x",
+                                       "state_data": state.data * 1e6}})
+    ax = live._axes[3]
+    x_fraction = ax.transAxes.inverted().transform(ax.transData.transform((0.0148, 1.0)))[0]  # t* along the t axis
+    assert 0.25 < x_fraction < 0.75, x_fraction
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(live.fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for k, ax in enumerate(live._axes):
+        label = ax.yaxis.label.get_window_extent(renderer)
+        ticks = [t.get_window_extent(renderer) for t in ax.get_yticklabels() if t.get_text()]
+        assert ticks and not any(_overlap(label, t) for t in ticks), k
+        if k:
+            left = live._axes[k - 1].get_tightbbox(renderer)
+            assert label.x0 >= left.x1, k

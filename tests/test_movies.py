@@ -109,3 +109,64 @@ def test_movie_tracker_frames_and_failure_frame(tmp_path):
                                           "state_data": state.data * 10}})
     assert tracker.times == [0.0, 0.25, 0.5, 0.6]
     assert len(_decode(tracker.written)) == 4
+
+
+def test_run_movie_shows_a_bar_over_its_frames(tmp_path, capsys):
+    """`run --movie`: after the run's bar, a bar counts the frames written; the file has them all."""
+    import imageio_ffmpeg
+
+    from icidr_pde import cli
+
+    path = tmp_path / "m.mp4"
+    assert cli.main(["run", "--scene", "sine", "--N", "21", "--t-end", "1", "--frame-dt", "0.1",
+                     "--movie", str(path)]) == 0
+    n = len(frame_times(1.0, 0.1))
+    err = capsys.readouterr().err
+    assert f"m.mp4: frames: 100%" in err and f"{n}/{n}" in err.rsplit("m.mp4: frames", 1)[-1]
+    assert err.index("done") < err.index("m.mp4: frames")  # the frames are written after the run
+    assert imageio_ffmpeg.count_frames_and_secs(str(path))[0] == n
+
+
+def test_a_movie_draws_its_figure_in_full_a_fixed_number_of_times(tmp_path, monkeypatch):
+    """Each frame redraws only what moves (blitting): full draws of the figure, with its axes and
+    tick labels, do not grow with the number of frames; a failure frame (axes rescaled) adds one."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draws = []
+    full_draw = FigureCanvasAgg.draw
+    monkeypatch.setattr(FigureCanvasAgg, "draw", lambda self: draws.append(1) or full_draw(self))
+
+    def count(n, reason=None):
+        draws.clear()
+        z, times, frames = _frames(n=n)
+        path = write_movie(tmp_path / f"m{n}.mp4", z, times, frames, failed_reason=reason)
+        assert len(_decode(path)) == n
+        return len(draws)
+
+    few = count(3)
+    assert count(30) == few <= 2
+    assert count(30, "blow-up") == few + 1
+
+
+def test_movie_captions_name_the_scheme_as_the_discretization_does():
+    from icidr_pde.discretizations import DISCRETIZATIONS
+
+    for spec in MOVIES.values():
+        label = DISCRETIZATIONS[spec.run["discretization"]].label
+        assert label in spec.caption and "differences" not in spec.caption, spec.name
+
+
+def test_the_failure_frame_shows_the_state_at_t_star(tmp_path, monkeypatch):
+    """The last frame of a failed run is rescaled to the state at t* (1e6 times the regular frames here)
+    and its title gives the head of the reason."""
+    import icidr_pde.movies as movies
+
+    plots = []
+    figure = movies._FrameFigure
+    monkeypatch.setattr(movies, "_FrameFigure", lambda *a: plots.append(figure(*a)) or plots[-1])
+    z, times, frames = _frames(n=4)
+    frames[-1, 2] *= 1e6
+    write_movie(tmp_path / "m.mp4", z, times, frames, failed_reason="integrator failed (a long message)")
+    plot = plots[0]
+    assert plot.axes[2].get_ylim()[1] >= np.max(frames[-1, 2])
+    assert plot.suptitle.get_text().endswith("FAILED at t* (integrator failed)")

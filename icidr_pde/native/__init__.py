@@ -367,15 +367,6 @@ def _outputs(t_end, lists):
     return merged, where
 
 
-def _progress_bar(t_end):
-    if "IPython" in sys.modules:
-        from tqdm.auto import tqdm
-    else:
-        from tqdm import tqdm
-    return tqdm(total=t_end, desc="integrating (native)", unit="t", leave=True,
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:g} [{elapsed}]")
-
-
 def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, *, accuracy="standard",
                discretization=None, method=None, rtol=None, atol=None, jacobian=None, material=None,
                advection=None, progress=False, series_times=None, **scene_params):
@@ -429,7 +420,12 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     n_done = 0
     phi0 = case.fields(y0)[0]
     inside0 = np.all(np.isfinite(y0)) and np.all((phi0 > lo) & (phi0 < hi))
-    bar = _progress_bar(t_end) if progress else None
+    bar = None
+    if progress:
+        from ..progress import TimeBar
+
+        # refreshed every 0.1 s also into a pipe, as tqdm does by default: a reader sees the time move
+        bar = TimeBar(t_end, "integrating", f"native, ready in {compile_s:.2g} s", log_interval=0.1)
     try:
         if not inside0:
             failure = (0.0, y0.copy(), f"initial state invalid: {case.check_state(y0)}")
@@ -444,7 +440,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
                 size = min(2 * size, largest) if call < 0.02 else max(size // 2, smallest) if call > 0.1 else size
                 n_done += done
                 if bar is not None and n_done:
-                    bar.update(out_times[n_done - 1] - bar.n)
+                    bar.advance(out_times[n_done - 1])
                 if status:
                     t_good, y_good = problem.last_good()
                     if status == 1:
@@ -457,11 +453,14 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     except KeyboardInterrupt:
         pass
     finally:
+        interrupted = failure is None and n_done < n_out
         if bar is not None:
             if failure is not None:
-                bar.set_description(f"failed at t = {failure[0]:.4g}")
-            bar.close()
-    interrupted = failure is None and n_done < n_out
+                bar.close(failure[0], "failed", failure[2])
+            elif interrupted:
+                bar.close(problem.last_good()[0] if n_done else 0.0, "interrupted")
+            else:
+                bar.close(t_end)
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     counts = problem.counts()
 

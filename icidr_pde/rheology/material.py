@@ -148,7 +148,12 @@ class Material:
         phi = np.asarray(phi, dtype=float)
         lo, hi = self.phi_range
         if not np.all(np.isfinite(phi)) or np.any(phi <= lo) or np.any(phi >= hi):
-            shown = f"[{phi.min():g}, {phi.max():g}]" if np.all(np.isfinite(phi)) else "non-finite values"
+            if not np.all(np.isfinite(phi)):
+                shown = "non-finite values"
+            elif phi.size == 1:
+                shown = f"{phi.item():g}"
+            else:
+                shown = f"values in [{phi.min():g}, {phi.max():g}]"
             lo_name, hi_name = self.dilatancy.range_names()
             raise ValueError(f"`{name}` must lie in ({lo_name}, {hi_name}) = ({lo:g}, {hi}); got {shown}")
         return phi

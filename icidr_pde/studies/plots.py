@@ -17,7 +17,9 @@ def plot_tstar(curves: dict[str, dict], path: str, *, title: str | None = None,
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     styles = {"cheb": dict(color="C3", marker="o", ls="-"), "fd": dict(color="C0", marker="s", ls="--")}
-    names = {"cheb": "Chebyshev", "fd": "finite differences"}
+    from ..discretizations import DISCRETIZATIONS
+
+    names = {name: cls.label for name, cls in DISCRETIZATIONS.items()}
     all_t = [t for m in curves.values() for t in m.values() if t is not None]
     floor = min(all_t) / 2 if all_t else 1e-3
     for k, (label, mapping) in enumerate(curves.items()):
