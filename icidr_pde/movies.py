@@ -18,13 +18,14 @@ its failure beside iCIDR at the same times, with a progress bar counting the fra
 
 from __future__ import annotations
 
-import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from pde.trackers.base import TrackerBase
+
+from .outputs import replacing
 
 __all__ = ["MOVIES", "MOVIES_2D", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
            "frame_times", "write_field_movie", "movie_from_results_2d"]
@@ -162,10 +163,10 @@ def _movie_target(path):
 
 
 def _write_movie(fig, path, suffix, fps, dpi, add_frames):
-    """Write the frames `add_frames(grab)` draws on `fig` to a temporary name beside `path`,
-    rename it to `path` when complete (never a half-written file) and return `path`."""
-    partial = path.with_name(f".{path.stem}.partial{suffix}")
-    try:
+    """Write the frames `add_frames(grab)` draws on `fig` to a temporary file beside `path`,
+    installed at `path` when complete (never a half-written file; :mod:`icidr_pde.outputs`),
+    and return `path`."""
+    with replacing(path, suffix) as partial:
         if suffix == ".mp4":
             from pde.visualization.movies import Movie
 
@@ -177,10 +178,6 @@ def _write_movie(fig, path, suffix, fps, dpi, add_frames):
             writer = PillowWriter(fps=fps)
             with writer.saving(fig, str(partial), dpi=dpi):
                 add_frames(lambda _fig: writer.grab_frame())
-        os.replace(partial, path)
-    finally:
-        if partial.exists():
-            partial.unlink()
     return path
 
 def _add_frames(plot, times, frames, failed_reason, grab):

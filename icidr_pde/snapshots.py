@@ -4,7 +4,9 @@
 the file after every frame (py-pde's ``keep_opened=False``, so every frame written is on
 disk and the file is consistent), and moves it over the target when the run ends,
 successfully or not. A run that is killed outright leaves the target as it was and the
-frames written so far in ``.NAME.partial``. The file holds py-pde's ``times`` and
+frames written so far in a temporary ``.NAME.*.partial.h5`` beside it
+(:mod:`icidr_pde.outputs`). A frame that cannot be written (a full disk) stops the file,
+not the run: :attr:`SnapshotFile.error` says why and the temporary file is removed. The file holds py-pde's ``times`` and
 ``data`` (frames x fields x nodes) and ``z``, the positions of the unknowns: the py-pde
 grid stored by ``FileStorage`` is only a carrier for the Chebyshev scheme, whose nodes
 are not uniform. :func:`read_snapshots` reads such a file.
@@ -12,12 +14,13 @@ are not uniform. :func:`read_snapshots` reads such a file.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 from pde import FileStorage
 from pde.storage.base import StorageTracker
+
+from .outputs import discard, install, temporary_beside
 
 __all__ = ["SnapshotFile", "read_snapshots"]
 
@@ -27,8 +30,9 @@ class SnapshotFile:
 
     def __init__(self, path, z: np.ndarray, interrupts):
         self.path = Path(path)
-        self.partial = self.path.with_name(f".{self.path.name}.partial")
+        self.partial = temporary_beside(self.path, ".h5")
         self.z = np.asarray(z, dtype=float)
+        self.error: str | None = None  # why the file could not be written
         self.storage = FileStorage(self.partial, write_mode="truncate", keep_opened=False)
         self._tracker = _FinalizingTracker(self, interrupts)
 
@@ -42,16 +46,26 @@ class SnapshotFile:
         import h5py
 
         self.storage.close()
-        with h5py.File(self.partial, "a") as fh:
-            if "z" not in fh:
-                fh.create_dataset("z", data=self.z)
-        os.replace(self.partial, self.path)
+        try:
+            with h5py.File(self.partial, "a") as fh:
+                if "z" not in fh:
+                    fh.create_dataset("z", data=self.z)
+            install(self.partial, self.path)
+        except (OSError, RuntimeError) as err:
+            self.fail(err)
+
+    def fail(self, err) -> None:
+        """Give up the file (the run goes on): remember why, remove the temporary file."""
+        self.error = self.error or (err.strerror if getattr(err, "strerror", None) else str(err))
+        self.discard()
 
     def discard(self) -> None:
         """Remove the temporary file (a run that did not start leaves the target alone)."""
-        self.storage.close()
-        if self.partial.exists():
-            self.partial.unlink()
+        try:
+            self.storage.close()
+        except (OSError, RuntimeError):
+            pass
+        discard(self.partial)
 
 
 class _FinalizingTracker(StorageTracker):
@@ -59,13 +73,35 @@ class _FinalizingTracker(StorageTracker):
         super().__init__(snapshot_file.storage, interrupts=interrupts)
         self.snapshot_file = snapshot_file
 
+    def initialize(self, field, info=None) -> float:
+        t_first = super(StorageTracker, self).initialize(field, info)  # the interrupts only
+        try:
+            self.storage.start_writing(self._transform(field, t_first), info)
+        except (OSError, RuntimeError) as err:
+            self.snapshot_file.fail(err)
+        return t_first
+
+    def handle(self, field, t: float) -> None:
+        if self.snapshot_file.error is not None:
+            return
+        try:
+            super().handle(field, t)
+        except (OSError, RuntimeError) as err:  # h5py reports a full disk as either
+            self.snapshot_file.fail(err)
+
     def finalize(self, info=None) -> None:
+        if self.snapshot_file.error is not None:
+            return
         storage = self.storage
-        if storage._is_writing and storage._file is None:
-            # py-pde 0.59 writes the closing attributes into the file it closed after the
-            # last frame (keep_opened=False): open it again first
-            storage._open("appending")
-        super().finalize(info)
+        try:
+            if storage._is_writing and storage._file is None:
+                # py-pde 0.59 writes the closing attributes into the file it closed after the
+                # last frame (keep_opened=False): open it again first
+                storage._open("appending")
+            super().finalize(info)
+        except (OSError, RuntimeError) as err:
+            self.snapshot_file.fail(err)
+            return
         self.snapshot_file.commit()
 
 
