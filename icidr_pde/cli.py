@@ -14,6 +14,7 @@ import json
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 # subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
@@ -277,8 +278,10 @@ def cmd_run(args) -> int:
             if result is None:
                 from .api import run
 
-                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
-                             engine="pde", on_result=write_results, **options)
+                with warnings.catch_warnings():  # an output not written: said below, once
+                    warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
+                    result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                                 engine="pde", on_result=write_results, **options)
             else:
                 write_results(result)
         except KeyboardInterrupt:
