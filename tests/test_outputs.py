@@ -155,15 +155,15 @@ def test_json_to_stdout_redirected_to_a_file_lands_after_the_printed_lines(tmp_p
     assert decoded["N"] == 9 and text.index("Result(") < start
 
 
-def test_planted_link_at_the_old_temporary_name_is_not_followed(tmp_path):
-    """`--save s.h5` wrote its frames to the predictable `.s.h5.partial`: a link planted there
-    sent them into another file (issue 26, item 21)."""
-    victim = tmp_path / "victim.txt"
+def test_planted_link_at_a_guessable_temporary_name_is_not_followed(tmp_path, capsys):
+    """`law check --json r.json` wrote through `.r.json.tmp`, following a link planted there
+    into another file (issue 26, item 21)."""
+    victim, report = tmp_path / "victim.txt", tmp_path / "r.json"
     victim.write_text("precious")
-    (tmp_path / ".s.h5.partial").symlink_to(victim)
-    assert cli.main([*RUN, "--save", str(tmp_path / "s.h5")]) == 0
+    (tmp_path / ".r.json.tmp").symlink_to(victim)
+    assert cli.main(["law", "check", "icidr", "--no-curves", "--json", str(report)]) == 0
     assert victim.read_text() == "precious"
-    assert (tmp_path / "s.h5").is_file()
+    assert report.is_file() and not report.is_symlink() and json_at(report)["law"] == "icidr"
 
 
 # --- one file, two outputs (item 6) ----------------------------------------------------------------
