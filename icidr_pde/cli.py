@@ -180,7 +180,8 @@ def write_outputs(writers) -> int:
         try:
             write(path)
         except (OSError, ValueError) as err:
-            print(f"{PREFIX} could not write {option} {path}: {err}", file=sys.stderr)
+            print(f"{PREFIX} could not write {option} {path}: {getattr(err, 'strerror', None) or err}",
+                  file=sys.stderr)
             status = EXIT_WRITE_FAILED
         except KeyboardInterrupt:  # the outputs written so far stay; this one is left as it was
             print(f"{PREFIX} interrupted while writing {option} {path}; it was not written", file=sys.stderr)
@@ -405,11 +406,16 @@ def main(argv=None) -> int:
     # the subcommand is the first word (the top level has no option but --help)
     parser = make_parser(commands=argv[:1])
     args = parser.parse_args(argv)
+    from .outputs import OutputWriteError
+
     try:
         return args.func(args)
     except ValueError as err:
         print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
+        print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
+        return EXIT_WRITE_FAILED
 
 
 if __name__ == "__main__":

@@ -29,11 +29,16 @@ import tempfile
 from pathlib import Path
 
 __all__ = ["write_atomically", "replacing", "save_figure", "temporary_beside", "install", "discard",
-           "check_outputs", "writable_folder", "new_file_mode", "OutputError"]
+           "check_outputs", "writable_folder", "new_file_mode", "OutputError", "OutputWriteError"]
 
 
 class OutputError(ValueError):
     """An output path that cannot be written (raised before any work)."""
+
+
+class OutputWriteError(OSError):
+    """An output that could not be written (a full disk, a folder made read-only); the
+    target is as it was. The command line exits 4."""
 
 
 def _umask() -> int:
@@ -160,13 +165,28 @@ def replacing(path, suffix: str | None = None, *, fsync: bool = False):
     """Context yielding a temporary path to write `path`'s data to; on a clean exit the file
     is installed at `path` (:func:`install`), on any exception (KeyboardInterrupt included)
     it is removed and `path` is left as it was."""
-    tmp = temporary_beside(path, suffix)
+    try:
+        tmp = temporary_beside(path, suffix)
+    except OSError as err:
+        raise _write_error(path, err) from err
     try:
         yield tmp
+    except OSError as err:
+        discard(tmp)
+        raise _write_error(path, err) from err
     except BaseException:
         discard(tmp)
         raise
-    install(tmp, path, fsync=fsync)
+    try:
+        install(tmp, path, fsync=fsync)
+    except OSError as err:
+        raise _write_error(path, err) from err
+
+
+def _write_error(path, err: OSError) -> OSError:
+    if isinstance(err, (OutputWriteError, IsADirectoryError)):
+        return err
+    return OutputWriteError(err.errno, err.strerror or str(err), os.fspath(path))
 
 
 def write_atomically(path, write, mode: str = "w", *, fsync: bool = False) -> None:

@@ -387,3 +387,21 @@ def test_a_directory_is_never_replaced(tmp_path):
     with pytest.raises(IsADirectoryError):
         write_atomically(tmp_path / "d", lambda fh: fh.write("x"))
     assert (tmp_path / "d").is_dir()
+
+
+@pytest.mark.parametrize("argv", [_stability_argv("--json", "s.json"),
+                                  ["law", "check", "icidr", "--no-curves", "--json", "r.json"]],
+                         ids=["stability", "law-check"])
+def test_other_subcommands_exit_4_when_an_output_cannot_be_written(tmp_path, capsys, monkeypatch, argv):
+    """The README's 4: a full disk at the end of `stability` or `law check` was an OSError traceback."""
+    from icidr_pde import outputs
+
+    def full(src, dst):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(outputs.os, "replace", full)
+    assert cli.main(argv) == 4
+    err = capsys.readouterr().err
+    assert "could not write" in err and argv[-1] in err and "No space left on device" in err
+    assert list(tmp_path.iterdir()) == []
