@@ -8,6 +8,7 @@ the same functions.
 from __future__ import annotations
 
 import time as _time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,10 +69,10 @@ def make_trackers(case: Case, t_end: float, times=None, *, series_times=None, ch
         chi_times = np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
         chi_tracker = ChiTracker(case.pde, interrupts=list(chi_times))  # a few samples: a diagnostic
         trackers.append(chi_tracker)
-    if save:
+    view = _view_trackers(case, t_end, progress, live_plot, movie, frame_dt)
+    if save:  # last: a temporary file, created once nothing else can fail here
         snapshot_file = SnapshotFile(save, case.nodes(), list(snap_times))  # never half-written
         trackers.append(snapshot_file.tracker())
-    view = _view_trackers(case, t_end, progress, live_plot, movie, frame_dt)
     trackers += view
     if max_wall is not None:
         trackers.append(_wall_clock_limit(max_wall, t_end))
@@ -236,6 +237,7 @@ def run(
     backend: str = "numba",
     max_wall: float | None = None,
     engine: str = "auto",
+    on_result=None,
     **scene_params,
 ) -> Result:
     """Run `scene` with `rheology` and return a :class:`~icidr_pde.result.Result`.
@@ -275,6 +277,13 @@ def run(
             or wall limit), else this path; 'native' says on stderr why it fell back; 'pde' is always
             this path (the one the regression anchors are pinned on). Both return the same Result
             fields; CVODE's step choices may differ by round-off (README, Engines)
+        on_result: called with the Result once the run has ended and before the movie is
+            rendered (the CLI writes --json and --plot there: an interrupt while the movie is
+            rendered loses neither)
+
+    Outputs (`save`, `movie`) are written whole or not at all (:mod:`icidr_pde.outputs`); one
+    that cannot be written (a full disk, an interrupt while the movie is rendered) does not
+    stop the run: the Result's `not_written` says which and why (with a RuntimeWarning).
 
     A failed run (step-size underflow, non-finite state, phi leaving its inertial range) is
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
@@ -305,12 +314,27 @@ def run(
                          jacobian=jacobian, backend=backend)
     recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
                               live_plot=live_plot, max_wall=max_wall, movie=movie, frame_dt=frame_dt)
+    snapshot_file = next((t.snapshot_file for t in recorders.trackers if hasattr(t, "snapshot_file")), None)
     try:
         outcome = integrate(case, solver, t_end, recorders.trackers)
     finally:  # a run that raised leaves an existing snapshot file as it was
-        for tracker in recorders.trackers:
-            if hasattr(tracker, "snapshot_file"):
-                tracker.snapshot_file.discard()
+        if snapshot_file is not None:
+            snapshot_file.discard()
+    result = collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)
+    if snapshot_file is not None and snapshot_file.error is not None:
+        _not_written(result, "save", save, snapshot_file.error)
+    if on_result is not None:
+        on_result(result)
     if recorders.movie is not None:  # after the timing: wall_s is the solve and the trackers
-        recorders.movie.write()
-    return collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)
+        try:
+            recorders.movie.write()
+        except KeyboardInterrupt:  # the run's results stay; the movie is left as it was
+            _not_written(result, "movie", movie, "interrupted")
+        except OSError as err:
+            _not_written(result, "movie", movie, err.strerror or str(err))
+    return result
+
+
+def _not_written(result: Result, name: str, path, why: str) -> None:
+    result.not_written[name] = why
+    warnings.warn(f"`{name}` {path} was not written: {why}", RuntimeWarning, stacklevel=3)

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
-import os
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 # subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
@@ -121,21 +121,9 @@ def time_value(text):
 
 def check_output_path(option: str, path) -> None:
     """Refuse, before any work, an output path that cannot be written."""
-    if path is None:
-        return
-    target = Path(path)
-    parent = target.parent if str(target.parent) else Path(".")
-    if target.is_dir():
-        reason = "is a directory"
-    elif not parent.is_dir():
-        reason = f"directory {str(parent)!r} does not exist"
-    elif target.exists() and not os.access(target, os.W_OK):
-        reason = "is not writable"
-    elif not target.exists() and not os.access(parent, os.W_OK | os.X_OK):
-        reason = f"directory {str(parent)!r} is not writable"
-    else:
-        return
-    raise ValueError(f"`{option}` {str(path)!r} {reason}")
+    from .outputs import check_outputs
+
+    check_outputs({option: path})
 
 
 def figure_path(option: str, path):
@@ -192,8 +180,12 @@ def write_outputs(writers) -> int:
         try:
             write(path)
         except (OSError, ValueError) as err:
-            print(f"{PREFIX} could not write {option} {path}: {err}", file=sys.stderr)
+            print(f"{PREFIX} could not write {option} {path}: {getattr(err, 'strerror', None) or err}",
+                  file=sys.stderr)
             status = EXIT_WRITE_FAILED
+        except KeyboardInterrupt:  # the outputs written so far stay; this one is left as it was
+            print(f"{PREFIX} interrupted while writing {option} {path}; it was not written", file=sys.stderr)
+            raise
         else:
             print(f"{option.lstrip('-')} written to {path}")
     return status
@@ -263,17 +255,27 @@ def add_run_parser(subparsers):
 
 
 def cmd_run(args) -> int:
+    from .outputs import check_outputs
     from .scenes import scene_parameters
 
-    check_output_path("--json", args.json)
-    check_output_path("--save", args.save)
-    check_output_path("--movie", args.movie)
     plot = figure_path("--plot", args.plot)
+    check_outputs({"--json": args.json, "--save": args.save, "--movie": args.movie, "--plot": plot})
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
     N = args.N
     if args.Nx is not None or args.Nz is not None:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
+    written = {}  # "result", then "status" once --json and --plot are written
+
+    def write_results(result):  # the finished outputs, before the movie is rendered
+        written["result"] = result
+        print(result)
+        print(json.dumps({k: v for k, v in result.to_dict().items()
+                          if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
+                         indent=1))
+        written["status"] = write_outputs([("--json", args.json, result.save_json),
+                                           ("--plot", plot, lambda path: _write_run_plot(result, path))])
+
     with interrupt_signals() as signals:
         try:
             options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
@@ -285,34 +287,36 @@ def cmd_run(args) -> int:
             if result is None:
                 from .api import run
 
-                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
-                             engine="pde", **options)
-        except KeyboardInterrupt:  # before the integration started: nothing computed
-            print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
+                with warnings.catch_warnings():  # an output not written: said below, once
+                    warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
+                    result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                                 engine="pde", on_result=write_results, **options)
+            else:
+                write_results(result)
+        except KeyboardInterrupt:
+            if "result" not in written:  # before the integration started: nothing computed
+                print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
             return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
-    print(result)
-    print(json.dumps({k: v for k, v in result.to_dict().items()
-                      if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
-                     indent=1))
-
-    def write_plot(path):
-        from .plotting import plot_result
-
-        if result.measures is not None:
-            from .studies2d import plot_fields as plot_result
-        plot_result(result, path)
-
-    status = write_outputs([("--json", args.json, result.save_json), ("--plot", plot, write_plot)])
-    if args.save and not Path(args.save).is_file():
-        print(f"{PREFIX} could not write --save {args.save}", file=sys.stderr)
-        status = EXIT_WRITE_FAILED
-    if args.movie and Path(args.movie).is_file():
+    status = written["status"]
+    for name, why in result.not_written.items():
+        print(f"{PREFIX} could not write --{name} {getattr(args, name)}: {why}", file=sys.stderr)
+        if why != "interrupted":
+            status = EXIT_WRITE_FAILED
+    if args.movie and "movie" not in result.not_written:
         print(f"movie written to {args.movie}")
     if status:
         return status
-    if result.reason.startswith("interrupted"):
+    if result.reason.startswith("interrupted") or "interrupted" in result.not_written.values():
         return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
     return EXIT_RUN_FAILED if result.blew_up else EXIT_OK
+
+
+def _write_run_plot(result, path):
+    from .plotting import plot_result
+
+    if result.measures is not None:
+        from .studies2d import plot_fields as plot_result
+    plot_result(result, path)
 
 
 def add_demo_parser(subparsers):
@@ -405,11 +409,16 @@ def main(argv=None) -> int:
     # the subcommand is the first word (the top level has no option but --help)
     parser = make_parser(commands=argv[:1])
     args = parser.parse_args(argv)
+    from .outputs import OutputWriteError
+
     try:
         return args.func(args)
     except ValueError as err:
         print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
+        print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
+        return EXIT_WRITE_FAILED
 
 
 if __name__ == "__main__":

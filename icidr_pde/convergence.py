@@ -62,8 +62,9 @@ def main(argv=None):
     out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection)
     print(json.dumps(out, indent=1))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+        from .outputs import write_atomically
+
+        write_atomically(args.json, lambda fh: json.dump(out, fh, indent=1))
 
 
 if __name__ == "__main__":

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .datafiles import data_dir
+from .outputs import save_figure, writable_folder, write_atomically
 
 __all__ = ["FIGURES", "RUNS", "FigureSpec", "RunCache", "register_figure", "make_figures", "make_movies",
            "positive_intervals", "sign_changes", "chi_infinite_z", "at_resolution", "add_parser", "DATA"]
@@ -953,7 +954,7 @@ def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, ru
             print(f"{name} ...", flush=True)
         fig, nums = FIGURES[name].draw(runs)
         path = out / f"{name}.png"
-        fig.savefig(path, dpi=dpi)
+        save_figure(fig, path, dpi=dpi)
         plt.close(fig)
         nums = {"png": path.name, "seconds": round(time.perf_counter() - start, 2), "draft": draft, **nums}
         numbers[name] = nums
@@ -1070,7 +1071,8 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
             lines.append(f"| {name[5:]} | {caption} | {info['frame_dt']:.4g} | [{info['file']}]({info['file']}) |")
         lines.append("")
     path = out / "README.md"
-    path.write_text("\n".join(lines))
+    text = "\n".join(lines)
+    write_atomically(path, lambda fh: fh.write(text))
     return path
 
 
@@ -1110,7 +1112,7 @@ def cmd_figures(args) -> int:
     import datetime
 
     start = time.perf_counter()
-    out = Path(args.out if args.out is not None else DRAFT_OUT if args.draft else GALLERY)
+    out = writable_folder("--out", args.out if args.out is not None else DRAFT_OUT if args.draft else GALLERY)
     if args.draft and not args.force and _full_resolution(out):
         raise ValueError(f"`out` {out} holds a full-resolution gallery that a draft would overwrite: "
                          f"omit --out (a draft goes to {DRAFT_OUT}), name another folder, or add --force")
@@ -1130,9 +1132,8 @@ def cmd_figures(args) -> int:
         meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
                 "total_s": total, "draft": args.draft, "movies": movies is not None,
                 "run_seconds": {k: round(v, 1) for k, v in runs.seconds.items()}}
-    tmp = store.with_suffix(".json.partial")
-    tmp.write_text(json.dumps({"meta": meta, "figures": figures, "movies": movies_all}, indent=1))
-    tmp.replace(store)
+    text = json.dumps({"meta": meta, "figures": figures, "movies": movies_all}, indent=1)
+    write_atomically(store, lambda fh: fh.write(text))
     write_gallery(figures, out, movies_all or None, meta)
     print(f"{len(numbers)} figure(s){' and %d movie(s)' % len(movies) if movies else ''} in {out} ({total:.0f} s)")
     return 0

@@ -22,6 +22,9 @@ import sys
 def _check(args) -> int:
     from stability.workbench import law_report, write_report
 
+    from .outputs import check_outputs
+
+    check_outputs({"--json": args.json})  # before the law file is run
     report = law_report(args.law, with_curves=not args.no_curves)
     print(f"law {report['law']} ({report['kind']}; phi in ({report['phi_domain'][0]:g}, "
           f"{report['phi_domain'][1]:g}))")

@@ -20,7 +20,6 @@ its failure beside iCIDR at the same times, with a progress bar counting the fra
 
 from __future__ import annotations
 
-import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +28,7 @@ import numpy as np
 from pde.trackers.base import TrackerBase
 
 from .progress import short_reason
+from .outputs import replacing
 
 __all__ = ["MOVIES", "MOVIES_2D", "MovieSpec", "ffmpeg_exe", "write_movie", "movie_from_result", "MovieTracker",
            "frame_times", "write_field_movie", "movie_from_results_2d"]
@@ -196,7 +196,8 @@ class _FrameSink:
 
 def _write_movie(fig, path, suffix, fps, add_frames, *, animated=(), n_frames=None, progress=False):
     """Write the frames `add_frames(grab)` draws on `fig` to a temporary name beside `path`,
-    rename it to `path` when complete (never a half-written file) and return `path`.
+    installed at `path` when complete (never a half-written file; :mod:`icidr_pde.outputs`)
+    and return `path`.
 
     `grab(fig, redraw=False)` takes a frame. The figure is drawn in full once, without its
     `animated` artists, and kept as background; a frame restores it and draws only those
@@ -206,7 +207,6 @@ def _write_movie(fig, path, suffix, fps, add_frames, *, animated=(), n_frames=No
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from tqdm.auto import tqdm
 
-    partial = path.with_name(f".{path.stem}.partial{suffix}")
     canvas = FigureCanvasAgg(fig)
     for artist in animated:
         artist.set_animated(True)
@@ -224,18 +224,14 @@ def _write_movie(fig, path, suffix, fps, add_frames, *, animated=(), n_frames=No
         sink.send(canvas.buffer_rgba())
         bar.update(1)  # after the frame is handed to the encoder: the bar counts frames written
 
-    try:
-        with tqdm(total=n_frames, desc=f"{path.name}: frames", unit="frame", disable=not progress,
-                  leave=True) as bar:
-            sink = _FrameSink(partial, suffix, canvas.get_width_height(), fps)
-            try:
-                add_frames(grab)
-            finally:
-                sink.close()
-        os.replace(partial, path)
-    finally:
-        if partial.exists():
-            partial.unlink()
+    with replacing(path, suffix) as partial, \
+            tqdm(total=n_frames, desc=f"{path.name}: frames", unit="frame", disable=not progress,
+                 leave=True) as bar:
+        sink = _FrameSink(partial, suffix, canvas.get_width_height(), fps)
+        try:
+            add_frames(grab)
+        finally:
+            sink.close()
     return path
 
 

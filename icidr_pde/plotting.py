@@ -5,6 +5,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .outputs import save_figure
 from .result import Result
 
 __all__ = ["plot_result", "plot_profiles", "plot_max_w", "demo_figure"]
@@ -64,7 +65,7 @@ def plot_result(result: Result, path=None):
     fig.suptitle(f"{result.rheology}, scene {result.scene}, {result.discretization} N = {result.N}: {status}")
     fig.tight_layout()
     if path:
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
     return fig
 
 
@@ -96,5 +97,5 @@ def demo_figure(mui_coarse: Result, mui_fine: Result, icidr_coarse: Result, icid
     ax.legend(fontsize=8)
     fig.tight_layout()
     if path:
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
     return fig

@@ -3,32 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Result", "write_atomically"]
+from .outputs import write_atomically
 
-
-def write_atomically(path, write, mode: str = "w") -> None:
-    """Call write(file) on a temporary file beside `path`, then move it into place.
-
-    A crash or a full disk leaves `path` as it was (absent or the previous complete file).
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, mode) as fh:
-            write(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+__all__ = ["Result"]
 
 
 @dataclass
@@ -53,6 +35,8 @@ class Result:
         Nx, L, measures: 2-D runs only (N is then Nz): cells along x, period L, and per
             snapshot max_w, max_phi_dev (max|phi - phi0|) and l2_velocity
             (sqrt of the integral of (u - z/H)^2 + w^2 over the cell)
+        not_written: outputs asked for that were not written, parameter -> why
+            (e.g. {'save': 'No space left on device'}, {'movie': 'interrupted'})
     """
 
     rheology: str
@@ -95,6 +79,7 @@ class Result:
     Nx: int | None = None
     L: float | None = None
     measures: list | None = None
+    not_written: dict = field(default_factory=dict)
 
     def max_w_at_times(self) -> dict[str, float]:
         """max|w| at each requested time reached (label as requested -> value)."""
@@ -129,6 +114,8 @@ class Result:
             "material": self.material,
             "settings": self.settings,
         }
+        if self.not_written:
+            out["not_written"] = dict(self.not_written)
         if self.measures is not None:  # the 2-D cell
             out.update(Nx=self.Nx, Nz=self.N, L=self.L)
             for key in ("max_phi_dev", "l2_velocity"):

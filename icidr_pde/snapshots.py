@@ -1,25 +1,43 @@
 """Snapshot files: py-pde's HDF5 ``FileStorage`` plus the true node positions, never half-written.
 
-:class:`SnapshotFile` writes the frames into a temporary file beside the target, closing
-the file after every frame (py-pde's ``keep_opened=False``, so every frame written is on
-disk and the file is consistent), and moves it over the target when the run ends,
-successfully or not. A run that is killed outright leaves the target as it was and the
-frames written so far in ``.NAME.partial``. The file holds py-pde's ``times`` and
-``data`` (frames x fields x nodes) and ``z``, the positions of the unknowns: the py-pde
-grid stored by ``FileStorage`` is only a carrier for the Chebyshev scheme, whose nodes
-are not uniform. :func:`read_snapshots` reads such a file.
+:class:`SnapshotFile` has py-pde's ``FileStorage`` write the frames into an HDF5 file held
+in memory, and writes that file to the target when the run ends, successfully or not,
+through :func:`icidr_pde.outputs.write_atomically` (whole or not at all). HDF5 itself never
+writes to the disk: a full disk is then one OSError at the end (HDF5 crashes, SIGSEGV,
+closing a file it could not flush), the run and its other outputs go on and
+:attr:`SnapshotFile.error` says why. The frames are the snapshots the run keeps in memory
+anyway; a run killed outright (SIGKILL) leaves the target as it was. The file holds
+py-pde's ``times`` and ``data`` (frames x fields x nodes) and ``z``, the positions of the
+unknowns: the py-pde grid stored by ``FileStorage`` is only a carrier for the Chebyshev
+scheme, whose nodes are not uniform. :func:`read_snapshots` reads such a file.
 """
 
 from __future__ import annotations
 
+import io
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 from pde import FileStorage
 from pde.storage.base import StorageTracker
 
+from .outputs import write_atomically
+
 __all__ = ["SnapshotFile", "read_snapshots"]
+
+
+class _FileImage(io.BytesIO):
+    """An HDF5 file in memory where py-pde's FileStorage expects a file name (h5py takes file
+    objects; FileStorage asks the name for its `parent` folder and whether it `is_file` to
+    delete)."""
+
+    parent = Path(".")
+
+    @staticmethod
+    def is_file() -> bool:
+        return False
 
 
 class SnapshotFile:
@@ -27,31 +45,55 @@ class SnapshotFile:
 
     def __init__(self, path, z: np.ndarray, interrupts):
         self.path = Path(path)
-        self.partial = self.path.with_name(f".{self.path.name}.partial")
         self.z = np.asarray(z, dtype=float)
-        self.storage = FileStorage(self.partial, write_mode="truncate", keep_opened=False)
+        self.error: str | None = None  # why the file could not be written
+        self.written = False
+        self.storage = FileStorage(os.devnull, write_mode="truncate", keep_opened=True)
+        self.storage.filename = self.image = _FileImage()
         self._tracker = _FinalizingTracker(self, interrupts)
 
     def tracker(self) -> StorageTracker:
         return self._tracker
 
     def commit(self) -> None:
-        """Add the node positions and move the file into place (idempotent)."""
-        if not self.partial.exists():
+        """Add the node positions and write the file to `path` (idempotent)."""
+        if self.written or self.error is not None:
             return
         import h5py
 
         self.storage.close()
-        with h5py.File(self.partial, "a") as fh:
+        if not self.image.getbuffer().nbytes:  # the run ended before its first frame
+            return
+        with h5py.File(self.image, "a") as fh:
             if "z" not in fh:
                 fh.create_dataset("z", data=self.z)
-        os.replace(self.partial, self.path)
+        data = self.image.getvalue()
+        try:
+            write_atomically(self.path, lambda fh: fh.write(data), "wb")
+        except OSError as err:
+            self.fail(err)
+        self.written = True
+
+    def fail(self, err) -> None:
+        """Give up the file (the run goes on): remember why."""
+        self.error = self.error or _why(err)
+        self.discard()
 
     def discard(self) -> None:
-        """Remove the temporary file (a run that did not start leaves the target alone)."""
-        self.storage.close()
-        if self.partial.exists():
-            self.partial.unlink()
+        """Drop the frames (a run that did not start leaves the target alone)."""
+        try:
+            self.storage.close()
+        except (OSError, RuntimeError):
+            pass
+        self.image = None
+
+
+def _why(err) -> str:
+    """The reason of an OSError, or of h5py's RuntimeError wrapping one ("... errno = 28 ...")."""
+    if getattr(err, "strerror", None):
+        return err.strerror
+    found = re.search(r"errno = (\d+)", str(err))
+    return os.strerror(int(found.group(1))) if found else str(err).splitlines()[0]
 
 
 class _FinalizingTracker(StorageTracker):
@@ -59,13 +101,30 @@ class _FinalizingTracker(StorageTracker):
         super().__init__(snapshot_file.storage, interrupts=interrupts)
         self.snapshot_file = snapshot_file
 
+    def initialize(self, field, info=None) -> float:
+        t_first = super(StorageTracker, self).initialize(field, info)  # the interrupts only
+        try:
+            self.storage.start_writing(self._transform(field, t_first), info)
+        except (OSError, RuntimeError) as err:
+            self.snapshot_file.fail(err)
+        return t_first
+
+    def handle(self, field, t: float) -> None:
+        if self.snapshot_file.error is not None:
+            return
+        try:
+            super().handle(field, t)
+        except (OSError, RuntimeError) as err:  # h5py reports a full disk as either
+            self.snapshot_file.fail(err)
+
     def finalize(self, info=None) -> None:
-        storage = self.storage
-        if storage._is_writing and storage._file is None:
-            # py-pde 0.59 writes the closing attributes into the file it closed after the
-            # last frame (keep_opened=False): open it again first
-            storage._open("appending")
-        super().finalize(info)
+        if self.snapshot_file.error is not None:
+            return
+        try:
+            super().finalize(info)
+        except (OSError, RuntimeError) as err:
+            self.snapshot_file.fail(err)
+            return
         self.snapshot_file.commit()
 
 

@@ -21,11 +21,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import pathlib
 import sys
 
 import numpy as np
+
+from .outputs import replacing, save_figure, write_atomically
 
 __all__ = ["measures", "plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
            "observed_orders", "field_figure", "movie"]
@@ -49,9 +50,8 @@ def measures(pde, grid, scene, data) -> dict:
 
 def _write_json(path: pathlib.Path, payload) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(payload, indent=1))
-    os.replace(tmp, path)  # never half-written
+    text = json.dumps(payload, indent=1)
+    write_atomically(path, lambda fh: fh.write(text))
 
 
 def observed_orders(values: list[float]) -> list[float | None]:
@@ -248,9 +248,7 @@ def plot_fields(result, path) -> None:
     axes[2].set_ylabel("max |w|")
     state = f"fails at t* = {result.t_star:.4g}" if result.blew_up else "reached t_end"
     fig.suptitle(f"{result.rheology}, {result.scene}, {result.Nx}x{result.N}: {state}")
-    tmp = pathlib.Path(path).with_name("tmp_" + pathlib.Path(path).name)
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
@@ -273,7 +271,7 @@ def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
                 im = _panel(axes[row, col], res, k, col, label)
                 fig.colorbar(im, ax=axes[row, col], shrink=0.8)
     fig.suptitle(f"bump2d, {n}x{n}: iCIDR decays smoothly; mu(I),Phi(I) fails at t* = {t_star:.3g}")
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
     print(f"figure written to {path}")
 
@@ -301,9 +299,8 @@ def movie(path="docs/sim2d.mp4", n=48, n_frames=60) -> None:
         _panel(axes[1], mui, "w", min(frame, len(mui.times) - 1), "mu(I)")
 
     anim = animation.FuncAnimation(fig, draw, frames=n_frames)
-    tmp = pathlib.Path(path).with_name("tmp_" + pathlib.Path(path).name)
-    anim.save(tmp, writer=animation.FFMpegWriter(fps=12, bitrate=900))
-    os.replace(tmp, path)
+    with replacing(path) as tmp:
+        anim.save(tmp, writer=animation.FFMpegWriter(fps=12, bitrate=900))
     plt.close(fig)
     print(f"movie written to {path}")
 

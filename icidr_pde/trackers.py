@@ -283,8 +283,10 @@ class LivePlotTracker(TrackerBase):
         elif self._mode == "window":
             self.fig.canvas.draw_idle()
             self.fig.canvas.flush_events()
-        if self.output_file:
-            self.fig.savefig(self.output_file)
+        if self.output_file:  # whole at every redraw: a watcher never reads half an image
+            from .outputs import save_figure
+
+            save_figure(self.fig, self.output_file)
         cost = time.perf_counter() - start
         self.n_draws += 1
         self.overhead_s += cost

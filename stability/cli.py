@@ -49,25 +49,20 @@ def _one_d_json(sn):
 
 
 def _write_json(path, obj):
-    """Write JSON through a temporary file in the same directory, so no half-written file is left."""
-    import os  # noqa: PLC0415
-    import tempfile  # noqa: PLC0415
+    """Write JSON whole or not at all (:mod:`icidr_pde.outputs`)."""
+    from icidr_pde.outputs import write_atomically  # noqa: PLC0415
 
-    fd, tmp = tempfile.mkstemp(suffix=".json", dir=os.path.dirname(os.path.abspath(path)))
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(obj, fh, indent=2)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_atomically(path, lambda fh: json.dump(obj, fh, indent=2))
 
 
 def _stability(args) -> int:
+    from icidr_pde.outputs import check_outputs  # noqa: PLC0415
+
     from .numeric import stability_numbers  # noqa: PLC0415
     material = None
     two_d = args.velocity_gradient is not None or args.angles is not None or args.plot is not None
     try:
+        check_outputs({"--json": args.json, "--plot": args.plot})
         if args.velocity_gradient is not None:
             if args.uz is not None or args.wz is not None:
                 raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
@@ -193,7 +188,9 @@ def _plot_plane(args) -> int:
             print(f"{label:<13} {r.rheology:<6} max_lambda {r.max_lambda:.6g} at {r.worst_angle_deg:.4f} deg; "
                   f"lambda_max(90) {r.at_90_deg['lambda_plus'].real:.6g}; ill-posed {iv}")
     fig.tight_layout()
-    fig.savefig(args.polar, dpi=120)
+    from icidr_pde.outputs import save_figure  # noqa: PLC0415
+
+    save_figure(fig, args.polar, dpi=120)
     plt.close(fig)
     print(f"saved {args.polar}")
     _, rows = plot_oblique_growth(args.growth)

@@ -27,6 +27,7 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 from scipy.optimize import brentq, minimize_scalar
+from icidr_pde.outputs import save_figure
 
 from . import plane, rheologies
 from .material import check_phi, check_rheology_name, default_material
@@ -498,10 +499,7 @@ def plot_polar(results, ax=None, title=None, material=None):
 
 
 def save_polar(results, path, title=None, material=None):
-    """Write :func:`plot_polar` of `results` to the PNG `path` (written to a temporary file, then moved)."""
-    import os  # noqa: PLC0415
-    import tempfile  # noqa: PLC0415
-
+    """Write :func:`plot_polar` of `results` to the PNG `path` (whole or not at all: :mod:`icidr_pde.outputs`)."""
     import matplotlib  # noqa: PLC0415
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
@@ -509,14 +507,8 @@ def save_polar(results, path, title=None, material=None):
     fig, ax = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(5.2, 6.2))
     plot_polar(results, ax, title, material)
     fig.tight_layout()
-    d_ = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=d_)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, path)
+        save_figure(fig, path, dpi=120)
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
     return path

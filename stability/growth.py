@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from icidr_pde.outputs import save_figure
 
 from . import rheologies
 from .material import check_phi, check_rate, check_rheology_name, check_xi, default_material
@@ -247,6 +248,6 @@ def plot_fd_growth(path="docs/fd_growth.png", Ns=(32, 64, 128, 256, 512, 1024, 2
     ax.legend()
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path, rows

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from icidr_pde.outputs import save_figure
 
 from . import directional
 from .material import check_xi
@@ -208,6 +209,6 @@ def plot_oblique_growth(path="docs/oblique_growth.png", state=None, rows=None, m
                  rf"[[{L[0]:g}, {L[1]:.4g}], [{L[2]:g}, {L[3]:g}]]; max |measured/predicted - 1| = {err:.1e}",
                  fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path, rows

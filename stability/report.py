@@ -95,14 +95,18 @@ def format_markdown(checks) -> str:
 
 def write_json(checks, path) -> None:
     """JSON list of {equation, status, detail, claim[, corrected]}."""
-    with open(path, "w", encoding="utf-8") as fh:
-        json.dump([c.to_json() for c in checks], fh, indent=2)
+    from icidr_pde.outputs import write_atomically  # noqa: PLC0415
+
+    write_atomically(path, lambda fh: json.dump([c.to_json() for c in checks], fh, indent=2))
 
 
 def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) -> int:
     """Run the report, print the table, optionally write JSON/markdown; exit code 0 unless unexpected failures."""
+    from icidr_pde.outputs import check_outputs, write_atomically  # noqa: PLC0415
+
     from . import plane  # noqa: PLC0415  (2-D plane waves: the direction the 1-D appendix A leaves out)
 
+    check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
     checks = run_checks(crosscheck) + plane.checks()
     stream(format_table(checks))
@@ -113,8 +117,8 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
     if json_path:
         write_json(checks, json_path)
     if markdown_path:
-        with open(markdown_path, "w", encoding="utf-8") as fh:
-            fh.write(format_markdown(checks) + "\n")
+        text = format_markdown(checks) + "\n"
+        write_atomically(markdown_path, lambda fh: fh.write(text))
     bad = unexpected_failures(checks)
     if bad:
         stream("UNEXPECTED failures: " + ", ".join(c.equation for c in bad))

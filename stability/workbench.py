@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import math
-import pathlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -459,10 +458,10 @@ def _eos_summary(rheology) -> dict:
 
 def write_report(report: dict, path) -> None:
     """Write `report` as JSON atomically (never half-written)."""
-    path = pathlib.Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(report, indent=2, default=_json_default))
-    tmp.replace(path)
+    from icidr_pde.outputs import write_atomically  # noqa: PLC0415
+
+    text = json.dumps(report, indent=2, default=_json_default)
+    write_atomically(path, lambda fh: fh.write(text))
 
 
 def _json_default(x):

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import replacing, write_atomically
+
 from . import analysis as A
 from . import audit
 
@@ -44,9 +46,8 @@ def continuum_raw(material, times, cache_dir, H=30.0, phi0=0.78, a=0.16, b=0.1, 
     out = {"z": np.asarray(res.z), "times": np.asarray(res.times), "cpu_s": time.process_time() - c0,
            **{f: np.asarray(getattr(res, f)) for f in FIELDS}}
     Path(cache_dir).mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, **out)
-    tmp.replace(path)
+    with replacing(path) as tmp:
+        np.savez_compressed(tmp, **out)
     return out
 
 
@@ -299,13 +300,11 @@ def make_report(cache_dir, json_path, npz_path=None, fig_path=None, base_factor=
                         "continuum_runs": cont_cpu,
                         "this_report": time.process_time() - c0}
     Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(str(json_path) + ".tmp")
-    tmp.write_text(json.dumps(summary, indent=1, default=float))
-    tmp.replace(json_path)
+    text = json.dumps(summary, indent=1, default=float)
+    write_atomically(json_path, lambda fh: fh.write(text))
     if npz_path:
-        tmpn = Path(str(npz_path) + ".tmp.npz")
-        np.savez_compressed(tmpn, **curves)
-        tmpn.replace(npz_path)
+        with replacing(npz_path) as tmp:
+            np.savez_compressed(tmp, **curves)
     if fig_path:
         from .plots import fig8_audit
         fig8_audit(summary, curves, fig_path)

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import replacing
+
 
 
 def default_cache_dir() -> Path:
@@ -47,7 +49,6 @@ def save(cache_dir, key, result: dict) -> Path:
     cache_dir = Path(cache_dir)
     cache_dir.mkdir(parents=True, exist_ok=True)
     path = cache_dir / f"{key}.npz"
-    tmp = cache_dir / f".{key}.{os.getpid()}.tmp.npz"
-    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.items()})
-    os.replace(tmp, path)
+    with replacing(path) as tmp:
+        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.items()})
     return path

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
 from ..cli import int_at_least, positive_int as _pos_int
+from ..outputs import check_outputs, writable_folder
 
 
 def _fraction(text):
@@ -118,26 +118,17 @@ def add_parser(subparsers):
 # ------------------------------------------------------------------ helpers
 def _writable_dir(path) -> Path:
     """Create ``path`` if needed and check it can be written, before any run."""
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise ValueError(f"`--out` must be a directory; got the file {str(p)!r}")
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"`--out` {str(p)!r} cannot be created: {exc.strerror}") from None
-    if not os.access(p, os.W_OK):
-        raise ValueError(f"`--out` {str(p)!r} is not writable")
-    return p
+    return writable_folder("--out", path)
 
 
-def _output(arg, out: Path, default_name):
-    """Explicit path, '' for none, or OUT/default_name; checks the parent is a writable directory."""
+def _output(arg, out: Path, default_name, option: str = "output"):
+    """Explicit path, '' for none, or OUT/default_name; checked before any run."""
     if arg == "":
         return None
     path = Path(arg) if arg is not None else out / default_name
-    if path.is_dir():
-        raise ValueError(f"output {str(path)!r} is a directory; give a file name")
-    _writable_dir(path.parent)
+    if arg is not None:
+        _writable_dir(path.parent)
+    check_outputs({option: path})
     return path
 
 
@@ -162,8 +153,9 @@ def cmd_steady(args) -> int:
     from .steady import run_steady_study
 
     out = _writable_dir(args.out)
-    json_path = _output(args.json, out, "steady.json")
-    fig_path = _output(args.fig, out, "fig1_dem.png")
+    json_path = _output(args.json, out, "steady.json", "--json")
+    fig_path = _output(args.fig, out, "fig1_dem.png", "--fig")
+    check_outputs({"--json": json_path, "--fig": fig_path})  # not one file
     params = _params(args)
     s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs,
                          cache_dir=_cache(args), protocol=Protocol(t_shear=args.t_shear, t_avg=args.t_avg),
@@ -189,9 +181,10 @@ def cmd_transient(args) -> int:
     from .paths import committed
 
     out = _writable_dir(args.out)
-    json_path = _output(args.json, out, "transient.json")
-    npz_path = _output(args.npz, out, "transient_ensemble.npz")
-    fig_path = _output(args.fig, out, "fig8_dem.png")
+    json_path = _output(args.json, out, "transient.json", "--json")
+    npz_path = _output(args.npz, out, "transient_ensemble.npz", "--npz")
+    fig_path = _output(args.fig, out, "fig8_dem.png", "--fig")
+    check_outputs({"--json": json_path, "--npz": npz_path, "--fig": fig_path})  # not one file
     steady = Path(args.steady_json) if args.steady_json else committed("steady.json")
     if not steady.is_file():
         raise ValueError(f"`--steady-json` {str(steady)!r} not found: run `icidr-pde dem steady` first")

@@ -29,12 +29,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from ..outputs import replacing
 
 from . import cache, coarse
 from .driver import PREPARATIONS, ShearCell
@@ -221,9 +222,8 @@ def run_ensemble_member(base: BaseState, seed: int, perts, cache_dir, keep_resta
             c0 = _cpu()
             with ShearCell(base.phi0, seed, base.params, preparation=base.preparation) as cell:
                 cell.advance(base.t_shear)
-                tmp = cache_dir / f".{bkey}.{os.getpid()}.restart"
-                cell.write_restart(tmp)
-                os.replace(tmp, restart)
+                with replacing(restart) as tmp:
+                    cell.write_restart(tmp)
             cpu_base = _cpu() - c0
         for p in missing:
             c0 = _cpu()

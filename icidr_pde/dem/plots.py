@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..outputs import save_figure
 from .fit import mu_of_I
 
 FIG8_TIMES = (0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0)
@@ -44,7 +45,7 @@ def fig1(summary: dict, path):
         a.set_xlim(0, Ig.max())
         a.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -93,7 +94,7 @@ def fig8(ens: dict, cont_t1: dict, cont_fit: dict, err_t1: dict, err_fit: dict, 
     fig.suptitle("Sine-perturbed shear cell (5.7), phi0=0.78, a=0.16, b=0.1: "
                  "DEM (symbols, mean $\\pm$ std) vs iCIDR (solid: Table 1, dashed: our fit)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
@@ -169,7 +170,7 @@ def fig8_audit(summary: dict, c: dict, path):
     ax.legend(fontsize=7, loc="upper left")
     ax2.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path, dpi=85)
+    save_figure(fig, path, dpi=85)
     plt.close(fig)
 
 
@@ -201,5 +202,5 @@ def fig1_pool(pool: dict, path):
     ax[0].set_ylim(0.3, 0.5)
     ax[1].set_ylim(0.755, 0.805)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

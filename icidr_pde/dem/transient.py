@@ -18,10 +18,11 @@ RMS_bins(std_DEM / sqrt(R)) / S_f is the resolution floor of that number.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
+
+from ..outputs import replacing, write_atomically
 
 from .steady import TRANSIENT_PHI0
 
@@ -135,16 +136,13 @@ def summarize(ens, cont_t1, cont_fit, fit_params) -> dict:
 
 def save_ensemble(ens, path):
     """Write the ensemble npz atomically (a temporary file moved into place)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
-    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in ens.items()})
-    os.replace(tmp, path)
+    with replacing(path) as tmp:
+        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in ens.items()})
 
 
 def write_json(summary, path):
     """Write a JSON summary atomically (never half-written)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(summary, indent=1))
-    os.replace(tmp, path)
+    text = json.dumps(summary, indent=1)
+    write_atomically(path, lambda fh: fh.write(text))

@@ -367,6 +367,15 @@ def _outputs(t_end, lists):
     return merged, where
 
 
+def _outputs_reached(problem, out_times, max_w, n_done: int) -> int:
+    """Outputs done when Ctrl-C came: the signal is seen only once CVODE has returned, possibly
+    before Python counted the outputs of that call (the driver wrote them and keeps the last)."""
+    reached = int(np.searchsorted(out_times, problem.last_good()[0], side="right"))
+    while reached > n_done and not np.isfinite(max_w[reached - 1]):  # stopped on an invalid state
+        reached -= 1
+    return max(n_done, reached)
+
+
 def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, *, accuracy="standard",
                discretization=None, method=None, rtol=None, atol=None, jacobian=None, material=None,
                advection=None, progress=False, series_times=None, **scene_params):
@@ -426,11 +435,13 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
 
         # refreshed every 0.1 s also into a pipe, as tqdm does by default: a reader sees the time move
         bar = TimeBar(t_end, "integrating", f"native, ready in {compile_s:.2g} s", log_interval=0.1)
+    started = False
     try:
         if not inside0:
             failure = (0.0, y0.copy(), f"initial state invalid: {case.check_state(y0)}")
         else:
             problem.start(y0, rtol=rtol_v, atol=atol_v)
+            started = True
             size, smallest, largest = _CHUNK
             while n_done < n_out and failure is None:
                 chunk = slice(n_done, min(n_done + size, n_out))
@@ -451,7 +462,8 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
                         reason = case.check_state(y_good)
                     failure = (t_good, y_good, reason)
     except KeyboardInterrupt:
-        pass
+        if started:
+            n_done = _outputs_reached(problem, out_times, max_w, n_done)
     finally:
         interrupted = failure is None and n_done < n_out
         if bar is not None:
@@ -485,7 +497,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
         max_w_v.append(float(np.max(np.abs(final[2]))))
         blew_up, t_star, reason = True, float(t_final), failure[2]
     elif interrupted:  # the last output state CVODE returned (the driver keeps it)
-        t_final, y_last = problem.last_good() if n_done else (0.0, y0)
+        t_final, y_last = problem.last_good() if started else (0.0, y0)
         final = native(y_last)
         blew_up, t_star, reason = False, None, f"interrupted at t = {t_final:.6g}"
     else:

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..discretizations import DISCRETIZATIONS
 from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from ..outputs import check_outputs, write_atomically
 from ..rheology import RHEOLOGIES
 from ..scenes import SCENES
 from .failure_time import parse_range, sweep, threshold, tstar_mapping
@@ -71,6 +72,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def cmd_tstar(args) -> int:
     if args.jobs < 1:
         raise ValueError(f"`--jobs` must be >= 1; got {args.jobs}")
+    check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
         label, path = _load_spec(spec)
@@ -100,8 +102,7 @@ def cmd_tstar(args) -> int:
             print(f"  N={n:4d}  t*={'null' if t is None else f'{t:.6g}'}")
     if args.json and mappings:
         payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
-        with open(args.json, "w") as fh:
-            json.dump(payload, fh, indent=1)
+        write_atomically(args.json, lambda fh: json.dump(payload, fh, indent=1))
         print(f"t*(N) written to {args.json}")
     if args.plot:
         if not curves:

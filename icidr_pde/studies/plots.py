@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..outputs import save_figure
 from .failure_time import PAPER_TSTAR, threshold
 
 __all__ = ["plot_tstar"]
@@ -45,5 +46,5 @@ def plot_tstar(curves: dict[str, dict], path: str, *, title: str | None = None,
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)
     plt.close(fig)
