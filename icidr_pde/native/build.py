@@ -12,8 +12,8 @@ A library's name is a hash of everything its text is generated from (the inputs 
 law's numba kernels, this package's sources, the template, the SUNDIALS library files and
 index type, the compiler), looked up before any sympy work: a warm run imports neither
 sympy nor scikit-sundae. The kernel cache checks a library against the hash of its bytes
-before it is loaded, and compiles from a fresh private C file (never from one found in the
-cache). A law the C printer refuses leaves a ``.unsupported`` note
+before it is loaded; the C text goes to the compiler on its standard input (no C file is
+written, none found in the cache is compiled). A law the C printer refuses leaves a ``.unsupported`` note
 with the reason, so that later runs fall back at once. Any reason the engine cannot be
 built is a :class:`NativeUnavailable` with a one-line message.
 """
@@ -148,7 +148,7 @@ def library(rheology, kinematics) -> ctypes.CDLL:
 
 
 def _compile(rheology, kinematics, index, cc, libdir, libs, name) -> pathlib.Path:
-    """Compile the library of `name` into the kernel cache from a fresh C file; its path."""
+    """Compile the library of `name` into the kernel cache; its path."""
     from .. import kernel_cache
     from ..rheology.ccode import UnsupportedLaw
 
@@ -160,18 +160,18 @@ def _compile(rheology, kinematics, index, cc, libdir, libs, name) -> pathlib.Pat
     sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} (fd, cheb; once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
-    with kernel_cache.scratch(".c", text.encode()) as c_path:
-        path = kernel_cache.build(name, ".so", lambda tmp: _run_compiler(
-            [cc, *LIBRARY_FLAGS, "-o", str(tmp), str(c_path), *map(str, libs), f"-Wl,-rpath,{libdir}", "-lm"]))
+    path = kernel_cache.build(name, ".so", lambda tmp: _run_compiler(  # the C text on stdin: no C file to plant
+        [cc, *LIBRARY_FLAGS, "-o", str(tmp), "-x", "c", "-", "-x", "none", *map(str, libs), f"-Wl,-rpath,{libdir}",
+         "-lm"], text))
     sys.stderr.write(f"icidr-pde: native kernels compiled in {time.perf_counter() - start:.1f} s\n")
     sys.stderr.flush()
     return path
 
 
-def _run_compiler(command) -> None:
-    """Run the compiler; NativeUnavailable with its first error line (or its exit status) if it fails."""
+def _run_compiler(command, source: str) -> None:
+    """Run the compiler on `source`; NativeUnavailable with its first error line (or its exit status) if it fails."""
     try:
-        proc = subprocess.run(command, capture_output=True, text=True, preexec_fn=_die_with_parent)
+        proc = subprocess.run(command, input=source, capture_output=True, text=True, preexec_fn=_die_with_parent)
     except OSError as err:
         raise NativeUnavailable(f"the C compiler {command[0]} could not be run: {err.strerror or err}") from None
     if proc.returncode != 0:
