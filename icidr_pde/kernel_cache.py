@@ -33,15 +33,13 @@ version's first compilation clears the previous version's kernels.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
+import errno
 import hashlib
 import os
 import pathlib
-import shutil
 import stat
 import sys
-import tempfile
 import threading
 import time
 
@@ -127,6 +125,15 @@ def _untrusted(st: os.stat_result) -> str | None:
     return None
 
 
+def _check_file(st: os.stat_result) -> None:
+    """_Refused unless `st` is that of a regular file this user owns and only this user can write."""
+    if not stat.S_ISREG(st.st_mode):
+        raise _Refused("not a regular file")
+    reason = _untrusted(st)
+    if reason:
+        raise _Refused(reason)
+
+
 def _prepare(path: pathlib.Path) -> None:
     """Create `path` (0700) and its ``__pycache__`` if missing; raise _Refused if either is unusable."""
     for directory in (path, path / "__pycache__"):
@@ -166,6 +173,10 @@ def _use(path: pathlib.Path, private: bool) -> None:
 
 def _fall_back(where, reason: str) -> pathlib.Path:
     """Say in one line why `where` is not used, then use a private temporary folder."""
+    import atexit
+    import shutil
+    import tempfile
+
     if _STATE.get("private"):
         raise KernelCacheError(f"kernel cache {where}: {reason}")
     try:
@@ -204,12 +215,7 @@ def _read_trusted(path: pathlib.Path) -> bytes:
     """The bytes of the regular file `path` (not followed if a symlink); _Refused if not trusted."""
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
     try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise _Refused("not a regular file")
-        reason = _untrusted(st)
-        if reason:
-            raise _Refused(reason)
+        _check_file(os.fstat(fd))
         with os.fdopen(os.dup(fd), "rb") as f:
             return f.read()
     finally:
@@ -292,6 +298,8 @@ def build(kernel: str, ext: str, make) -> pathlib.Path:
 def scratch(suffix: str, data: bytes | None = None):
     """A new private temporary file in the kernel folder (O_EXCL, 0600; `data` written to it if
     given), removed on exit: the path yielded is never one another user could have prepared."""
+    import tempfile
+
     fd, name = tempfile.mkstemp(dir=folder(), prefix=TEMP_PREFIX, suffix=suffix)
     path = pathlib.Path(name)
     try:
@@ -311,7 +319,7 @@ def _publish(kernel: str, ext: str, tmp: pathlib.Path, data: bytes) -> pathlib.P
     except FileExistsError:
         pass
     except OSError as err:
-        if err.errno in (28, 30, 122):  # ENOSPC, EROFS, EDQUOT
+        if err.errno in (errno.ENOSPC, errno.EROFS, errno.EDQUOT):
             raise
         if not path.exists():  # a file system without hard links
             os.replace(tmp, path)
@@ -358,7 +366,7 @@ def numba_setup() -> None:
             if not _numba_owned(self._cache_path):
                 return load_index(self)
             try:
-                _check_numba_file(self._index_path)
+                _check_file(os.lstat(self._index_path))
                 return load_index(self)
             except FileNotFoundError:
                 return {}
@@ -371,7 +379,7 @@ def numba_setup() -> None:
                 return load_data(self, name)
             path = self._data_path(name)
             try:
-                _check_numba_file(path)
+                _check_file(os.lstat(path))
                 return load_data(self, name)
             except FileNotFoundError:
                 raise
@@ -390,13 +398,6 @@ def numba_setup() -> None:
         _STATE["numba"] = True
 
 
-def _check_numba_file(path) -> None:
-    st = os.lstat(path)
-    if not stat.S_ISREG(st.st_mode):
-        raise _Refused("not a regular file")
-    reason = _untrusted(st)
-    if reason:
-        raise _Refused(reason)
 
 
 def _numba_miss(path, err) -> None:
@@ -424,13 +425,16 @@ def _entries(path: pathlib.Path):
 
 
 def prune(older_than: float = PRUNE_AFTER_S, stale_only: bool = True, path: pathlib.Path | None = None):
-    """Remove the files of other code versions (and temporary files) in the folder last modified
-    more than `older_than` seconds ago; every file of this package if not `stale_only`.
+    """Remove the files of other code versions (and temporary files older than :data:`PRUNE_AFTER_S`)
+    in the folder last modified more than `older_than` seconds ago; every file of this package if not
+    `stale_only`.
     Returns (files removed, bytes)."""
     path = folder() if path is None else path
     now, count, size = time.time(), 0, 0
     for file, st, current in list(_entries(path)):
-        if (stale_only and current and not file.name.startswith(TEMP_PREFIX)) or now - st.st_mtime < older_than:
+        age = now - st.st_mtime
+        in_progress = file.name.startswith(TEMP_PREFIX) and age < PRUNE_AFTER_S  # another process writing it
+        if (stale_only and (current or in_progress)) or age < older_than:
             continue
         try:
             file.unlink()

@@ -382,8 +382,9 @@ def test_cache_info_and_clear(cache_at, tmp_path, capsys):
     assert cli.main(["cache", "info"]) == 0
     assert f"kernel cache: {folder}" in capsys.readouterr().out
     assert cli.main(["cache", "clear", "--stale"]) == 0
-    assert "removed 5 stale files" in capsys.readouterr().out
-    assert [p.name for p in folder.iterdir() if p.is_file()] == [Path(probe(tmp_path).__file__).name]
+    assert "removed 4 stale files" in capsys.readouterr().out  # not the temporary file another process may be writing
+    assert sorted(p.name for p in folder.iterdir() if p.is_file()) == [".icidr_pde-x1y2z3.so.tmp",
+                                                                        Path(probe(tmp_path).__file__).name]
     assert cli.main(["cache", "clear"]) == 0
-    assert "removed 1 files" in capsys.readouterr().out
+    assert "removed 2 files" in capsys.readouterr().out
     assert not [p for p in folder.rglob("*") if p.is_file()]
