@@ -388,3 +388,37 @@ def test_cache_info_and_clear(cache_at, tmp_path, capsys):
     assert cli.main(["cache", "clear"]) == 0
     assert "removed 2 files" in capsys.readouterr().out
     assert not [p for p in folder.rglob("*") if p.is_file()]
+
+
+def test_a_killed_compile_leaves_no_compiler_running(tmp_path):
+    """The compiler dies with the run (26.9: an orphaned compiler went on writing into the cache)."""
+    import signal
+
+    compiler = tmp_path / "slow-cc"
+    pid_file = tmp_path / "cc.pid"
+    compiler.write_text(f"#!/bin/sh\necho $$ > {pid_file}\nexec sleep 60\n")
+    compiler.chmod(0o755)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(sys.path),
+               CC=str(compiler))
+    run = subprocess.Popen([sys.executable, "-m", "icidr_pde.cli", *RUN], env=env, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not (pid_file.exists() and pid_file.read_text().strip()) and time.monotonic() < deadline:
+        assert run.poll() is None
+        time.sleep(0.1)
+    pid = int(pid_file.read_text())
+    run.send_signal(signal.SIGKILL)
+    run.wait()
+
+    def alive():
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+        except FileNotFoundError:
+            return False
+
+    deadline = time.monotonic() + 10
+    while alive() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    if alive():
+        os.kill(pid, signal.SIGKILL)
+        raise AssertionError("the compiler outlived the killed run")
