@@ -149,6 +149,9 @@ def _prepare(path: pathlib.Path) -> None:
         reason = _untrusted(st)
         if reason:
             raise _Refused(reason)
+        if st.st_mode & 0o077:  # readable by others: a folder made before the cache was private
+            with contextlib.suppress(OSError):
+                os.chmod(directory, 0o700)
         if not os.access(directory, os.W_OK | os.X_OK):
             raise _Refused("not writable")
 
@@ -297,17 +300,15 @@ def build(kernel: str, ext: str, make) -> pathlib.Path:
 
 
 @contextlib.contextmanager
-def scratch(suffix: str, data: bytes | None = None):
-    """A new private temporary file in the kernel folder (O_EXCL, 0600; `data` written to it if
-    given), removed on exit: the path yielded is never one another user could have prepared."""
+def scratch(suffix: str):
+    """A new empty private temporary file in the kernel folder (O_EXCL, 0600), removed on exit: the
+    path yielded is never one another user could have prepared."""
     import tempfile
 
     fd, name = tempfile.mkstemp(dir=folder(), prefix=TEMP_PREFIX, suffix=suffix)
+    os.close(fd)
     path = pathlib.Path(name)
     try:
-        with os.fdopen(fd, "wb") as f:
-            if data is not None:
-                f.write(data)
         yield path
     finally:
         with contextlib.suppress(OSError):

@@ -63,6 +63,17 @@ def test_cache_folder_is_created_private(cache_at, tmp_path):
     assert (Path(module.__file__).stat().st_mode & 0o077) == 0
 
 
+def test_a_folder_readable_by_others_is_made_private(cache_at, tmp_path):
+    """A cache made before it was private (0755) is kept and closed to others."""
+    folder = cache_at(tmp_path)
+    folder.mkdir(parents=True, mode=0o755)
+    folder.chmod(0o755)
+    module = probe(tmp_path)
+    assert Path(module.__file__).parent == folder
+    assert (folder.stat().st_mode & 0o777) == 0o700
+    assert (Path(module.__file__).stat().st_mode & 0o077) == 0
+
+
 # --- unusable folders (26.8) ----------------------------------------------------------------
 
 
