@@ -1,6 +1,7 @@
 """Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law,cache}``.
 
-Exit status of every subcommand: 0 success; 2 bad input (nothing was run or written);
+Exit status of every subcommand: 0 success; 2 bad input (nothing was written; nothing was run,
+except a Python law file, which is a program run to read the law: docs/security.md);
 3 the run failed (blow-up, non-finite state, phi left (0, phi_c)), results written;
 4 a result could not be written (the others were); 130 interrupted by SIGINT (Ctrl-C),
 143 by SIGTERM, with what was computed up to then written.
@@ -48,12 +49,14 @@ def discretization_options() -> dict[str, tuple]:
 
 
 def rheology_name(text):
-    """argparse type: a registered rheology or a law file ``*.py`` (checked when the law is built)."""
+    """argparse type: a registered rheology or a law file ``*.toml`` (data) or ``*.py`` (a program:
+    it is run), checked when the law is built."""
     from .rheology import RHEOLOGIES
 
-    if text in RHEOLOGIES or text.endswith(".py"):
+    if text in RHEOLOGIES or text.endswith((".py", ".toml")):
         return text
-    raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.py, got {text!r}")
+    raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.toml or *.py, "
+                                     f"got {text!r}")
 
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
@@ -213,7 +216,9 @@ def add_run_parser(subparsers):
                     "(0, phi_c)); 4 an output could not be written; 130/143 interrupted (SIGINT/SIGTERM).")
     p.add_argument("--rheology", type=rheology_name, default="icidr", metavar="NAME|FILE",
                    help=f"one of {', '.join(sorted(RHEOLOGIES))} (mui: mu(I),Phi(I) (3.13)-(3.15); "
-                        "icidr: inertial CIDR (5.3)-(5.5)), or a law file *.py (see `law check`)")
+                        "icidr: inertial CIDR (5.3)-(5.5)), or a law file: *.toml (formulas, read as data) or "
+                        "*.py (a Python program: it is RUN with your rights; only files you would run yourself; "
+                        "see docs/security.md and `law check`)")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear",
                    help="initial condition: shear (3.16) or sine (5.7)")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",

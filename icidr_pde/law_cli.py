@@ -1,10 +1,16 @@
 """``icidr-pde law {check,list}``: the rheology workbench from the command line.
 
 ``law check NAME|FILE [--json out.json]`` prints conditions (4.3)-(4.5) (status, method,
-counterexample), the equation of state and the verdict of the symbol in 1-D and 2-D, and
-writes the full report (:func:`stability.workbench.law_report`) as JSON. ``law list``
-lists the registered laws. Exit codes: 0 (the report was made, whatever the verdict),
-2 (bad input: unknown law, a law file that cannot be used).
+counterexample), whether p and c are finite and >= 0 on the sample (else the verdict is
+ILL-DEFINED, with the state), the equation of state and the verdict of the symbol in 1-D
+and 2-D, and writes the full report (:func:`stability.workbench.law_report`) as JSON.
+``law list`` lists the registered laws. Exit codes: 0 (the report was made, whatever the
+verdict), 2 (bad input: unknown law, a law file that cannot be used, a law whose p or c is
+not finite; one line).
+
+A law FILE is ``*.toml`` (declarative: formulas read by a whitelist, nothing in it is run;
+:mod:`icidr_pde.rheology.declarative`) or ``*.py``: **a Python law file is a program, and
+checking it runs it** with your rights before anything is checked (docs/security.md).
 """
 
 from __future__ import annotations
@@ -29,6 +35,10 @@ def _check(args) -> int:
         where = "" if pos["counterexample"] is None else "  e.g. at " + ", ".join(
             f"{k} = {v:.4g}" for k, v in pos["counterexample"].items())
         print(f"  Y > 0: {pos['status']} ({pos['method']}){where}")
+    defined = report["defined"]
+    print(f"  p, c finite, >= 0: {defined['status']} ({defined['method']})" + "".join(
+        f"; {f['what']} (= {f['value']:.4g}) e.g. at " + ", ".join(f"{k} = {v:.4g}" for k, v in f["counterexample"].items())
+        for f in defined["failures"]))
     eos = report.get("equation_of_state")
     if eos:
         print(f"  equation of state: {eos['method']}; sqrt(p) = {eos['sqrt_p']}")
@@ -43,7 +53,10 @@ def _check(args) -> int:
               f"(max Re Lambda_+ = {w['Lambda_plus']:.4g} at phi = {w['phi']:.4g}, gamma-dot = {w['gamma_dot']:.4g}, "
               f"div u/||S|| = {w['div_u_over_norm_S']:.3g}; {w['ill_posed_states']} of {st['grid']['states']} "
               "states ill-posed)")
-    print(f"  verdict: {'WELL-POSED' if report['well_posed'] else 'ILL-POSED'}")
+    verdict = "WELL-POSED" if report["well_posed"] else "ILL-POSED"
+    if defined["failures"]:
+        verdict = "ILL-DEFINED (" + ", ".join(f["what"] for f in defined["failures"]) + ")"
+    print(f"  verdict: {verdict}")
     if args.json:
         write_report(report, args.json)
         print(f"report written to {args.json}")
@@ -63,14 +76,25 @@ def _list(args) -> int:
     return 0
 
 
+PYTHON_FILE_WARNING = ("A Python law file is a program: `law check FILE.py` and `run --rheology FILE.py` RUN it with "
+                       "your rights before anything is checked. Use only files you would run yourself; share laws "
+                       "as *.toml (see docs/security.md).")
+
+
 def add_parser(subparsers):
     """Add ``law check`` and ``law list`` to the ``icidr-pde`` command."""
     p = subparsers.add_parser("law", help="rheology workbench: check a law for well-posedness, list laws",
-                              description="Check a constitutive law (a registered name or a Python file defining "
-                                          "yield_function/dilatancy_function or pressure/shear_stress).")
+                              description="Check a constitutive law: a registered name, a declarative law file "
+                                          "*.toml (yield_function/dilatancy_function or pressure/shear_stress "
+                                          "formulas, read as data; e.g. examples/icidr.toml) or a Python law file "
+                                          "*.py defining those functions.\n" + PYTHON_FILE_WARNING)
     sub = p.add_subparsers(dest="law_command", required=True)
-    c = sub.add_parser("check", help="conditions (4.3)-(4.5), equation of state, symbol over a grid of states")
-    c.add_argument("law", help="registered name (see `law list`) or a .py file")
+    c = sub.add_parser("check", help="conditions (4.3)-(4.5), equation of state, symbol over a grid of states",
+                       description="Conditions (4.3)-(4.5), p and c finite and >= 0, the equation of state and "
+                                   "the symbol over a grid of states.\n" + PYTHON_FILE_WARNING
+                                   + "\nexit status: 0 the report was made (whatever the verdict); 2 bad input "
+                                     "(one line; a Python law file may have run by then)")
+    c.add_argument("law", help="registered name (see `law list`), a .toml law file, or a .py law file (run!)")
     c.add_argument("--json", default=None, help="write the full report here")
     c.add_argument("--no-curves", action="store_true", help="skip the Y/p and steady mu(I), Phi(I) curves")
     c.set_defaults(func=_check)

@@ -383,6 +383,7 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
     from icidr_pde.rheology.cidr import CIDRLaw, LawError
 
     rheology = resolve_law(law, material)
+    defined = _definedness(rheology)
     conditions = check_conditions(rheology)
     report = {"law": rheology.name, "label": rheology.label, "kind": getattr(rheology, "kind", "direct"),
               "material": rheology.material.to_dict(), "phi_domain": list(law_domain(rheology))}
@@ -397,7 +398,8 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
     positivity = check_positivity(rheology)
     report["positivity"] = None if positivity is None else positivity.to_json()
     report["conditions_hold"] = hold if isinstance(rheology, CIDRLaw) else None
-    report["well_posed"] = bool(symbol_ok and (hold or not isinstance(rheology, CIDRLaw)))
+    report["defined"] = defined
+    report["well_posed"] = bool(symbol_ok and (hold or not isinstance(rheology, CIDRLaw)) and defined["status"] == "holds")
     report["stability"] = sym
     if isinstance(rheology, CIDRLaw) and hold and not symbol_ok:
         if positivity is not None and positivity.status == "fails":
@@ -409,9 +411,27 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
                                                 "inconsistent, please report")
     if with_curves:
         report["curves"] = curves(rheology)
-    report["runnable"] = not (isinstance(rheology, CIDRLaw) and report["equation_of_state"]["no_positive_root_at"])
+    report["runnable"] = not (isinstance(rheology, CIDRLaw) and report["equation_of_state"]["no_positive_root_at"]) \
+        and all(f["what"] == "c < 0" for f in defined["failures"])
     del LawError
     return report
+
+
+def _definedness(rheology) -> dict:
+    """p, c finite and p, c >= 0 on the sample of :func:`~icidr_pde.rheology.cidr.sample_states`.
+
+    A law whose p or c is not finite there is refused (LawError: there is nothing to analyse);
+    p < 0 or c < 0 is reported with the first state where it happens (the law is then neither
+    well-posed nor, for p < 0, runnable).
+    """
+    from icidr_pde.rheology.cidr import LawError, ill_defined
+
+    failures = ill_defined(rheology)
+    for what, state, value in failures:
+        if "not finite" in what:
+            raise LawError(rheology.name, f"{what} (value {value}): the law is ill-defined", state)
+    return {"status": "fails" if failures else "holds", "method": "sampled",
+            "failures": [{"what": what, "counterexample": state, "value": value} for what, state, value in failures]}
 
 
 def _eos_summary(rheology) -> dict:

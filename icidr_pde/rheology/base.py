@@ -108,6 +108,24 @@ class Rheology:
 
     #: p and tau are homogeneous of degree 2 in the strain rate (rate-independent laws)
     rate_homogeneous: bool = False
+    #: a law defined at run time (a law file, :func:`define_rheology`): checked before it is run,
+    #: and it may not take a built-in law's name
+    defined_at_run_time: bool = False
+
+    def check_runnable(self) -> None:
+        """Raise LawError (naming a state) if a law defined at run time has p or c not finite, or
+        p < 0, on the sample of :func:`~.cidr.sample_states` (an ill-defined law: nothing to run).
+
+        The built-in laws are not evaluated here (a test checks them), so running them costs no sympy work.
+        """
+        if not self.defined_at_run_time:
+            return
+        from .cidr import LawError, ill_defined
+
+        for what, state, value in ill_defined(self):
+            if what != "c < 0":   # c < 0 (negative dissipation) is reported by `law check`, as Y < 0 is
+                raise LawError(self.name, f"{what} (the law is ill-defined; it needs finite p >= 0 and c), "
+                                          "so it cannot be run", state, f"value {value:.6g}")
 
     def _inputs(self, phi, uz, wz):
         phi, uz, wz = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (phi, uz, wz)))
@@ -197,13 +215,14 @@ def chi_of_M(M, uz, wz) -> np.ndarray:
 
 
 def get_rheology(name, material: Material | None = None) -> Rheology:
-    """The rheology registered as `name` (see :data:`RHEOLOGIES`), a law file ``*.py``
-    (:func:`~icidr_pde.rheology.cidr.load_law_file`), or `name` if it is a Rheology."""
+    """The rheology registered as `name` (see :data:`RHEOLOGIES`), a law file ``*.toml`` or
+    ``*.py`` (:func:`~icidr_pde.rheology.cidr.load_law_file`: a ``*.py`` file is run, it is a
+    program), or `name` if it is a Rheology."""
     if isinstance(name, Rheology):
         return name
-    if isinstance(name, str) and name.endswith(".py"):   # a law written in a file (rheology workbench)
-        from .cidr import load_law_file
+    from .cidr import is_file_law, load_law_file
 
+    if is_file_law(name):   # a law written in a file (rheology workbench)
         return load_law_file(name)(material)
     try:
         cls = RHEOLOGIES[name]
@@ -215,19 +234,24 @@ def get_rheology(name, material: Material | None = None) -> Rheology:
 def define_rheology(name: str, p, c, *, label: str | None = None, register: bool = True) -> type:
     """Build (and register) a Rheology class from sympy expressions of the invariants.
 
-    `p` and `c` (tau = c S) are expressions in the symbols of
+    `p` and `c` (tau = c S) are sympy expressions in the symbols of
     :mod:`icidr_pde.rheology.symbols`: ``phi``, ``div_u``, ``norm_S``, the placeholders
     ``M`` = M(phi) and ``Psi`` = Psi(phi), and material parameters
-    (``MATERIAL_SYMBOLS``). Kernels are generated and cached like those of the built-in
-    rheologies. Returns the class; ``get_rheology(name, material)`` then works.
+    (``MATERIAL_SYMBOLS``), or formulas (text) in those names, read by the safe parser
+    (:func:`~.declarative.parse_expression`; text is never ``sympify``-d, which would ``eval`` it).
+    `name` may not be a built-in law's. Kernels are generated and cached like those of the
+    built-in rheologies. Returns the class; ``get_rheology(name, material)`` then works.
     """
     import sympy as sp
 
     from . import symbols as s
+    from .cidr import as_expression, check_law_name
 
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"`name` must be an identifier-like string; got {name!r}")
-    p, c = sp.sympify(p), sp.sympify(c)
+    check_law_name(name)
+    argnames = ("phi", "div_u", "norm_S", "M", "Psi")
+    p, c = as_expression(p, argnames, "`p`"), as_expression(c, argnames, "`c`")
     key = f"{sp.srepr(p)}\n{sp.srepr(c)}"
 
     def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
@@ -239,6 +263,7 @@ def define_rheology(name: str, p, c, *, label: str | None = None, register: bool
                {"law": law, "label": label or name, "definition_key": classmethod(lambda cls: key),
                 "__doc__": f"Rheology {name!r}: p = {p}, c = {c} (tau = c S)."})
     cls.name = name
+    cls.defined_at_run_time = True
     if register:
         RHEOLOGIES[name] = cls
     return cls

@@ -87,10 +87,13 @@ def c_law_source(rheology, kinematics) -> str:
     what = (f"rheology {rheology.name!r}, laws {material.friction.name!r}/{material.dilatancy.name!r}, "
             f"kinematics {kinematics.name!r}: outputs {kinematics.outputs}, args {tuple(args)}, "
             f"params {tuple(pnames)}")
-    return "".join([
-        _C_HEADER.format(what=what),
-        f"\n#define LAW_N_OUTPUTS {len(outputs)}\n#define LAW_N_ARGS {len(args)}\n",
-        _function("law_stress", signature, outputs, plain, printer),
-        _function("law_stress_jacobian", signature, jac, plain, printer),
-        _function("law_M", "double v_phi, const double *params", [M], plain, printer, returns=True),
-    ])
+    try:
+        functions = [_function("law_stress", signature, outputs, plain, printer),
+                     _function("law_stress_jacobian", signature, jac, plain, printer),
+                     _function("law_M", "double v_phi, const double *params", [M], plain, printer, returns=True)]
+    except NotImplementedError as err:   # sympy's PrintMethodNotImplementedError: the numba path may still print it
+        from .codegen import unprintable
+
+        raise UnsupportedLaw(f"law {rheology.name!r}: {unprintable(err, 'C')}") from None
+    return "".join([_C_HEADER.format(what=what),
+                    f"\n#define LAW_N_OUTPUTS {len(outputs)}\n#define LAW_N_ARGS {len(args)}\n", *functions])

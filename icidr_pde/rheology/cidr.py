@@ -32,7 +32,9 @@ A law given directly as p and ||tau|| on invariants (like mu(I),Phi(I)) is a
 A law written in a file (:func:`load_law_file`) defines ``yield_function`` and
 ``dilatancy_function`` (or ``pressure`` and ``shear_stress``) of
 (p, I, phi, M, Psi, prm) resp. (phi, div_u, norm_S, M, Psi, prm); M = mu(Psi(phi)) and
-Psi = Psi(phi) of the material, prm the material parameters by name.
+Psi = Psi(phi) of the material, prm the material parameters by name. Such a Python file is a
+program and loading it runs it; a declarative ``*.toml`` file (:mod:`.declarative`) gives the
+same law as formulas read by a whitelist, nothing run (docs/security.md).
 """
 
 from __future__ import annotations
@@ -83,6 +85,42 @@ def sample_states(phi_range, n_phi=9, n_div=13, n_S=7):
     Ss = np.logspace(-3, 1, n_S)
     P, D, S = np.meshgrid(phis, divs, Ss, indexing="ij")
     return P.ravel(), D.ravel(), S.ravel()
+
+
+def ill_defined(rheology) -> list[tuple[str, dict, float]]:
+    """Where p or c (tau = c S) is not finite, or negative, on the sample of :func:`sample_states`.
+
+    A list of (what, state, value), the first state of each failure ("p is not finite",
+    "c is not finite", "p < 0", "c < 0"); empty for a law defined everywhere on the sample.
+    A CIDR law's states without a positive solution for p (:meth:`CIDRLaw.inadmissible`) are
+    left out: there is no p there to judge.
+    """
+    phis, divs, Ss = sample_states(rheology.material.phi_range)
+    skip = rheology.inadmissible() if isinstance(rheology, CIDRLaw) else np.zeros(phis.shape, dtype=bool)
+    with np.errstate(all="ignore"):
+        p, c = (np.broadcast_to(np.asarray(v, dtype=float), phis.shape)
+                for v in rheology.invariant_stress(phis, divs, Ss))
+    out = []
+    for what, bad, v in (("p is not finite", ~np.isfinite(p), p), ("c is not finite", ~np.isfinite(c), c),
+                         ("p < 0", p < 0, p), ("c < 0", c < 0, c)):
+        bad = bad & ~skip
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            out.append((what, {"phi": float(phis[i]), "div_u": float(divs[i]), "norm_S": float(Ss[i])}, float(v[i])))
+    return out
+
+
+def law_expression(law, function: str, *args):
+    """The sympy expression `law`.`function`(*args) returns; text is refused (sympify would eval it)."""
+    import sympy as sp
+
+    value = getattr(law, function)(*args)
+    try:
+        return sp.sympify(value, strict=True)
+    except sp.SympifyError:
+        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        raise LawError(law.name, f"{function}() must return a sympy expression or a number; got "
+                                 f"{type(value).__name__} {shown} (write a formula as a declarative .toml law)") from None
 
 
 # --- the stable rewriting ----------------------------------------------------------------
@@ -181,8 +219,8 @@ class CIDRLaw(Rheology):
         phi, div, S, M, Psi, prm = self._placeholders()
         q = _sqrt_p_symbol()
         I = 2 * S / q  # noqa: E741  (2.9) with d = rho_* = 1
-        f = sp.sympify(self.dilatancy_function(q**2, I, phi, M, Psi, prm))
-        Y = sp.sympify(self.yield_function(q**2, I, phi, M, Psi, prm))
+        f = law_expression(self, "dilatancy_function", q**2, I, phi, M, Psi, prm)
+        Y = law_expression(self, "yield_function", q**2, I, phi, M, Psi, prm)
         if self.equation_of_state not in ("auto", "scalar"):
             raise ValueError(f"`equation_of_state` must be 'auto' or 'scalar'; got {self.equation_of_state!r}")
         roots = []
@@ -258,22 +296,23 @@ class CIDRLaw(Rheology):
                            {"phi": phis[0], "div_u": divs[0], "norm_S": Ss[0]})
         return best
 
-    def admissibility(self):
-        """None, or a state (dict) of the sample where the flow rule has no positive solution for p."""
+    def inadmissible(self) -> np.ndarray:
+        """Mask of :func:`sample_states` where the flow rule has no positive solution for p."""
         from .implicit import ImplicitRoot
 
         q, _ = self._derived()
         if isinstance(q, ImplicitRoot):
             phis, divs, Ss, Ms, Psis = self._numeric_placeholders()
             _, failed = q.solve(phis, divs, Ss, Ms, Psis, *self.material.params, raise_on_failure=False)
-            if not np.any(failed):
-                return None
-            i = int(np.argmax(failed))
-            return {"phi": float(phis[i]), "div_u": float(divs[i]), "norm_S": float(Ss[i])}
+            return np.asarray(failed, dtype=bool)
         v = self._lambdify(q)
         bad = ~((np.abs(v.imag) <= 1e-12 * np.maximum(np.abs(v), 1e-300)) & (v.real > 0))
         _, divs, Ss, _, _ = self._numeric_placeholders()
-        bad &= ~((Ss == Ss.min()) & (divs >= 0) & (np.abs(v) < 1e-12))  # p = 0 where allowed (4.13)
+        return bad & ~((Ss == Ss.min()) & (divs >= 0) & (np.abs(v) < 1e-12))  # p = 0 where allowed (4.13)
+
+    def admissibility(self):
+        """None, or a state (dict) of the sample where the flow rule has no positive solution for p."""
+        bad = self.inadmissible()
         if not np.any(bad):
             return None
         phis, divs, Ss, _, _ = self._numeric_placeholders()
@@ -286,12 +325,12 @@ class CIDRLaw(Rheology):
         A law with a given closed form is checked by :meth:`verify_closed_form` (tests, ``law check``);
         here only derived roots are examined, so running iCIDR costs no sympy work.
         """
-        if self.has_closed_form():
-            return
-        bad = self.admissibility()
-        if bad is not None:
-            raise LawError(self.name, "the flow rule (4.2) with (2.9) has no positive solution for p, so the "
-                           "law cannot be run (use it in the stability analysis only)", bad)
+        if not self.has_closed_form():
+            bad = self.admissibility()
+            if bad is not None:
+                raise LawError(self.name, "the flow rule (4.2) with (2.9) has no positive solution for p, so the "
+                               "law cannot be run (use it in the stability analysis only)", bad)
+        super().check_runnable()
 
     def verify_closed_form(self, rtol: float = 1e-10) -> None:
         """Raise LawError unless :meth:`closed_form` equals the derived (p, c) on the sample."""
@@ -362,8 +401,8 @@ class DirectLaw(Rheology):
         # c = ||tau||/||S||, cancelled in the placeholder symbols (so c stays finite at ||S|| = 0
         # where ||tau|| vanishes like ||S||), then evaluated at the arguments
         own = self.material.values(symbolic=True)
-        p = sp.sympify(self.pressure(s.phi, s.div_u, s.norm_S, s.M, s.Psi, own))
-        c = sp.cancel(sp.sympify(self.shear_stress(s.phi, s.div_u, s.norm_S, s.M, s.Psi, own)) / s.norm_S)
+        p = law_expression(self, "pressure", s.phi, s.div_u, s.norm_S, s.M, s.Psi, own)
+        c = sp.cancel(law_expression(self, "shear_stress", s.phi, s.div_u, s.norm_S, s.M, s.Psi, own) / s.norm_S)
         subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
         subs.update({own[k]: v for k, v in prm.items() if k in own})
         return p.xreplace(subs), c.xreplace(subs)
@@ -371,17 +410,45 @@ class DirectLaw(Rheology):
 
 # --- laws built at run time -----------------------------------------------------------------
 
-def _as_function(spec, argnames):
-    """A callable of `argnames` from a callable or a sympy expression in the placeholder symbols."""
+def _placeholder_table() -> dict:
+    """Name -> symbol of every argument a law function takes (:mod:`.symbols`, p of :func:`pressure_symbol`)."""
+    from . import symbols as s
+
+    return {"p": pressure_symbol(), "I": s.I, "phi": s.phi, "div_u": s.div_u, "norm_S": s.norm_S,
+            "M": s.M, "Psi": s.Psi}
+
+
+def as_expression(spec, argnames, where: str):
+    """A sympy expression from a sympy object or number, or from text by the safe parser
+    (:func:`.declarative.parse_expression`: the names `argnames` and the material parameters;
+    never ``sympify`` of text, which is ``eval``)."""
+    import sympy as sp
+
+    from . import symbols as s
+    from .declarative import parse_expression
+
+    if isinstance(spec, str):
+        table = _placeholder_table()
+        names = {n: table[n] for n in argnames}
+        names.update({k: v for k, v in s.MATERIAL_SYMBOLS.items() if k not in names})
+        return parse_expression(spec, names, where)
+    try:
+        return sp.sympify(spec, strict=True)
+    except sp.SympifyError:
+        raise ValueError(f"{where} must be a sympy expression, a number or a formula (text); "
+                         f"got {type(spec).__name__}") from None
+
+
+def _as_function(spec, argnames, where="law"):
+    """A callable of `argnames` from a callable or a sympy expression (or formula) in the placeholder symbols."""
     if callable(spec):
         return spec
     import sympy as sp
 
     from . import symbols as s
 
-    expr = sp.sympify(spec)
-    table = {"p": pressure_symbol(), "I": s.I, "phi": s.phi, "div_u": s.div_u, "norm_S": s.norm_S,
-             "M": s.M, "Psi": s.Psi}
+    expr = as_expression(spec, argnames, where)
+    table = _placeholder_table()
 
     def function(*args):
         *values, prm = args
@@ -402,10 +469,21 @@ def _key_of(*functions, extra=""):
     return "\n".join(parts)
 
 
-def _register(name, cls, register):
+def check_law_name(name) -> None:
+    """A law defined at run time needs a name of its own: a built-in law's name is refused."""
     if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-]*", name):
         raise ValueError(f"`name` must start with a letter and contain letters, digits, '_' or '-'; got {name!r}")
+    taken = RHEOLOGIES.get(name)
+    if taken is not None and not taken.defined_at_run_time:
+        builtin = sorted(k for k, v in RHEOLOGIES.items() if not v.defined_at_run_time)
+        raise ValueError(f"`name` {name!r} is a built-in law's; a law defined at run time needs a name of its "
+                         f"own (built-in: {', '.join(builtin)})")
+
+
+def _register(name, cls, register):
+    check_law_name(name)
     cls.name = name
+    cls.defined_at_run_time = True
     if register:
         RHEOLOGIES[name] = cls
     return cls
@@ -418,8 +496,9 @@ def define_cidr_law(name: str, yield_function, dilatancy_function, *, label=None
     `equation_of_state` as :attr:`CIDRLaw.equation_of_state` ('auto' or 'scalar')."""
     if equation_of_state not in ("auto", "scalar"):
         raise ValueError(f"`equation_of_state` must be 'auto' or 'scalar'; got {equation_of_state!r}")
-    Y = _as_function(yield_function, ("p", "I", "phi", "M", "Psi"))
-    f = _as_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"))
+    check_law_name(name)
+    Y = _as_function(yield_function, ("p", "I", "phi", "M", "Psi"), "`yield_function`")
+    f = _as_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"), "`dilatancy_function`")
     definition = key or _key_of(Y, f, extra=name)
     body = {
         "yield_function": lambda self, p, I, phi, M, Psi, prm: Y(p, I, phi, M, Psi, prm),  # noqa: E741
@@ -437,8 +516,9 @@ def define_direct_law(name: str, pressure, shear_stress, *, label=None, material
                       register: bool = True, key: str | None = None) -> type:
     """A :class:`DirectLaw` class from p and ||tau|| (callables of (phi, div_u, norm_S, M, Psi, prm)
     or sympy expressions in phi, div_u, norm_S, M, Psi and material parameters)."""
-    P = _as_function(pressure, ("phi", "div_u", "norm_S", "M", "Psi"))
-    T = _as_function(shear_stress, ("phi", "div_u", "norm_S", "M", "Psi"))
+    check_law_name(name)
+    P = _as_function(pressure, ("phi", "div_u", "norm_S", "M", "Psi"), "`pressure`")
+    T = _as_function(shear_stress, ("phi", "div_u", "norm_S", "M", "Psi"), "`shear_stress`")
     definition = key or _key_of(P, T, extra=name)
     body = {
         "pressure": lambda self, phi, div_u, norm_S, M, Psi, prm: P(phi, div_u, norm_S, M, Psi, prm),
@@ -456,36 +536,107 @@ def _ident(name: str) -> str:
 
 
 def is_file_law(spec) -> bool:
-    """True if `spec` names a Python file (a law written by the user) rather than a registered law."""
-    return isinstance(spec, (str, pathlib.Path)) and str(spec).endswith(".py")
+    """True if `spec` names a law file (Python ``*.py`` or declarative ``*.toml``) rather than a registered law."""
+    from .declarative import is_declarative_law
+
+    return isinstance(spec, (str, pathlib.Path)) and (str(spec).endswith(".py") or is_declarative_law(spec))
+
+
+#: what a Python law file defines: (function names, their argument names, the law's kind)
+_FILE_LAWS = ((("yield_function", "dilatancy_function"), ("p", "I", "phi", "M", "Psi"), "cidr"),
+              (("pressure", "shear_stress"), ("phi", "div_u", "norm_S", "M", "Psi"), "direct"))
 
 
 def load_law_file(path) -> type:
-    """The law class of a Python file defining (Y, f) or (p, ||tau||); registered under the file's stem.
+    """The law class of a law file; registered under its ``name`` (default: the file's stem).
 
-    The file defines ``yield_function(p, I, phi, M, Psi, prm)`` and
+    A declarative file (``*.toml``, :mod:`.declarative`) is data: its formulas are parsed by a
+    whitelist, nothing in it is run. **A Python file (``*.py``) is a program: loading it runs
+    it** (``runpy``), with every right of the user, before anything can be checked; load only
+    Python law files you would run yourself, and share laws as ``*.toml``.
+
+    The Python file defines ``yield_function(p, I, phi, M, Psi, prm)`` and
     ``dilatancy_function(p, I, phi, M, Psi, prm)`` (a CIDR law), or ``pressure`` and
-    ``shear_stress`` of (phi, div_u, norm_S, M, Psi, prm) (a direct law), with sympy
+    ``shear_stress`` of (phi, div_u, norm_S, M, Psi, prm) (a direct law), returning sympy
     expressions; optional ``name``, ``label``, ``material`` (a dict of Material arguments).
+    Every error (the file's own, at its run or at the first call of its functions, a name
+    that is a built-in law's, a symbol that is not a law's) is one ValueError line naming the file.
     """
-    import runpy
+    from .declarative import is_declarative_law, load_declarative_law
 
+    if is_declarative_law(path):
+        return load_declarative_law(path)
     path = pathlib.Path(path)
+    where = f"Python law file {str(path)!r} (it was run)"
     if not path.is_file():
         raise ValueError(f"`rheology` file {str(path)!r} does not exist")
-    text = path.read_text()
-    namespace = runpy.run_path(str(path))
+    namespace = _run_law_file(path, where)
     name = namespace.get("name", path.stem)
     label = namespace.get("label")
     material = namespace.get("material")
-    if isinstance(material, dict):
-        material = Material(**material)
-    key = f"file {name}\n{text}"
-    if "yield_function" in namespace and "dilatancy_function" in namespace:
-        return define_cidr_law(name, namespace["yield_function"], namespace["dilatancy_function"], label=label,
-                               material=material, key=key)
-    if "pressure" in namespace and "shear_stress" in namespace:
-        return define_direct_law(name, namespace["pressure"], namespace["shear_stress"], label=label,
-                                 material=material, key=key)
-    raise ValueError(f"`rheology` file {str(path)!r} must define yield_function and dilatancy_function "
+    try:
+        if isinstance(material, dict):
+            material = Material(**material)
+        elif material is not None and not isinstance(material, Material):
+            raise ValueError(f"`material` must be a dict of Material arguments; got {type(material).__name__}")
+        check_law_name(name)
+    except ValueError as err:
+        raise ValueError(f"{where}: {err}") from None
+    key = f"file {name}\n{path.read_text()}"
+    for functions, argnames, kind in _FILE_LAWS:
+        if all(f in namespace for f in functions):
+            _probe(namespace, functions, argnames, material or Material(), where)
+            define = define_cidr_law if kind == "cidr" else define_direct_law
+            return define(name, *(namespace[f] for f in functions), label=label, material=material, key=key)
+    raise ValueError(f"{where} must define yield_function and dilatancy_function "
                      "(a CIDR law) or pressure and shear_stress (a direct law)")
+
+
+def _run_law_file(path, where) -> dict:
+    """The namespace of the Python file `path`, run; its errors (sys.exit too) as one ValueError line."""
+    import runpy
+
+    try:
+        return runpy.run_path(str(path))
+    except SyntaxError as err:
+        raise ValueError(f"Python law file {str(path)!r}: syntax error at line {err.lineno}: {err.msg} "
+                         "(nothing in it was run)") from None
+    except SystemExit as err:
+        raise ValueError(f"{where}: it called sys.exit({err.code!r}) instead of defining a law") from None
+    except Exception as err:  # noqa: BLE001  (any error of the user's program, named in one line)
+        raise ValueError(f"{where}: it raised {_one_line(err)}") from None
+
+
+def _one_line(err) -> str:
+    text = " ".join(str(err).split())
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+
+
+def _probe(namespace, functions, argnames, material, where) -> None:
+    """Call the file's law functions once on the placeholder symbols: their errors, a result that
+    is not an expression, not finite (nan, zoo, oo) or in a symbol that is not the law's, as one line."""
+    import sympy as sp
+    from sympy.core.function import AppliedUndef
+
+    table = _placeholder_table()
+    args = [table[a] for a in argnames]
+    prm = material.values(symbolic=True)
+    allowed = set(args) | set(prm.values())
+    for function in functions:
+        try:
+            value = namespace[function](*args, prm)
+        except Exception as err:  # noqa: BLE001
+            raise ValueError(f"{where}: {function}() raised {_one_line(err)}") from None
+        try:
+            expr = sp.sympify(value, strict=True)
+        except sp.SympifyError:
+            raise ValueError(f"{where}: {function}() must return a sympy expression or a number; got "
+                             f"{type(value).__name__}") from None
+        bad = [a for a in (sp.nan, sp.zoo, sp.oo, -sp.oo) if expr.has(a)]
+        if bad:
+            raise ValueError(f"{where}: {function}() is not finite (it is {sp.sstr(expr)[:80]})")
+        strangers = sorted(map(str, (expr.free_symbols - allowed) | expr.atoms(AppliedUndef)))
+        if strangers:
+            raise ValueError(f"{where}: {function}() uses {', '.join(strangers)}, not a symbol of the law; "
+                             f"its symbols: {', '.join(argnames)} and the material's "
+                             f"{', '.join(material.parameter_names())} (as prm[...])")

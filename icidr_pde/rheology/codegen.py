@@ -129,6 +129,13 @@ def _printers():
         def _print_Piecewise(self, expr):
             return _nested(self, expr, "numpy.where({c}, {e}, {rest})")
 
+        # nested binary calls: sympy's own form, functools.reduce, needs an import the header lacks
+        def _print_Max(self, expr):
+            return _folded(self, expr, "numpy.maximum")
+
+        def _print_Min(self, expr):
+            return _folded(self, expr, "numpy.minimum")
+
     def _nested(printer, expr, form):
         *pairs, (last, cond) = expr.args
         if cond != sp.true:
@@ -136,6 +143,12 @@ def _printers():
         out = printer._print(last)
         for e, c in reversed(pairs):
             out = form.format(e=printer._print(e), c=printer._print(c), rest=out)
+        return out
+
+    def _folded(printer, expr, function):
+        out = printer._print(expr.args[-1])
+        for arg in reversed(expr.args[:-1]):
+            out = f"{function}({printer._print(arg)}, {out})"
         return out
 
     return (Scalar(dict(fully_qualified_modules=True, user_functions={"rsqrt0": "_rsqrt0"})),
@@ -239,8 +252,26 @@ def law_expressions(rheology, kinematics):
     return args, list(material.parameter_names()), outputs, jac, names
 
 
+def unprintable(err, language: str) -> str:
+    """One line saying that a law uses a function sympy cannot print in `language` (`err`, sympy's)."""
+    from .declarative import FUNCTIONS
+
+    what = str(err).splitlines()[0] if str(err) else type(err).__name__
+    return (f"its {language} kernels cannot be generated ({what}); the printers know "
+            f"{', '.join(dict.fromkeys(f for f, *_ in FUNCTIONS.values()))}, powers and Piecewise")
+
+
 def generated_source(rheology, kinematics) -> str:
     """Python source of the law module of `rheology` for `kinematics` (see the docstring)."""
+    try:
+        return _generated_source(rheology, kinematics)
+    except NotImplementedError as err:   # sympy's PrintMethodNotImplementedError: a function it cannot print
+        from .cidr import LawError
+
+        raise LawError(rheology.name, unprintable(err, "numba/numpy")) from None
+
+
+def _generated_source(rheology, kinematics) -> str:
     args, pnames, outputs, jac, names = law_expressions(rheology, kinematics)
     material = rheology.material
     scalar, array = _printers()

@@ -45,7 +45,7 @@ def test_law_without_positive_pressure_cannot_be_run_from_the_cli(capsys):
 def test_bad_rheology_argument_names_the_choices(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--rheology", "nope"])
-    assert "or a law file *.py" in capsys.readouterr().err
+    assert "or a law file *.toml or *.py" in capsys.readouterr().err
 
 
 @pytest.mark.slow
