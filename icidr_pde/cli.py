@@ -1,4 +1,4 @@
-"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law}``.
+"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law,cache}``.
 
 Exit status of every subcommand: 0 success; 2 bad input (nothing was written; nothing was run,
 except a Python law file, which is a program run to read the law: docs/security.md);
@@ -33,6 +33,7 @@ SUBCOMMANDS = {
     "dem": ("icidr_pde.dem.cli", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
     "figures": ("icidr_pde.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
     "law": ("icidr_pde.law_cli", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
+    "cache": ("icidr_pde.cache_cli", "add_parser", "the kernel cache: where it is, its size, clear it"),
 }
 
 

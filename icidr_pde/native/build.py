@@ -4,7 +4,7 @@ The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, t
 finite-volume and Chebyshev kernels printed from their numba templates
 ``discretizations/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (with
 ``kernel_support.c``) and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
-(``$CC``) into the kernel cache directory (:func:`icidr_pde.rheology.codegen.kernel_dir`)
+(``$CC``) into the kernel cache (:mod:`icidr_pde.kernel_cache`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
 found from the package's location without importing it; its LAPACK dense solver where
 present, for Chebyshev), then loaded with ctypes.
@@ -12,14 +12,16 @@ present, for Chebyshev), then loaded with ctypes.
 A library's name is a hash of everything its text is generated from (the inputs of the
 law's numba kernels, this package's sources, the template, the SUNDIALS library files and
 index type, the compiler), looked up before any sympy work: a warm run imports neither
-sympy nor scikit-sundae. Files are written under a temporary name and hard-linked into
-place (never half-written). A law the C printer refuses leaves a ``.unsupported`` note
+sympy nor scikit-sundae. The kernel cache checks a library against the hash of its bytes
+before it is loaded; the C text goes to the compiler on its standard input (no C file is
+written, none found in the cache is compiled). A law the C printer refuses leaves a ``.unsupported`` note
 with the reason, so that later runs fall back at once. Any reason the engine cannot be
 built is a :class:`NativeUnavailable` with a one-line message.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import glob
 import importlib.resources
@@ -28,6 +30,7 @@ import inspect
 import os
 import pathlib
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -130,63 +133,76 @@ def _source(rheology, kinematics, index, libs=()) -> str:
 
 def library(rheology, kinematics) -> ctypes.CDLL:
     """The loaded native library of `rheology` (compiled now if missing; see the docstring)."""
+    from .. import kernel_cache
     from ..rheology import codegen
 
     libdir, libs, index = sundials()
     cc = _compiler()
-    name = f"icidr_pde_native_{codegen._digest(_key(rheology, kinematics, libs, index, cc))}"
+    name = kernel_cache.stem("native", codegen._digest(_key(rheology, kinematics, libs, index, cc)))
     with _LOCK:
         if name in _LIBRARIES:
             return _LIBRARIES[name]
-        directory = codegen.kernel_dir()
-        path = directory / f"{name}.so"
-        note = directory / f"{name}.unsupported"
-        if not path.exists():
-            if note.exists():
-                raise NativeUnavailable(note.read_text().strip())
-            _compile(rheology, kinematics, index, cc, libdir, libs, directory / f"{name}.c", path, note)
+        try:
+            found = kernel_cache.read(name, ".so")
+            if found is None:
+                note = kernel_cache.read(name, ".unsupported")
+                if note is not None:
+                    raise NativeUnavailable(note[1].decode(errors="replace").strip())
+                path = _compile(rheology, kinematics, index, cc, libdir, libs, name)
+            else:
+                path = found[0]
+        except kernel_cache.KernelCacheError as err:
+            raise NativeUnavailable(str(err)) from None
         try:
             lib = ctypes.CDLL(str(path))
         except OSError as err:
+            path.unlink(missing_ok=True)  # rebuilt by the next run
             raise NativeUnavailable(f"native library not loadable: {err}") from None
         _declare(lib)
         _LIBRARIES[name] = lib
         return lib
 
 
-def _compile(rheology, kinematics, index, cc, libdir, libs, c_path, so_path, note) -> None:
+def _compile(rheology, kinematics, index, cc, libdir, libs, name) -> pathlib.Path:
+    """Compile the library of `name` into the kernel cache; its path."""
+    from .. import kernel_cache
     from ..rheology.ccode import UnsupportedLaw
-    from ..rheology.codegen import _write_once
 
     try:
         text = _source(rheology, kinematics, index, libs)
     except UnsupportedLaw as err:
-        _write_once(note, f"{err}\n")
+        kernel_cache.store(name, ".unsupported", f"{err}\n".encode())
         raise NativeUnavailable(str(err)) from None
-    _write_once(c_path, text)
     sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} (fd, cheb; once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
-    tmp = so_path.with_name(f".{so_path.name}.{os.getpid()}.tmp")
-    command = [cc, *LIBRARY_FLAGS, "-o", str(tmp), str(c_path), *map(str, libs),
-               f"-Wl,-rpath,{libdir}", "-lm"]
-    try:
-        proc = subprocess.run(command, capture_output=True, text=True)
-        if proc.returncode != 0:
-            lines = [line for line in proc.stderr.splitlines() if "error" in line] or proc.stderr.splitlines()
-            raise NativeUnavailable(f"compiling the native kernels failed: {(lines or ['?'])[0].strip()}")
-        try:
-            os.link(tmp, so_path)  # atomic, and fails if another process was first
-        except FileExistsError:
-            pass
-        except OSError:
-            if not so_path.exists():
-                os.replace(tmp, so_path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    path = kernel_cache.build(name, ".so", lambda tmp: _run_compiler(  # the C text on stdin: no C file to plant
+        [cc, *LIBRARY_FLAGS, "-o", str(tmp), "-x", "c", "-", "-x", "none", *map(str, libs), f"-Wl,-rpath,{libdir}",
+         "-lm"], text))
     sys.stderr.write(f"icidr-pde: native kernels compiled in {time.perf_counter() - start:.1f} s\n")
     sys.stderr.flush()
+    return path
+
+
+def _run_compiler(command, source: str) -> None:
+    """Run the compiler on `source`; NativeUnavailable with its first error line (or its exit status) if it fails."""
+    try:
+        proc = subprocess.run(command, input=source, capture_output=True, text=True, preexec_fn=_die_with_parent)
+    except OSError as err:
+        raise NativeUnavailable(f"the C compiler {command[0]} could not be run: {err.strerror or err}") from None
+    if proc.returncode != 0:
+        lines = [line for line in proc.stderr.splitlines() if "error" in line] or proc.stderr.splitlines()
+        said = f": {lines[0].strip()}" if lines else " with no message"
+        raise NativeUnavailable(f"the C compiler {command[0]} failed (exit status {proc.returncode}){said}")
+    if not os.path.getsize(command[command.index("-o") + 1]):
+        raise NativeUnavailable(f"the C compiler {command[0]} exited 0 but wrote no library")
+
+
+def _die_with_parent() -> None:
+    """In the compiler's process (Linux): end it when this process dies, so that a killed run leaves
+    no compiler writing into the cache."""
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
 def _declare(lib) -> None:

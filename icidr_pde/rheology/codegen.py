@@ -31,57 +31,38 @@ The mechanism:
    loop kernel and every (template, law) pair has its own file and its own cache entries.
    Any template combines with any law; sizes, grids and parameters are arguments, so a new
    N or new parameter values compile nothing.
-3. **Where and keyed by what.** Files go to ``$NUMBA_CACHE_DIR/icidr_pde_kernels`` when
-   NUMBA_CACHE_DIR is set, else ``$XDG_CACHE_HOME/icidr_pde/kernels`` (default
-   ``~/.cache``), never into site-packages; numba's own cache files follow numba's rules
-   (NUMBA_CACHE_DIR, or ``__pycache__`` beside the file). A file's name is a hash of
+3. **Where and keyed by what.** Files go to the kernel cache (:mod:`icidr_pde.kernel_cache`:
+   the folder, its trust checks, names, verification and pruning), never into site-packages;
+   numba's cache files of their functions go beside them. A module's name is a hash of
    everything its text is generated from: the source of the module defining the rheology,
    of :mod:`.laws`, :mod:`.kinematics`, this module and the template, sympy's version. It
    is looked up before any sympy work, so a second process imports the cached module and
-   loads numba's cached machine code without importing sympy. Files are written once, by
-   hard-linking a finished temporary file (never half-written, never rewritten: numba keys
-   its cache on the file's modification time). While the first call compiles,
-   :func:`first_call` says so on stderr ("compiling kernels ... (once per installation)");
-   a marker file beside the module records that it has been compiled.
+   loads numba's cached machine code without importing sympy. The file is checked against
+   the hash of its bytes in its name before it runs; files are written once and never
+   rewritten. While the first call compiles, :func:`first_call` says so on stderr
+   ("compiling kernels ... (once per installation)"); a marker file in the cache records
+   that it has been compiled.
 """
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import inspect
-import os
 import pathlib
 import sys
 import threading
 import time
 
-__all__ = ["kernel_dir", "law_kernels", "law_expressions", "material_functions", "compose", "generated_source", "first_call"]
+from .. import kernel_cache
+
+__all__ = ["law_kernels", "law_expressions", "material_functions", "compose", "generated_source", "first_call"]
 
 _MODULES: dict[str, object] = {}  # module name -> module
 _BY_DEFINITION: dict[tuple, object] = {}  # (classes the module is generated from) -> module
 _LOCK = threading.Lock()
-_PREFIX = "icidr_pde_kernels_"
 
 
-def kernel_dir() -> pathlib.Path:
-    """Directory of the generated kernel sources (see the module docstring)."""
-    numba_dir = os.environ.get("NUMBA_CACHE_DIR")
-    if numba_dir:
-        path = pathlib.Path(numba_dir) / "icidr_pde_kernels"
-    else:
-        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        path = pathlib.Path(base) / "icidr_pde" / "kernels"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def _digest(*parts: str) -> str:
-    h = hashlib.sha256()
-    for part in parts:
-        h.update(part.encode())
-        h.update(b"\0")
-    return h.hexdigest()[:20]
+_digest = kernel_cache.digest
 
 
 def _module_source(module_name: str) -> str:
@@ -89,12 +70,7 @@ def _module_source(module_name: str) -> str:
     return pathlib.Path(importlib.util.find_spec(module_name).origin).read_text()
 
 
-def _sympy_version() -> str:
-    """sympy's version from its release.py, found without importing sympy (importlib.metadata
-    costs ~30 ms of start-up: measured)."""
-    spec = importlib.util.find_spec("sympy")
-    release = pathlib.Path(spec.origin).with_name("release.py") if spec and spec.origin else None
-    return release.read_text() if release is not None and release.is_file() else "?"
+_sympy_version = kernel_cache.sympy_version
 
 
 def _generator_key() -> str:
@@ -104,39 +80,30 @@ def _generator_key() -> str:
 
 
 def _load(kind: str, key: str, make_source) -> object:
-    """Import the generated module for `key`, writing it with `make_source()` if missing."""
-    name = f"{_PREFIX}{kind}_{_digest(key)}"
+    """Import the generated module for `key`, writing it with `make_source()` if missing.
+
+    The module runs from the bytes :func:`icidr_pde.kernel_cache.read` verified (no bytecode file
+    is read or written), under its stem as module name."""
+    name = kernel_cache.stem(kind, _digest(key))
     with _LOCK:
         if name in _MODULES:
             return _MODULES[name]
-        path = kernel_dir() / f"{name}.py"
-        if not path.exists():
-            _write_once(path, make_source())
+        found = kernel_cache.read(name, ".py")
+        if found is None:
+            data = make_source().encode()
+            found = kernel_cache.store(name, ".py", data), data
+        path, data = found
+        kernel_cache.numba_setup()
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         try:
-            spec.loader.exec_module(module)
+            exec(compile(data, str(path), "exec"), module.__dict__)
         except Exception:
             del sys.modules[name]
             raise
         _MODULES[name] = module
         return module
-
-
-def _write_once(path: pathlib.Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    try:
-        os.link(tmp, path)  # atomic, and fails if another process was first
-    except FileExistsError:
-        pass
-    except OSError:  # file systems without hard links
-        if not path.exists():
-            os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 # --- printing sympy as Python ---------------------------------------------------------
@@ -423,15 +390,14 @@ def compose(template: str, law_module, name: str = "loops"):
 
 def first_call(module, call, what: str):
     """Return call(); if `module`'s kernels were never compiled in this installation, say so
-    on stderr while numba compiles them (a marker file beside the module records it)."""
-    marker = pathlib.Path(module.__file__).with_suffix(".compiled")
-    if marker.exists():
+    on stderr while numba compiles them (a marker file in the kernel cache records it)."""
+    if kernel_cache.read(module.__name__, ".compiled") is not None:
         return call()
     sys.stderr.write(f"icidr-pde: compiling kernels for {what} (once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
     out = call()
-    marker.write_text(f"{time.perf_counter() - start:.3f} s\n")
+    kernel_cache.store(module.__name__, ".compiled", f"{time.perf_counter() - start:.3f} s\n".encode())
     sys.stderr.write(f"icidr-pde: kernels compiled in {time.perf_counter() - start:.1f} s\n")
     sys.stderr.flush()
     return out
