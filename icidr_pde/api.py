@@ -276,7 +276,7 @@ def run(
             loop) where it applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live plot
             or wall limit), else this path; 'native' says on stderr why it fell back; 'pde' is always
             this path (the one the regression anchors are pinned on). Both return the same Result
-            fields; CVODE's step choices may differ by round-off (README, Engines)
+            fields; CVODE's step choices may differ by round-off (docs/engines.md)
         on_result: called with the Result once the run has ended and before the movie is
             rendered (the CLI writes --json and --plot there: an interrupt while the movie is
             rendered loses neither)

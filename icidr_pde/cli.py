@@ -217,7 +217,7 @@ def add_run_parser(subparsers):
                        f"{dim}-D: " + ", ".join(sorted(n for n, c in SCENES.items() if getattr(c, "dim", 1) == dim))
                        for dim in (1, 2)) + " (shear: (3.16), sine: (5.7))")
     p.add_argument("--accuracy", choices=sorted(PRESETS), default="standard",
-                   help="preset for discretization, N, method and tolerances (measured: see README)")
+                   help="preset for discretization, N, method and tolerances (measured: docs/performance.md, Presets)")
     p.add_argument("--discretization", choices=sorted(DISCRETIZATIONS), default=None,
                    help="default: from --accuracy")
     p.add_argument("--N", type=positive_int, default=None,

@@ -12,7 +12,7 @@ intervals); :func:`make_figures` writes them to ``numbers.json`` and a gallery p
 (``README.md``) beside the PNGs.
 
 Settings: the paper's integrator was ode15s; we use BDF with rtol 1e-6, atol 1e-9
-(t* of mu(I) depends on integrator and tolerance, README "Failure time"). The paper's
+(t* of mu(I) depends on integrator and tolerance, docs/performance.md "Failure time t* against the integrator"). The paper's
 captions do not give the snapshot times of figs 3, 6 and 7; we use t = 0, 0.5, 1, 2, 5,
 10 (fig 6) and t = 0, 1, 2, 3, 5, 10, 20 (fig 7, as in the DEM comparison), and for
 the blow-ups of fig 3(a,b) snapshots every 0.0025 up to t*.

@@ -1,7 +1,7 @@
 """Accuracy presets: discretization, N, integrator and tolerances chosen from measurements.
 
 The numbers behind each choice come from ``python benchmarks/work_precision.py``
-(data/benchmarks/work_precision.json, docs/speed_accuracy.md): iCIDR reference cases
+(data/benchmarks/work_precision.json, docs/performance.md, Presets): iCIDR reference cases
 (i) scene shear to t = 10 and (ii) scene sine to t = 20, errors against N = 3201 references.
 
 * ``draft``: fd, N = 51, CVODE rtol 1e-3: 0.008 s (shear), 0.011 s (sine) of solve; max|w|

@@ -9,7 +9,7 @@ made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 (data/sim2d/tstar.json);
 ``python -m icidr_pde.studies2d growth`` -- mode2d waves at several angles, the measured
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
-``python -m icidr_pde.studies2d tables`` -- the README tables from those files;
+``python -m icidr_pde.studies2d tables`` -- the tables of docs/sim2d.md from those files;
 ``python -m icidr_pde.studies2d figures`` -- field images of w and phi for both rheologies
 (docs/sim2d_fields.png) and a movie of both runs (docs/sim2d.mp4).
 

@@ -378,7 +378,7 @@ def curves(rheology, phis=None) -> dict:
 # --- the report --------------------------------------------------------------------------
 
 def law_report(law, material=None, *, with_curves: bool = True) -> dict:
-    """The report of `law` as a JSON-ready dict (schema: README, 'Rheology workbench')."""
+    """The report of `law` as a JSON-ready dict (schema: docs/laws.md, 'Command line, Python, JSON')."""
     from icidr_pde.rheology.cidr import CIDRLaw, LawError
 
     rheology = resolve_law(law, material)
