@@ -25,9 +25,9 @@ from .result import Result
 from .rheology import Material
 from .scenes import SCENES, Scene
 from .snapshots import SnapshotFile
-from .times import dense_times, time_labels as _time_labels
+from .times import check_t_end, dense_times, time_labels as _time_labels
 from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker
-from .validation import real
+from .validation import check_atol
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
@@ -137,6 +137,8 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
     with the state at t*. wall_s excludes the kernels' set-up time (compile_s). A max|w|
     series with listed times is recorded by the solver inside its loop, not at interrupts.
     """
+    check_atol(solver.atol, case.state.data)
+    solver.check_memory(case.state)  # before the solver allocates its matrices
     in_loop = [t for t in trackers if isinstance(t, MaxWTracker) and t.series_times is not None]
     for tracker in in_loop:
         solver.record(tracker.series_times, tracker.record)
@@ -279,7 +281,7 @@ def run(
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
     """
     # every argument is checked before any work and before any output file is touched
-    t_end = real("t_end", t_end, 0)
+    t_end = check_t_end(t_end)
     if engine != "pde":
         from .native import try_native
 

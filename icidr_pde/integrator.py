@@ -30,7 +30,8 @@ from . import cvode_counters
 from .colored_fd import colored_fd_jacobian
 
 from .conservative_jacobian import ConservativeDifferenceQuotients
-from .validation import ParameterError, choice, real
+from .times import time_tolerance
+from .validation import ParameterError, choice, nonfinite_rates, real
 
 __all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
            "ENGINES", "METHODS", "JACOBIAN_MODES", "check_tolerances"]
@@ -485,21 +486,18 @@ class StiffSolver(SolverBase):
         position = np.argsort(native)
         return c[native], position[native % n]  # a column's anchor: phi at its own node
 
-    def _jacobian_spec(self, state):
-        """The JacobianSpec of the chosen mode and the permutation into the engine's ordering."""
+    def _mode(self, state):
+        """(mode, ordering): the Jacobian mode this run takes, the defaults resolved
+        ('analytic-band': the analytic Jacobian in the engine's band matrix), and the
+        discretization's banded ordering (perm, lband, uband) or None. Builds nothing."""
         mode, pde = self.jacobian, self.pde
-        banded = getattr(pde, "interleaving", lambda state: None)(state) is not None
-        if mode == "analytic" and self.engine.banded_analytic and banded and hasattr(pde, "make_band_jacobian"):
-            perm, lband, uband = pde.interleaving(state)
-            return JacobianSpec(mode, band=(lband, uband), band_jac=pde.make_band_jacobian(state)), perm
+        ordering = getattr(pde, "interleaving", lambda state: None)(state)
+        if mode == "analytic" and self.engine.banded_analytic and ordering is not None \
+                and hasattr(pde, "make_band_jacobian"):
+            return "analytic-band", ordering
         if mode == "analytic" and self._default_jacobian and self.engine.banded_analytic:
             mode = self.jacobian = "banded-fd"  # no analytic band: difference quotients, or below
-        if mode == "banded-fd":
-            ordering = getattr(pde, "interleaving", lambda state: None)(state)
-            if ordering is not None:
-                perm, lband, uband = ordering
-                weights, anchor = self._conserved(state, perm)
-                return JacobianSpec(mode, band=(lband, uband), weights=weights, anchor=anchor), perm
+        if mode == "banded-fd" and ordering is None:
             if not self._default_jacobian:
                 raise ValueError("`jacobian`='banded-fd' needs a discretization with a banded "
                                  "ordering (finite differences); use 'analytic' or 'none'")
@@ -507,6 +505,35 @@ class StiffSolver(SolverBase):
             sparse_pattern = pde.jacobian_sparsity(state) is not None
             mode = self.jacobian = "krylov" if sparse_pattern and "krylov" in self.engine.jacobian_modes[
                 self.method] else "analytic"
+        return mode, ordering
+
+    def check_memory(self, state) -> None:
+        """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
+        scheme and linear algebra need more than half the memory available
+        (:func:`icidr_pde.grid_size.check_path`: a dense n x n array where this path has one)."""
+        limit = getattr(self.pde, "grid_limit", None)
+        if limit is None:
+            return
+        from .grid_size import check_path
+
+        shape = tuple(state.grid.shape)
+        what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
+        mode, _ = self._mode(state)
+        hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
+                if mode == "analytic-band" else "")
+        check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), self.method, mode, hint)
+
+    def _jacobian_spec(self, state):
+        """The JacobianSpec of the chosen mode and the permutation into the engine's ordering."""
+        pde = self.pde
+        mode, ordering = self._mode(state)
+        if mode == "analytic-band":
+            perm, lband, uband = ordering
+            return JacobianSpec("analytic", band=(lband, uband), band_jac=pde.make_band_jacobian(state)), perm
+        if mode == "banded-fd":
+            perm, lband, uband = ordering
+            weights, anchor = self._conserved(state, perm)
+            return JacobianSpec(mode, band=(lband, uband), weights=weights, anchor=anchor), perm
         if mode == "analytic":
             return JacobianSpec(mode, jac=pde.make_jacobian(state)), None
         if mode == "sparse":
@@ -611,8 +638,10 @@ class StiffSolver(SolverBase):
             def check(y):  # the message, only for a state outside
                 return None if inside(y) else generic_check(y)
 
+        # py-pde's Controller fires a tracker within dt/2 of its time (1e-8 without a dt); a dt
+        # following t keeps that window wider than the float spacing at t (see time_tolerance)
         self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
-                         dt=None, steps=0)
+                         dt=2 * time_tolerance(0.0), steps=0)
         engines: list = []  # created at the first call, at its t_start
         pending = [[times, callback, 0] for times, callback in self._records]
         reached = [None, None]  # the latest time of the current call with a known state (None: state.data's)
@@ -632,11 +661,12 @@ class StiffSolver(SolverBase):
 
         def record_before(engine, t_end):
             """Advance to and record every output time before t_end (py-pde fires an
-            interrupt within 1e-8 of the current time: a time that close to t_end is t_end's)."""
+            interrupt within time_tolerance of the current time: a time that close to t_end is
+            t_end's)."""
             while True:
                 due = [entry[0][entry[2]] for entry in pending if entry[2] < entry[0].size]
                 t = min(due, default=np.inf)
-                if not t < t_end - 1e-8:
+                if not t < t_end - time_tolerance(t_end):
                     return
                 advance(engine, t)
                 data = to_native(engine.value_at(t))
@@ -644,11 +674,12 @@ class StiffSolver(SolverBase):
                 record_at(t, data)
 
         def record_at(t, data):
+            close = t + time_tolerance(t)
             for entry in pending:
                 times, callback, k = entry
-                if k < times.size and times[k] < t + 1e-8:
+                if k < times.size and times[k] < close:
                     callback(t, data)
-                    while k < times.size and times[k] < t + 1e-8:
+                    while k < times.size and times[k] < close:
                         k += 1
                     entry[2] = k
 
@@ -674,6 +705,10 @@ class StiffSolver(SolverBase):
                 reason = check(y0)
                 if reason:
                     fail(f"initial state invalid: {reason}")
+                with np.errstate(all="ignore"):
+                    reason = nonfinite_rates(rhs(np.array(state.data), t_start), t_start)
+                if reason:
+                    fail(reason)
                 engines.append(self.engine(self.method, fun, t_start, y0, rtol=self.rtol, atol=self.atol,
                                            max_step=self.max_step, first_step=dt, jacobian=spec,
                                            margins=margins, fun_into=fun_into, margins_into=margins_into))
@@ -690,7 +725,7 @@ class StiffSolver(SolverBase):
                 return reached[0]
             finally:
                 stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
-                self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs)
+                self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs, dt=2 * time_tolerance(t_end))
             return t_end
 
         return stepper

@@ -43,6 +43,7 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
+from ..grid_size import FV2D, check_cells
 from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
 from .base import ShearCellBase
@@ -67,6 +68,10 @@ class ShearCell2DPDE(ShearCellBase):
     options = {"advection": ADVECTION_SCHEMES}
     kinematics = PLANE_FLOW
     dim = 2
+    grid_limit = FV2D
+    max_N = FV2D.max_N
+    memory_note = FV2D.memory_note
+    memory_estimate = staticmethod(FV2D.memory_estimate)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):
@@ -107,6 +112,7 @@ class ShearCell2DPDE(ShearCellBase):
         for name, value in (("H", H), ("L", L)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"`{name}` must be > 0; got {value}")
+        check_cells(cls.name, int(Nx), int(Nz), cls.grid_limit)
         return CartesianGrid([[0.0, float(L)], [0.0, float(H)]], [int(Nx), int(Nz)],
                              periodic=[True, False])
 
