@@ -27,7 +27,7 @@ from .scenes import SCENES, Scene
 from .snapshots import SnapshotFile
 from .times import check_t_end, dense_times, time_labels as _time_labels
 from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker
-from .validation import check_atol
+from .validation import check_atol, output_path, real
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
@@ -282,6 +282,8 @@ def run(
     """
     # every argument is checked before any work and before any output file is touched
     t_end = check_t_end(t_end)
+    save, movie = output_path("save", save), output_path("movie", movie)
+    frame_dt = None if frame_dt is None else real("frame_dt", frame_dt, 0)
     if engine != "pde":
         from .native import try_native
 

@@ -17,7 +17,8 @@ import os
 import numpy as np
 
 __all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes",
-           "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates"]
+           "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
+           "output_path"]
 
 
 class ParameterError(ValueError):
@@ -144,3 +145,12 @@ def nonfinite_rates(rates, t: float = 0.0) -> str | None:
     where = ", ".join(f"d{name}/dt at {int(bad[k].sum())} of {bad[k].size} nodes"
                       for k, name in enumerate(FIELDS[:rates.shape[0]]) if bad[k].any())
     return f"right-hand side not finite at t = {t:g} ({where})"
+
+
+def output_path(name: str, value):
+    """`value` as a file path for an output (a str or os.PathLike), or None; a TypeError
+    naming the parameter for anything else (a number, bytes)."""
+    if value is None or isinstance(value, str) or (isinstance(value, os.PathLike)
+                                                  and isinstance(os.fspath(value), str)):
+        return value
+    raise TypeError(f"`{name}` must be a file path (a str or os.PathLike) or None; got {shown(value)}")

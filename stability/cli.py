@@ -64,10 +64,14 @@ def _write_json(path, obj):
 
 
 def _stability(args) -> int:
+    from icidr_pde.cli import _option_names, check_output_path  # noqa: PLC0415
+
     from .numeric import stability_numbers  # noqa: PLC0415
     material = None
     two_d = args.velocity_gradient is not None or args.angles is not None or args.plot is not None
     try:
+        check_output_path("--json", args.json)
+        check_output_path("--plot", args.plot)
         if args.velocity_gradient is not None:
             if args.uz is not None or args.wz is not None:
                 raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
@@ -86,7 +90,7 @@ def _stability(args) -> int:
             angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
             ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
     except ValueError as e:
-        print(f"icidr-pde: error: {e}", file=sys.stderr)
+        print(f"icidr-pde: error: {_option_names(str(e), args)}", file=sys.stderr)
         return 2
     out = {}
     if sn is not None:
