@@ -30,7 +30,7 @@ from . import cvode_counters
 from .colored_fd import colored_fd_jacobian
 
 from .conservative_jacobian import ConservativeDifferenceQuotients
-from .times import time_tolerance
+from .times import controller_dt, time_tolerance
 from .validation import ParameterError, choice, nonfinite_rates, real
 
 __all__ = ["StiffSolver", "SimulationFailed", "Engine", "ScipyEngine", "CvodeEngine", "JacobianSpec",
@@ -638,10 +638,8 @@ class StiffSolver(SolverBase):
             def check(y):  # the message, only for a state outside
                 return None if inside(y) else generic_check(y)
 
-        # py-pde's Controller fires a tracker within dt/2 of its time (1e-8 without a dt); a dt
-        # following t keeps that window wider than the float spacing at t (see time_tolerance)
         self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
-                         dt=2 * time_tolerance(0.0), steps=0)
+                         dt=None, steps=0)
         engines: list = []  # created at the first call, at its t_start
         pending = [[times, callback, 0] for times, callback in self._records]
         reached = [None, None]  # the latest time of the current call with a known state (None: state.data's)
@@ -725,7 +723,8 @@ class StiffSolver(SolverBase):
                 return reached[0]
             finally:
                 stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
-                self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs, dt=2 * time_tolerance(t_end))
+                # the time windows of py-pde's Controller, resolvable at t (see controller_dt)
+                self.info.update(steps=stats.n_steps, n_rhs=stats.n_rhs, dt=controller_dt(t_end))
             return t_end
 
         return stepper
