@@ -48,6 +48,9 @@ from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
 from .base import ShearCellBase
 
+#: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`ShearCell2DPDE.line_pattern`)
+THIN_CELL = 10.0
+
 __all__ = ["ShearCell2DPDE"]
 
 _TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
@@ -253,6 +256,24 @@ class ShearCell2DPDE(ShearCellBase):
         3 x 3 cells around it (periodic in x, folded onto the edge row at the walls)."""
         self.check_grid(state.grid)
         return _pattern(*state.grid.shape)
+
+    def line_pattern(self, state) -> sparse.csc_matrix | None:
+        """The part of :meth:`jacobian_sparsity` along z in a thin cell (hx > THIN_CELL hz), else
+        None: every field of cell (i, j) and of cells (i, j +- 1), the couplings within each x
+        column. A Newton matrix I - gamma J restricted to it is Nx independent banded systems,
+        the preconditioner of the Krylov solves along the stiff direction of a thin cell.
+        Measured, iCIDR bump2d 32^2, L = 30, t_end = 5, CVODE + GMRES(20) without/with it:
+        H = 30: 138/221 steps (64^2), H = 3: 258/297, H = 0.3: 2814/156, H = 0.01: failed at
+        t = 2e-3/97 steps."""
+        self.check_grid(state.grid)
+        nx, nz = state.grid.shape
+        hx, hz = (float(np.diff(b)[0]) / n for b, n in zip(state.grid.axes_bounds, (nx, nz)))
+        if hx <= THIN_CELL * hz:
+            return None
+        cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
+        P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(sparse.identity(nx), cz)))
+        P.sort_indices()
+        return P
 
     def interleaving(self, state):
         """None: the periodic axis leaves no narrow band (a sparse solver is used instead)."""
