@@ -62,7 +62,8 @@ FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5
                  _fv2d_bytes)
 
 #: dense n x n arrays (n unknowns) that a path's linear algebra allocates beyond its scheme's
-#: estimate, by (method, Jacobian mode); 'analytic-band' is the analytic Jacobian in CVODE's
+#: estimate, by (method, Jacobian mode): measured for 'analytic-band' (module docstring), the
+#: others counted from the arrays the solvers allocate; 'analytic-band' is the analytic Jacobian in CVODE's
 #: band matrix (the mass-conserving difference quotients of 'banded-fd' are handed over densely
 #: too, but only up to 256 MiB: :class:`icidr_pde.integrator.CvodeEngine`)
 DENSE_ARRAYS = {
