@@ -26,9 +26,9 @@ from .result import Result
 from .rheology import Material
 from .scenes import SCENES, Scene
 from .snapshots import SnapshotFile
-from .times import dense_times, time_labels as _time_labels
+from .times import check_t_end, dense_times, time_labels as _time_labels
 from .trackers import ChiTracker, LivePlotTracker, MaxWTracker, ProgressBarTracker
-from .validation import real
+from .validation import check_atol, output_path, real
 
 __all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
            "Outcome"]
@@ -139,6 +139,8 @@ def integrate(case: Case, solver: StiffSolver, t_end: float, trackers: list) -> 
     with the state at t*. wall_s excludes the kernels' set-up time (compile_s). A max|w|
     series with listed times is recorded by the solver inside its loop, not at interrupts.
     """
+    check_atol(solver.atol, case.state.data)
+    solver.check_memory(case.state)  # before the solver allocates its matrices
     in_loop = [t for t in trackers if isinstance(t, MaxWTracker) and t.series_times is not None]
     for tracker in in_loop:
         solver.record(tracker.series_times, tracker.record)
@@ -289,7 +291,9 @@ def run(
     not an exception: the Result has blew_up=True, t_star, reason, and all that was recorded.
     """
     # every argument is checked before any work and before any output file is touched
-    t_end = real("t_end", t_end, 0)
+    t_end = check_t_end(t_end)
+    save, movie = output_path("save", save), output_path("movie", movie)
+    frame_dt = None if frame_dt is None else real("frame_dt", frame_dt, 0)
     if engine != "pde":
         from .native import try_native
 

@@ -1,8 +1,22 @@
-"""How many points a 1-D shear-cell scheme accepts: its largest N and the memory a run on N needs.
+"""How large a grid a run accepts: each scheme's largest size, and the memory a run on it needs.
 
-One table for both run paths, importing no py-pde: the discretizations
-(:meth:`icidr_pde.discretizations.base.ShearCellBase.check_N`) and the native engine
-(:class:`icidr_pde.native.NativeCase`) check N with :func:`check_N`.
+One table for every run path, importing no py-pde: the discretizations
+(:meth:`icidr_pde.discretizations.base.ShearCellBase.check_N`, the 2-D scheme's
+``make_grid``) and the native engine (:class:`icidr_pde.native.NativeCase`) check the grid
+with :func:`check_N` / :func:`check_cells`; the stiff solver adds what its linear algebra
+allocates (:func:`path_bytes`, checked by :func:`check_path` before the integration starts).
+A run whose estimate exceeds half the memory available (:func:`~icidr_pde.validation.memory_bytes`)
+is refused before any allocation.
+
+Measured peak RSS (``/usr/bin/time -v``, ``run --t-end 1e-3``, a Python process with py-pde and
+numba loaded is ~250 MB):
+
+* 1-D fd, py-pde path, CVODE with the analytic band Jacobian: 538 MB at N = 2000, 1384 MB at
+  N = 4000 -- one dense 3N x 3N array (288 MB, 1152 MB): scikit-sundae hands a band Jacobian
+  over in a dense NEQ x NEQ array; the native engine: 53 MB at N = 2000;
+* 2-D fv2d, bump2d, CVODE + GMRES (the default): 289, 412, 904 MB at 128^2, 256^2, 512^2 cells
+  -- 2.5 kB a cell (the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each); with
+  SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in).
 """
 
 from __future__ import annotations
@@ -12,12 +26,14 @@ from typing import Callable
 
 from .validation import ParameterError, format_bytes, integer, memory_bytes
 
-__all__ = ["GridLimit", "FD", "CHEB", "check_N"]
+__all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "path_bytes", "check_path",
+           "check_memory"]
 
 
 @dataclass(frozen=True)
 class GridLimit:
-    """The documented largest N, what a run's memory holds, and its size in bytes for N (roughly)."""
+    """The documented largest N (cells of a 2-D grid), what a run's memory holds, and its size
+    in bytes for N (roughly)."""
 
     max_N: int
     memory_note: str
@@ -32,19 +48,85 @@ def _cheb_bytes(N: int) -> float:
     return 8.0 * (3 * 9 * N**2 + 2 * N**2)
 
 
+def _fv2d_bytes(cells: int) -> float:
+    return 2500.0 * cells  # measured, see the module docstring
+
+
 #: finite volumes: the run time, not the memory, grows like N^2
 FD = GridLimit(100_000, "banded Jacobian and work vectors", _fd_bytes)
 #: Chebyshev: the dense 3N x 3N Jacobian and its LU, ~2.5 GB at N = 4001
 CHEB = GridLimit(4001, "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix", _cheb_bytes)
+#: 2-D finite volumes, per cell of the Nx x Nz grid; at most 3 Nx Nz < 2^31 unknowns (the 32-bit
+#: indices of the sparse Jacobian)
+FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5 kB a cell, measured",
+                 _fv2d_bytes)
+
+#: dense n x n arrays (n unknowns) that a path's linear algebra allocates beyond its scheme's
+#: estimate, by (method, Jacobian mode): measured for 'analytic-band' (module docstring), the
+#: others counted from the arrays the solvers allocate; 'analytic-band' is the analytic Jacobian in CVODE's
+#: band matrix (the mass-conserving difference quotients of 'banded-fd' are handed over densely
+#: too, but only up to 256 MiB: :class:`icidr_pde.integrator.CvodeEngine`)
+DENSE_ARRAYS = {
+    ("CVODE", "analytic-band"): (1, "scikit-sundae's dense hand-over array of the band Jacobian"),
+    ("CVODE", "none"): (2, "CVODE's dense matrix and its saved Jacobian"),
+    ("BDF", "none"): (2, "scipy's dense Jacobian and its LU"),
+    ("Radau", "none"): (4, "scipy's dense Jacobian, its real and complex LU"),
+    ("LSODA", "none"): (2, "LSODA's dense Jacobian and its LU"),
+    ("LSODA", "analytic"): (3, "the dense copy of the Jacobian, LSODA's and its LU"),
+}
+#: SuperLU_MT's factors ('sparse'), per unknown beyond the scheme's estimate: 26 kB a 2-D cell measured
+SPARSE_LU_BYTES = 23_500.0 / 3
+
+
+def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
+    """(bytes, what they hold) that the linear algebra of `method` with Jacobian `mode`
+    allocates for n unknowns beyond the scheme's own estimate."""
+    if mode == "sparse":
+        return SPARSE_LU_BYTES * n, "SuperLU_MT's LU factors"
+    count, note = DENSE_ARRAYS.get((method, mode), (0, ""))
+    return 8.0 * count * n * n, (f"{count} dense {n} x {n} array{'s' if count > 1 else ''}: {note}"
+                                 if count else "")
+
+
+def _memory_text(need: float, note: str, have: int | None) -> str:
+    shown = f"{format_bytes(have)} available" if have is not None else "an unknown amount of memory"
+    return f"needs about {format_bytes(need)} of memory ({note}); this machine has {shown}"
+
+
+def check_memory(subject: str, need: float, note: str, hint: str = "") -> None:
+    """Refuse (ParameterError) a run needing `need` bytes beyond half the memory available;
+    `subject` names the parameter and its value, e.g. "`N` = 20000 is too large ...: it"."""
+    have = memory_bytes()
+    if have is None or need <= 0.5 * have:
+        return
+    raise ParameterError(f"{subject} {_memory_text(need, note, have)} and a run may take half of it{hint}")
+
+
+def _check_size(subject: str, size: int, limit: GridLimit, unit: str) -> None:
+    need = limit.memory_estimate(size)
+    if size > limit.max_N:
+        raise ParameterError(f"{subject}: the maximum is {limit.max_N}{unit}, and it "
+                             f"{_memory_text(need, limit.memory_note, memory_bytes())}")
+    check_memory(f"{subject}: it", need, limit.memory_note)
 
 
 def check_N(scheme: str, N, limit: GridLimit) -> int:
-    """N as an int in [4, limit.max_N] whose memory estimate fits into half this machine's memory."""
+    """N as an int in [4, limit.max_N] whose memory estimate fits into half the memory available."""
     N = integer("N", N, 4)
-    need, have = limit.memory_estimate(N), memory_bytes()
-    if N > limit.max_N or (have is not None and need > 0.5 * have):
-        raise ParameterError(
-            f"`N` = {N} is too large for discretization {scheme!r}: the maximum is {limit.max_N}, "
-            f"and N = {N} needs about {format_bytes(need)} of memory ({limit.memory_note}); "
-            f"this machine has {format_bytes(have) if have is not None else 'an unknown amount'}")
+    _check_size(f"`N` = {N} is too large for discretization {scheme!r}", N, limit, "")
     return N
+
+
+def check_cells(scheme: str, Nx: int, Nz: int, limit: GridLimit) -> None:
+    """Refuse an Nx x Nz grid beyond `limit.max_N` cells or half the memory available."""
+    _check_size(f"`Nx` x `Nz` = {Nx} x {Nz} = {Nx * Nz} cells is too large for discretization {scheme!r}",
+                Nx * Nz, limit, " cells")
+
+
+def check_path(what: str, n: int, scheme_bytes: float, method: str, mode: str, hint: str = "") -> None:
+    """Refuse a run of n unknowns (`what`: its grid, e.g. "`N` = 20000") whose scheme needs
+    `scheme_bytes` and whose linear algebra (:func:`path_bytes`) does not fit."""
+    extra, note = path_bytes(n, method, mode)
+    if extra:
+        shown = "'analytic' (band)" if mode == "analytic-band" else repr(mode)
+        check_memory(f"{what} with method {method!r}, Jacobian {shown}", scheme_bytes + extra, note, hint)

@@ -50,6 +50,7 @@ MP4_QUALITY = 6
 
 DEFAULT_FRAMES = 200  # frames of the uniform part of the default schedule
 DEFAULT_LOG_FRAMES = 40  # log-spaced frames before it, from t = 1e-4
+MAX_FRAMES = 20_000  # 22 minutes at 15 frames/s; 96 MB of frames at N = 201
 
 
 def frame_times(t_end: float, frame_dt: float | None = None) -> np.ndarray:
@@ -67,6 +68,9 @@ def frame_times(t_end: float, frame_dt: float | None = None) -> np.ndarray:
         return np.concatenate(([0.0], early, frame_times(t_end, dt)[1:]))
     if not (np.isfinite(frame_dt) and frame_dt > 0):
         raise ValueError(f"`frame_dt` must be > 0; got {frame_dt}")
+    if t_end / frame_dt > MAX_FRAMES:
+        raise ValueError(f"`frame_dt` must be >= t_end/{MAX_FRAMES} = {t_end / MAX_FRAMES:g} (at most "
+                         f"{MAX_FRAMES} frames, each a copy of the state); got {frame_dt:g}")
     n = int(np.floor(t_end / frame_dt * (1 + 1e-12)))
     times = frame_dt * np.arange(n + 1)
     return times if np.isclose(times[-1], t_end) else np.append(times, t_end)

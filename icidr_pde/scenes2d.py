@@ -21,8 +21,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .scenes import Scene
+from .validation import real
 
 __all__ = ["Scene2D", "Bump2DScene", "Bump1DScene", "Mode2DScene"]
+
+
+#: widths of the bump whose square is a normal float number (ell = 1e308 overflowed ell^2)
+WIDTH_RANGE = (1e-100, 1e100)
+
+
+def check_width(ell) -> float:
+    """The bump width `ell`, a number in :data:`WIDTH_RANGE`."""
+    return real("ell", ell, *WIDTH_RANGE, low_open=False, high_open=False)
 
 
 @dataclass(frozen=True)
@@ -59,8 +69,7 @@ class Bump2DScene(Scene2D):
         super().__post_init__()
         if not np.isfinite(self.eps):
             raise ValueError(f"`eps` must be finite; got {self.eps}")
-        if not (np.isfinite(self.ell) and self.ell > 0):
-            raise ValueError(f"`ell` must be > 0; got {self.ell}")
+        check_width(self.ell)
 
     def initial_condition(self, xz):
         phi, u, _ = self.steady_shear(xz)
@@ -84,8 +93,7 @@ class Bump1DScene(Scene):
 
     def __post_init__(self):
         super().__post_init__()
-        if not (np.isfinite(self.ell) and self.ell > 0):
-            raise ValueError(f"`ell` must be > 0; got {self.ell}")
+        check_width(self.ell)
 
     def initial_condition(self, z):
         zc = z - self.H / 2

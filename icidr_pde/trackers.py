@@ -75,10 +75,11 @@ class ChiTracker(TrackerBase):
         self.values: list[np.ndarray] = []
 
     def handle(self, field, t: float) -> None:
-        z, phi, uz, wz = self.pde.strain_rates(field.data, field.grid)
+        with np.errstate(all="ignore"):  # a state overflowing the strain rates has chi = inf or nan
+            z, phi, uz, wz = self.pde.strain_rates(field.data, field.grid)
+            self.values.append(self.pde.rheology.chi(phi, uz, wz))
         self.z = z
         self.times.append(float(t))
-        self.values.append(self.pde.rheology.chi(phi, uz, wz))
 
 
 class ProgressBarTracker(TrackerBase):

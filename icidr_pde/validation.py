@@ -14,7 +14,11 @@ import math
 import numbers
 import os
 
-__all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes"]
+import numpy as np
+
+__all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes",
+           "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
+           "output_path"]
 
 
 class ParameterError(ValueError):
@@ -80,8 +84,26 @@ def choice(name: str, value, choices) -> str:
     raise ParameterError(f"`{name}` must be one of {sorted(options)}; got {shown(value)}")
 
 
+#: environment variable overriding the memory :func:`memory_bytes` reports (bytes; for tests)
+MEMORY_ENV = "ICIDR_PDE_MEMORY"
+
+
 def memory_bytes() -> int | None:
-    """Physical memory of this machine in bytes (None where the OS does not say)."""
+    """Memory available to a run in bytes: $ICIDR_PDE_MEMORY if set, else the kernel's
+    MemAvailable (/proc/meminfo), else the physical memory (None where the OS says neither)."""
+    override = os.environ.get(MEMORY_ENV)
+    if override:
+        try:
+            return int(float(override))
+        except ValueError:
+            raise ParameterError(f"${MEMORY_ENV} must be a number of bytes; got {override!r}") from None
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, ValueError, OSError):
@@ -94,3 +116,41 @@ def format_bytes(n: float) -> str:
             return f"{n:.3g} {unit}"
         n /= 1024
     return f"{n:.3g} PiB"
+
+
+#: the fields of the shear cell's state, in its order
+FIELDS = ("phi", "u", "w")
+#: atol above this fraction of the largest initial field magnitude controls nothing: measured,
+#: iCIDR shear and sine, fd N = 201: atol = 1e-3 keeps max|w| within 7 %, 1e-2 lets the steps
+#: carry phi out of (0, phi_c) (a failure that is not the law's)
+ATOL_FRACTION = 1e-3
+
+
+def check_atol(atol: float, data) -> float:
+    """atol below :data:`ATOL_FRACTION` of the field scale max|data| of the initial state."""
+    scale = float(np.max(np.abs(data))) if np.size(data) else 1.0
+    high = ATOL_FRACTION * scale
+    if atol > high:
+        raise ParameterError(f"`atol` must be in (0, {high:g}] ({ATOL_FRACTION:g} of the initial fields' "
+                             f"largest magnitude {scale:g}: a larger one controls no error); got {shown(atol)}")
+    return atol
+
+
+def nonfinite_rates(rates, t: float = 0.0) -> str | None:
+    """Why the rates (fields first: phi, u, w) at time t make the run meaningless, or None."""
+    rates = np.asarray(rates)
+    bad = ~np.isfinite(rates.reshape(rates.shape[0], -1))
+    if not bad.any():
+        return None
+    where = ", ".join(f"d{name}/dt at {int(bad[k].sum())} of {bad[k].size} nodes"
+                      for k, name in enumerate(FIELDS[:rates.shape[0]]) if bad[k].any())
+    return f"right-hand side not finite at t = {t:g} ({where})"
+
+
+def output_path(name: str, value):
+    """`value` as a file path for an output (a str or os.PathLike), or None; a TypeError
+    naming the parameter for anything else (a number, bytes)."""
+    if value is None or isinstance(value, str) or (isinstance(value, os.PathLike)
+                                                  and isinstance(os.fspath(value), str)):
+        return value
+    raise TypeError(f"`{name}` must be a file path (a str or os.PathLike) or None; got {shown(value)}")

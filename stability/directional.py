@@ -30,7 +30,7 @@ from scipy.optimize import brentq, minimize_scalar
 from icidr_pde.outputs import save_figure
 
 from . import plane, rheologies
-from .material import check_phi, check_rheology_name, default_material
+from .material import RATE_RANGE, check_phi, check_rheology_name, default_material
 from .symbols import Mf, Psif, d, phi, rho
 
 GRADIENT_NAMES = ("u_x", "u_z", "w_x", "w_z")
@@ -154,9 +154,10 @@ def check_gradient(velocity_gradient) -> tuple:
     except (TypeError, ValueError):
         raise ValueError(f"`velocity_gradient` must be four numbers (u_x, u_z, w_x, w_z); got "
                          f"{velocity_gradient!r}") from None
-    if len(L) != 4 or not all(math.isfinite(v) for v in L):
-        raise ValueError(f"`velocity_gradient` must be four finite numbers (u_x, u_z, w_x, w_z); got "
-                         f"{velocity_gradient!r}")
+    low, high = RATE_RANGE
+    if len(L) != 4 or not all(math.isfinite(v) and (v == 0 or low <= abs(v) <= high) for v in L):
+        raise ValueError(f"`velocity_gradient` must be four numbers (u_x, u_z, w_x, w_z), each 0 or of "
+                         f"magnitude in [{low:g}, {high:g}]; got {velocity_gradient!r}")
     if all(v == 0 for v in L):
         raise ValueError("`velocity_gradient` must not be zero: at zero strain rate Gamma = 0 and the system is "
                          "degenerate; got (0, 0, 0, 0)")
@@ -337,6 +338,10 @@ def scan(rheology, states=None, angles_deg=None, material=None) -> dict:
 
 # --- angles, maximum, intervals -------------------------------------------------------------
 
+#: samples of --angles: one 3 x 3 eigenproblem each, ~1 s per 1e4
+MAX_ANGLES = 1_000_001
+
+
 def parse_angles(text: str) -> np.ndarray:
     """'start:stop:step' in degrees -> start, start + step, ... <= stop; a sample at start + 180 is dropped
     (the same direction: Gamma(theta + 180) = Gamma(theta))."""
@@ -347,7 +352,11 @@ def parse_angles(text: str) -> np.ndarray:
         raise ValueError(f"`angles` must be START:STOP:STEP in degrees (e.g. 0:180:1); got {text!r}") from None
     if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
         raise ValueError(f"`angles` needs finite START <= STOP and STEP > 0 (degrees); got {text!r}")
+    stop = min(stop, start + 180.0)  # the samples beyond are dropped below
     k = int(math.floor((stop - start) / step + 1e-9))
+    if k + 1 > MAX_ANGLES:
+        raise ValueError(f"`angles` must give at most {MAX_ANGLES} samples in a half turn (STEP >= "
+                         f"{180.0 / (MAX_ANGLES - 1):g} deg); got {text!r} ({k + 1} samples)")
     ang = start + step * np.arange(k + 1)
     return check_angles(ang[ang < start + 180.0 - 1e-9])
 

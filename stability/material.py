@@ -40,22 +40,31 @@ def check_phi(phi, material=None, name: str = "phi") -> np.ndarray:
     return default_material(material).check_phi(arr, name)
 
 
+#: magnitudes of strain rates and wavenumbers the symbols take: beyond them the coefficients
+#: (powers of the rates, xi^2) overflow or underflow double precision (--uz 1e308 overflowed,
+#: --uz 1e-300 --wz 1e-300 gave infinities in Gamma); measured finite at 1e-100 and 1e100
+RATE_RANGE = (1e-100, 1e100)
+
+
 def check_rate(value, name: str) -> np.ndarray:
-    """Validate a strain-rate component (u_z or w_z): any finite real number."""
+    """Validate a strain-rate component (u_z or w_z): 0 or a magnitude in :data:`RATE_RANGE`."""
     arr = np.asarray(value, dtype=float)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"`{name}` must be finite (any real number); got {value!r}")
+    low, high = RATE_RANGE
+    size = np.abs(arr)
+    if not np.all(np.isfinite(arr)) or np.any((size != 0) & ((size < low) | (size > high))):
+        raise ValueError(f"`{name}` must be 0 or a number of magnitude in [{low:g}, {high:g}]; got {value!r}")
     return arr
 
 
 def check_xi(xi, name: str = "xi") -> float:
-    """Validate a wavenumber: finite and > 0."""
+    """Validate a wavenumber: in :data:`RATE_RANGE`."""
+    low, high = RATE_RANGE
     try:
         x = float(xi)
     except (TypeError, ValueError):
-        raise ValueError(f"`{name}` must be a number in (0, inf); got {xi!r}") from None
-    if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"`{name}` must lie in (0, inf); got {xi!r}")
+        raise ValueError(f"`{name}` must be a number in [{low:g}, {high:g}]; got {xi!r}") from None
+    if not math.isfinite(x) or not low <= x <= high:
+        raise ValueError(f"`{name}` must lie in [{low:g}, {high:g}]; got {xi!r}")
     return x
 
 

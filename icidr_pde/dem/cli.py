@@ -30,6 +30,20 @@ def _fraction(text):
 _seed = int_at_least(0)
 
 
+def _needs_lammps(command):
+    """`command` with a missing LAMMPS reported as bad input (one line, exit 2), not a traceback."""
+    def run(args) -> int:
+        try:
+            return command(args)
+        except ImportError as err:
+            if "LAMMPS" not in str(err):
+                raise
+            raise ValueError(f"`dem {args.dem_command}` runs LAMMPS, which is not installed: {err}") from None
+
+    run.__name__ = command.__name__
+    return run
+
+
 def _common(p, what):
     p.add_argument("--repeats", type=_pos_int, default=10, help="independent runs per phi0")
     p.add_argument("--particles", type=_pos_int, default=1000, help="disks per cell, multiple of 5")
@@ -62,7 +76,7 @@ def add_parser(subparsers):
     st.add_argument("--jobs", type=_pos_int, default=1, help="parallel LAMMPS processes")
     st.add_argument("--json", default=None, help="summary path (default: OUT/steady.json)")
     st.add_argument("--fig", default=None, help="figure path (default: OUT/fig1_dem.png; '' for none)")
-    st.set_defaults(func=cmd_steady)
+    st.set_defaults(func=_needs_lammps(cmd_steady))
 
     tr = sub.add_parser("transient", help="(5.7) transient ensemble vs iCIDR, fig 8",
                         description="Ensemble of (5.7) transients from independent steady states, "
@@ -90,7 +104,7 @@ def add_parser(subparsers):
     tr.add_argument("--json", default=None, help="summary path (default: OUT/transient.json)")
     tr.add_argument("--npz", default=None, help="ensemble path (default: OUT/transient_ensemble.npz; '' for none)")
     tr.add_argument("--fig", default=None, help="figure path (default: OUT/fig8_dem.png; '' for none)")
-    tr.set_defaults(func=cmd_transient)
+    tr.set_defaults(func=_needs_lammps(cmd_transient))
 
     po = sub.add_parser("pool", help="fig 1 pooled over k_n, H and N: run the pool (resumable) or summarise it",
                         description="Runs the pooled fig-1 configurations (one LAMMPS process, each run cached "
@@ -100,7 +114,7 @@ def add_parser(subparsers):
     po.add_argument("configs", nargs="*", help="configurations (default: all, in the default order)")
     po.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
     po.add_argument("--out", default=".", help="directory for steady_pool.json and fig1_dem.png (summary)")
-    po.set_defaults(func=cmd_pool)
+    po.set_defaults(func=_needs_lammps(cmd_pool))
 
     au = sub.add_parser("audit", help="protocol audit of fig 8(d): run factor ensembles or write the report",
                         description="Runs the factor ensembles of the protocol audit (resumable from the cache) "
@@ -111,7 +125,7 @@ def add_parser(subparsers):
     au.add_argument("--repeats", type=_pos_int, default=10, help="members per factor (run)")
     au.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
     au.add_argument("--out", default=".", help="directory for the report files")
-    au.set_defaults(func=cmd_audit)
+    au.set_defaults(func=_needs_lammps(cmd_audit))
     return dem
 
 

@@ -43,9 +43,13 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
+from ..grid_size import FV2D, check_cells
 from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
 from .base import ShearCellBase
+
+#: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`ShearCell2DPDE.line_pattern`)
+THIN_CELL = 10.0
 
 __all__ = ["ShearCell2DPDE"]
 
@@ -67,6 +71,10 @@ class ShearCell2DPDE(ShearCellBase):
     options = {"advection": ADVECTION_SCHEMES}
     kinematics = PLANE_FLOW
     dim = 2
+    grid_limit = FV2D
+    max_N = FV2D.max_N
+    memory_note = FV2D.memory_note
+    memory_estimate = staticmethod(FV2D.memory_estimate)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):
@@ -107,6 +115,7 @@ class ShearCell2DPDE(ShearCellBase):
         for name, value in (("H", H), ("L", L)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"`{name}` must be > 0; got {value}")
+        check_cells(cls.name, int(Nx), int(Nz), cls.grid_limit)
         return CartesianGrid([[0.0, float(L)], [0.0, float(H)]], [int(Nx), int(Nz)],
                              periodic=[True, False])
 
@@ -247,6 +256,24 @@ class ShearCell2DPDE(ShearCellBase):
         3 x 3 cells around it (periodic in x, folded onto the edge row at the walls)."""
         self.check_grid(state.grid)
         return _pattern(*state.grid.shape)
+
+    def line_pattern(self, state) -> sparse.csc_matrix | None:
+        """The part of :meth:`jacobian_sparsity` along z in a thin cell (hx > THIN_CELL hz), else
+        None: every field of cell (i, j) and of cells (i, j +- 1), the couplings within each x
+        column. A Newton matrix I - gamma J restricted to it is Nx independent banded systems,
+        the preconditioner of the Krylov solves along the stiff direction of a thin cell.
+        Measured, iCIDR bump2d 32^2, L = 30, t_end = 5, CVODE + GMRES(20) without/with it:
+        H = 30: 138/221 steps (64^2), H = 3: 258/297, H = 0.3: 2814/156, H = 0.01: failed at
+        t = 2e-3/97 steps."""
+        self.check_grid(state.grid)
+        nx, nz = state.grid.shape
+        hx, hz = (float(np.diff(b)[0]) / n for b, n in zip(state.grid.axes_bounds, (nx, nz)))
+        if hx <= THIN_CELL * hz:
+            return None
+        cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
+        P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(sparse.identity(nx), cz)))
+        P.sort_indices()
+        return P
 
     def interleaving(self, state):
         """None: the periodic axis leaves no narrow band (a sparse solver is used instead)."""

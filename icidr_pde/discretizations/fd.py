@@ -249,8 +249,9 @@ class ShearCellPDE(ShearCellBase):
         def jac_into(y, J):  # a fresh C copy (CVODE's y is read-only): one compiled signature
             kernel(np.array(y, dtype=float).reshape(n, 3).T, ghost, h, upwind, params, J)
 
-        perm = self.interleaving(state)[0]
-        jac_into(np.ravel(state.data)[perm], np.zeros((3 * n, 3 * n)))  # compile or load now
+        # compile or load now, on 4 cells: the kernel's types, not a dense (3N, 3N) array
+        probe = np.array(state.data[:, :4].T, dtype=float).reshape(4, 3).T  # jac_into's layout
+        kernel(probe, ghost, h, upwind, params, np.zeros((12, 12)))
         return jac_into
 
     def make_jacobian(self, state) -> Callable:

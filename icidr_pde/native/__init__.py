@@ -349,20 +349,25 @@ class FdCase(NativeCase):
 
 
 def _outputs(t_end, lists):
-    """Merged output times (> 0, increasing; times within 1e-8 are one output, as the stiff
-    solver's recorders) and, per list, the output index of each of its times (-1: at t = 0)."""
+    """Merged output times (> 0, increasing; times within :func:`~icidr_pde.times.time_tolerance`
+    are one output, as the stiff solver's recorders) and, per list, the output index of each of
+    its times (-1: at t = 0)."""
+    from ..times import time_tolerance
+
     every = np.sort(np.concatenate([np.asarray(t, float) for t in lists] + [[t_end]]))
     merged = []
     for t in every:
-        if t < 1e-8:
+        if t < time_tolerance(0.0):
             continue
-        if not merged or t >= merged[-1] + 1e-8:
+        if not merged or t >= merged[-1] + time_tolerance(merged[-1]):
             merged.append(float(t))
     merged = np.array(merged)
     where = []
     for times in lists:
-        index = np.searchsorted(merged, np.asarray(times, float) - 1e-8, side="left")
-        index[np.asarray(times, float) < 1e-8] = -1
+        times = np.asarray(times, float)
+        tolerance = np.array([time_tolerance(t) for t in times])
+        index = np.searchsorted(merged, times - tolerance, side="left")
+        index[times < time_tolerance(0.0)] = -1
         where.append(index)
     return merged, where
 
@@ -386,10 +391,10 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     from ..presets import resolve
     from ..result import Result
     from ..rheology.base import chi_of_M
-    from ..times import dense_times, time_labels
-    from ..validation import real
+    from ..times import check_t_end, dense_times, time_labels
+    from ..validation import check_atol, nonfinite_rates, real
 
-    t_end = real("t_end", t_end, 0)
+    t_end = check_t_end(t_end)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     why = unavailable(discretization=settings["discretization"], method=settings["method"], jacobian=jacobian,
                       N=settings["N"])
@@ -402,6 +407,7 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     case = case_class(rheology, scene, settings["N"], material=material, advection=advection,
                       scene_params=scene_params)
     rtol_v, atol_v = real("rtol", settings["rtol"], 1e-14, 1, low_open=False), real("atol", settings["atol"], 0)
+    check_atol(atol_v, case.y0)
     if times is None:
         times = [t for t in case.scene.default_times if t <= t_end] + [t_end]
     labels, snap_times = time_labels(times, t_end)
@@ -437,8 +443,10 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
         bar = TimeBar(t_end, "integrating", f"native, ready in {compile_s:.2g} s", log_interval=0.1)
     started = False
     try:
-        if not inside0:
-            failure = (0.0, y0.copy(), f"initial state invalid: {case.check_state(y0)}")
+        reason0 = (f"initial state invalid: {case.check_state(y0)}" if not inside0
+                   else nonfinite_rates(case.fields(problem.rates(y0))))
+        if reason0:
+            failure = (0.0, y0.copy(), reason0)
         else:
             problem.start(y0, rtol=rtol_v, atol=atol_v)
             started = True
@@ -508,8 +516,9 @@ def run_native(rheology="icidr", scene="shear", N=None, t_end=10.0, times=None, 
     if chi_done:
         values = []
         for k in chi_done:
-            z_f, phi_f, uz, wz = case.strain_rates(native(state_at(at_chi[k])))
-            values.append(chi_of_M(problem.M(phi_f), uz, wz))
+            with np.errstate(all="ignore"):  # a state overflowing the strain rates has chi = inf or nan
+                z_f, phi_f, uz, wz = case.strain_rates(native(state_at(at_chi[k])))
+                values.append(chi_of_M(problem.M(phi_f), uz, wz))
         chi_kwargs = dict(chi_t=np.array([float(chi_times[k]) for k in chi_done]), chi_z=z_f, chi=np.array(values))
     mass0 = case.mass(native(y0))
     return Result(

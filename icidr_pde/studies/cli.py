@@ -16,13 +16,12 @@ import json
 import os
 import sys
 
-import numpy as np
-
 from ..discretizations import DISCRETIZATIONS
 from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
 from ..outputs import check_outputs, write_atomically
 from ..rheology import RHEOLOGIES
 from ..scenes import SCENES
+from ..times import check_t_end
 from .failure_time import parse_range, sweep, threshold, tstar_mapping
 from .plots import plot_tstar
 
@@ -36,6 +35,22 @@ def _load_spec(text: str) -> tuple[str, str]:
         path = text
         label = os.path.splitext(os.path.basename(path))[0]
     return label, path
+
+
+def _load_curve(text: str) -> tuple[str, dict]:
+    """(label, {N: t*}) of one ``--load LABEL=FILE``; a file that is missing, unreadable or not
+    such a JSON object is bad input (ValueError naming the option and the file)."""
+    label, path = _load_spec(text)
+    try:
+        with open(path) as fh:
+            curve = json.load(fh)
+    except (OSError, ValueError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise ValueError(f"`--load` {text!r}: cannot read {path!r} as JSON ({reason})") from None
+    if not isinstance(curve, dict):
+        raise ValueError(f"`--load` {text!r}: {path!r} must hold a JSON object {{N: t*}}; got a "
+                         f"{type(curve).__name__}")
+    return label, curve
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -75,16 +90,14 @@ def cmd_tstar(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
-        label, path = _load_spec(spec)
-        with open(path) as fh:
-            curves[label] = json.load(fh)
+        label, curve = _load_curve(spec)
+        curves[label] = curve
     if args.N is None and args.load:
         results = {}
     else:
         Ns = parse_range(args.N or "21:201:2")
         check_tolerances(args.rtol, args.atol)
-        if not (np.isfinite(args.t_end) and args.t_end > 0):
-            raise ValueError(f"`--t-end` must be > 0; got {args.t_end}")
+        check_t_end(args.t_end)
         results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
                         progress=not args.no_progress, rheology=args.rheology,
                         scene=args.scene, t_end=args.t_end, method=args.method,

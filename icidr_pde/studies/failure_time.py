@@ -21,6 +21,7 @@ import numpy as np
 from ..api import collect, integrate, make_trackers
 from ..case import build_case
 from ..integrator import StiffSolver
+from ..times import check_t_end
 from .parallel import run_cases
 
 __all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR"]
@@ -84,7 +85,7 @@ def failure_time(
     n_jac, n_lu (and, with `return_state`, t_final, z and the final state (3, N) or the
     state at t*; with `times`, snapshot_times and snapshots (n, 3, N) at those reached).
     """
-    t_end = float(t_end)
+    t_end = check_t_end(t_end)
     snap = sorted({float(t) for t in times}) if times is not None else []
     if any(not 0 <= t <= t_end for t in snap):
         raise ValueError(f"`times` must lie in [0, t_end]; got {times}")

@@ -54,7 +54,7 @@ def test_1d_flags_unchanged(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, word", [
-    (["--velocity-gradient", "0", "0", "0", "0"], "velocity_gradient"),
+    (["--velocity-gradient", "0", "0", "0", "0"], "--velocity-gradient"),  # the option, as given
     (["--velocity-gradient", "0", "1", "0", "0", "--uz", "1"], "velocity-gradient"),
     (["--uz", "1"], "wz"),
     (["--velocity-gradient", "0", "1", "0", "0", "--angles", "0:180:-1"], "angles"),
