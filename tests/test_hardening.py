@@ -36,18 +36,25 @@ def cli_process(*args, cwd=None):
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
 
-def wait_for_progress(proc, timeout=900):
-    """Block until the progress bar has moved (the integration is under way)."""
+def wait_for_progress(proc, timeout=900, settle=1.0):
+    """Block until the integration is under way: the bar shows a time short of its end, or it
+    has said "integrating" for `settle` seconds (a bar moves only at its tracker's times, and a
+    run past its slow start may reach t_end between two of them)."""
     fd = proc.stderr.fileno()
     os.set_blocking(fd, False)
-    seen, start = "", time.monotonic()
+    seen, start, integrating_since = "", time.monotonic(), None
     while time.monotonic() - start < timeout:
         try:
             seen += os.read(fd, 65536).decode(errors="replace")
         except BlockingIOError:
             pass
-        if any(float(t) > 0 for t in re.findall(r"([0-9.]+(?:e[+-]?\d+)?)/[0-9.e+]+ \[", seen)):
-            return seen  # the integration is under way (not only compiling)
+        now = time.monotonic()
+        if integrating_since is None and "integrating" in seen:
+            integrating_since = now
+        moved = any(0 < float(t) < float(total)
+                    for t, total in re.findall(r"([0-9.]+(?:e[+-]?\d+)?)/([0-9.]+(?:e[+-]?\d+)?) \[", seen))
+        if moved or (integrating_since is not None and now - integrating_since > settle):
+            return seen  # the integration is under way (not only compiling, not done)
         if proc.poll() is not None:
             raise AssertionError(f"process ended early: {seen}")
         time.sleep(0.2)
