@@ -28,7 +28,7 @@ import numpy as np
 
 from .outputs import replacing, save_figure, write_atomically
 
-__all__ = ["measures", "plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
+__all__ = ["plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
            "observed_orders", "field_figure", "movie"]
 
 TIMES = ("0.5", "1", "2", "5", "10")
@@ -37,15 +37,6 @@ QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 DATA = pathlib.Path("data") / "sim2d"
 #: integrator settings of the studies (CVODE, matrix-free GMRES; tolerances well below the grid errors)
 SETTINGS = dict(method="CVODE", rtol=1e-7, atol=1e-10)
-
-
-def measures(pde, grid, scene, data) -> dict:
-    """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...)."""
-    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
-    phi, u, w = data
-    return {"max_w": float(np.max(np.abs(w))),
-            "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),
-            "l2_velocity": float(math.sqrt(pde.integral((u - z / scene.H) ** 2 + w**2, grid)))}
 
 
 def _write_json(path: pathlib.Path, payload) -> None:
