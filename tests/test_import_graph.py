@@ -55,7 +55,9 @@ def import_graph(lazy=False):
             else:
                 prefix = base[: len(base) - node.level + 1] if node.level else []
                 source = ".".join(prefix + ([node.module] if node.module else []))
-                targets = [source] + [f"{source}.{alias.name}" for alias in node.names]
+                # `from package import module` needs the module; the package is already loaded
+                targets = [f"{source}.{alias.name}" if f"{source}.{alias.name}" in modules else source
+                           for alias in node.names]
             for target in targets:
                 # the module itself, or the package whose __init__ runs first
                 while target and target not in modules:
