@@ -188,11 +188,6 @@ class Rheology:
         return self.kernels(INVARIANTS).stress_numpy(phi, np.asarray(div_u, float),
                                                      np.asarray(norm_S, float), self.material.params)
 
-    def momentum_flux(self, phi, uz, wz):
-        """Fluxes of the shear-cell momentum equations: (tau_xz, tau_zz - p)."""
-        p, txz, tzz = self.stress(phi, uz, wz)
-        return txz, tzz - p
-
     def chi(self, phi, uz, wz):
         """chi of (A18) at these states (the ill-posedness indicator of mu(I), see :func:`chi`)."""
         return chi(phi, uz, wz, self.material)
