@@ -111,3 +111,12 @@ def test_a_circle_is_found():
 
 def test_no_import_circles():
     assert cycles(import_graph()) == []
+
+
+if __name__ == "__main__":  # list the circles that lazy imports (inside functions) close as well
+    graph, eager = import_graph(lazy=True), import_graph()
+    for component in cycles(graph):
+        for module in component:
+            for target in sorted(graph[module] & set(component)):
+                print(module, "->", target, "" if target in eager[module] else "(lazy)")
+        print()
