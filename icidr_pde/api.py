@@ -173,7 +173,7 @@ def _plane_kwargs(case: Case, data) -> dict:
     """Grid and per-snapshot measures of a 2-D run (nothing for the 1-D cell)."""
     if getattr(case.pde, "dim", 1) != 2:
         return {}
-    from .studies2d import measures
+    from .discretizations.cartesian2d import measures
 
     return dict(Nx=int(case.grid.shape[0]), L=float(case.grid.axes_bounds[0][1]),
                 measures=[measures(case.pde, case.grid, case.scene, d) for d in data])

@@ -18,6 +18,8 @@ import time
 import warnings
 from pathlib import Path
 
+from .argtypes import positive_int
+
 # subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
 # full only the subcommand it names, so that `--help` and each subcommand import only their
 # own modules (the registries behind `run` import py-pde; `verify` imports sympy, `dem` LAMMPS).
@@ -86,24 +88,6 @@ class DefaultsFormatter(argparse.RawDescriptionHelpFormatter):
             return text
         shown = " ".join(map(str, default)) if isinstance(default, (list, tuple)) else default
         return f"{text} (default: {shown})".strip()
-
-
-def int_at_least(lowest):
-    """argparse type: an integer >= `lowest`, the error naming that range and the text received."""
-    def parse(text):
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < lowest:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}; got {text!r}")
-        return value
-
-    parse.__name__ = f"integer >= {lowest}"
-    return parse
-
-
-positive_int = int_at_least(1)
 
 
 def number(text):

@@ -21,6 +21,7 @@ outputs onto one file. The rules are stated for users in docs/security.md ("Outp
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import stat
@@ -28,7 +29,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomically", "replacing", "save_figure", "temporary_beside", "install", "discard",
+__all__ = ["write_atomically", "write_json", "replacing", "save_figure", "temporary_beside", "install", "discard",
            "check_outputs", "writable_folder", "new_file_mode", "OutputError", "OutputWriteError"]
 
 
@@ -270,3 +271,11 @@ def writable_folder(option: str, path) -> Path:
     except OSError as err:
         raise OutputError(f"`{option}` {str(folder)!r} is not a writable directory ({err.strerror})") from None
     return folder
+
+
+def write_json(summary, path):
+    """Write a JSON summary atomically (never half-written)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(summary, indent=1)
+    write_atomically(path, lambda fh: fh.write(text))

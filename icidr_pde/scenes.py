@@ -13,43 +13,14 @@ fields are its parameters (the CLI offers one flag per parameter, help from the 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from .scene_base import _NOT_PARAMETERS, SCENES, Scene
 from .validation import real
 
 __all__ = ["Scene", "ShearScene", "SineScene", "SCENES", "get_scene", "scene_parameters"]
-
-#: name -> Scene subclass; filled by the subclasses themselves
-SCENES: dict[str, type] = {}
-_NOT_PARAMETERS = ("outputs", "default_times")
-
-
-@dataclass(frozen=True)
-class Scene:
-    """Base scene: cell height `H`, mean packing fraction `phi0`, requested outputs."""
-
-    name = ""
-    H: float = field(default=30.0, metadata={"help": "cell height"})
-    phi0: float = field(default=0.78, metadata={"help": "mean packing fraction"})
-    outputs: tuple = field(default=("max_w", "snapshots"), compare=False)
-    default_times: tuple = field(default=(0.0, 0.5, 1.0, 2.0, 5.0, 10.0), compare=False)
-
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if cls.__dict__.get("name"):
-            SCENES[cls.name] = cls
-
-    def __post_init__(self):
-        real("H", self.H, 0)
-        real("phi0", self.phi0, 0, 1, what="a finite number (below phi_c)")
-
-    def initial_condition(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        raise NotImplementedError
-
-    def parameters(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if k not in _NOT_PARAMETERS}
 
 
 @dataclass(frozen=True)
@@ -115,4 +86,5 @@ def get_scene(name: str | Scene, **params) -> Scene:
     return cls(**params)
 
 
+# after the 1-D scenes: SCENES keeps their order first (scene_parameters takes the first help text)
 from . import scenes2d  # noqa: E402,F401  (registers the scenes of the 2-D cell)

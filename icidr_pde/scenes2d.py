@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scenes import Scene
+from .scene_base import Scene
 from .validation import real
 
 __all__ = ["Scene2D", "Bump2DScene", "Bump1DScene", "Mode2DScene"]

@@ -26,9 +26,9 @@ import sys
 
 import numpy as np
 
-from .outputs import replacing, save_figure, write_atomically
+from .outputs import replacing, save_figure, write_json
 
-__all__ = ["measures", "plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
+__all__ = ["plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
            "observed_orders", "field_figure", "movie"]
 
 TIMES = ("0.5", "1", "2", "5", "10")
@@ -37,21 +37,6 @@ QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 DATA = pathlib.Path("data") / "sim2d"
 #: integrator settings of the studies (CVODE, matrix-free GMRES; tolerances well below the grid errors)
 SETTINGS = dict(method="CVODE", rtol=1e-7, atol=1e-10)
-
-
-def measures(pde, grid, scene, data) -> dict:
-    """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...)."""
-    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
-    phi, u, w = data
-    return {"max_w": float(np.max(np.abs(w))),
-            "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),
-            "l2_velocity": float(math.sqrt(pde.integral((u - z / scene.H) ** 2 + w**2, grid)))}
-
-
-def _write_json(path: pathlib.Path, payload) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(payload, indent=1)
-    write_atomically(path, lambda fh: fh.write(text))
 
 
 def observed_orders(values: list[float]) -> list[float | None]:
@@ -79,7 +64,7 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
                "command": "python -m icidr_pde.studies2d convergence"}
-    _write_json(pathlib.Path(path), payload)
+    write_json(payload, path)
     return payload
 
 
@@ -100,7 +85,7 @@ def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "ts
         print(f"mu(I) bump2d N = {n}: 2-D {r2}; 1-D {r1}", flush=True)
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
                "command": "python -m icidr_pde.studies2d tstar"}
-    _write_json(pathlib.Path(path), payload)
+    write_json(payload, path)
     return payload
 
 
@@ -197,7 +182,7 @@ def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth
             rows.append(row)
             print(f"{rheology} theta = {theta:g}: measured {row['measured']:.4g}, symbol {row['symbol']:.4g}", flush=True)
     payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "python -m icidr_pde.studies2d growth"}
-    _write_json(pathlib.Path(path), payload)
+    write_json(payload, path)
     return payload
 
 

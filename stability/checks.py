@@ -10,7 +10,7 @@
 from __future__ import annotations
 
 import random
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -36,9 +36,6 @@ class Check:
         if self.corrected is not None:
             out["corrected"] = self.corrected
         return out
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 def exact_zero(expr) -> bool:

@@ -97,12 +97,6 @@ def icidr_stress(M=None, Psi=None):
     return stress("icidr", M, Psi)
 
 
-def momentum_fluxes(name: str, M=None, Psi=None):
-    """Fluxes of (3.2)-(3.3): F = (tau_xz, tau_zz - p)."""
-    p, txz, tzz = stress(name, M, Psi)
-    return txz, tzz - p
-
-
 @lru_cache(maxsize=None)
 def concrete_stress(name: str, material=None):
     """Stress with M, Psi of `material` (default (2.10), (2.13)), symbolic parameters, d = rho_* = 1."""

@@ -13,8 +13,8 @@ import json
 import sys
 from pathlib import Path
 
-from ..cli import int_at_least, positive_int as _pos_int
-from ..outputs import check_outputs, writable_folder
+from ..argtypes import int_at_least, positive_int as _pos_int
+from ..outputs import check_outputs, writable_folder, write_json
 
 
 def _fraction(text):
@@ -232,7 +232,7 @@ def cmd_transient(args) -> int:
                         "bin_height": args.bin_height, "u_definition": args.u_definition,
                         "u_frame": args.u_frame, "n_particles": args.particles, "H": args.H, "k_n": args.k_n}
     if json_path:
-        transient.write_json(summ, json_path)
+        write_json(summ, json_path)
     if npz_path:
         transient.save_ensemble({**ens, **{f"icidr_table1_{f}": c1[f] for f in transient.FIELDS},
                                  **{f"icidr_fitted_{f}": c2[f] for f in transient.FIELDS}}, npz_path)
@@ -262,7 +262,6 @@ def cmd_pool(args) -> int:
         pool.run(_cache(args), names)
         return 0
     from .plots import fig1_pool
-    from .transient import write_json
 
     out = _writable_dir(args.out)
     s = pool.summary(_cache(args), names)

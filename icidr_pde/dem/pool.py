@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import write_json
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams
@@ -441,7 +442,6 @@ def main(argv=None):
         run(cache_dir, names)
         return 0
     from .plots import fig1_pool
-    from .transient import write_json
 
     if a.action == "tables":
         print(markdown(json.loads(Path(a.json).read_text())))

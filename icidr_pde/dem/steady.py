@@ -11,6 +11,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from ..outputs import write_json
 from ..rheology import TABLE1
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
@@ -132,7 +133,5 @@ def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed
     summary["wall_total_s"] = float(sum(r["wall_total"] for r in results))
     summary.update(params=asdict(params), protocol=asdict(protocol), base_seed=base_seed)
     if json_path:
-        from .transient import write_json
-
         write_json(summary, json_path)
     return summary

@@ -17,13 +17,11 @@ RMS_bins(std_DEM / sqrt(R)) / S_f is the resolution floor of that number.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from ..outputs import replacing, write_atomically
-
+from ..outputs import replacing
 from .steady import TRANSIENT_PHI0
 
 FIELDS = ("phi", "u", "w")
@@ -138,11 +136,3 @@ def save_ensemble(ens, path):
     """Write the ensemble npz atomically (a temporary file moved into place)."""
     with replacing(path) as tmp:
         np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in ens.items()})
-
-
-def write_json(summary, path):
-    """Write a JSON summary atomically (never half-written)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(summary, indent=1)
-    write_atomically(path, lambda fh: fh.write(text))

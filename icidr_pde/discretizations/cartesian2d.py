@@ -36,6 +36,7 @@ sparse direct solver can reuse its symbolic factorisation.
 from __future__ import annotations
 
 import importlib.resources
+import math
 from typing import Callable
 
 import numpy as np
@@ -51,7 +52,7 @@ from .base import ShearCellBase
 #: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`ShearCell2DPDE.line_pattern`)
 THIN_CELL = 10.0
 
-__all__ = ["ShearCell2DPDE"]
+__all__ = ["ShearCell2DPDE", "measures"]
 
 _TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
 ADVECTION_SCHEMES = ("upwind", "central")
@@ -524,3 +525,12 @@ class _Jacobian2D:
                 -ops.div_x @ diag(up_x @ g[0]) @ ops.avg_xf @ E_u,
                 -ops.div_z @ diag(up_z @ g[0]) @ ops.avg_zf @ E_w]
         return sparse.bmat([mass, rows["u"], rows["w"]], format="csc")
+
+
+def measures(pde, grid, scene, data) -> dict:
+    """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...)."""
+    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
+    phi, u, w = data
+    return {"max_w": float(np.max(np.abs(w))),
+            "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),
+            "l2_velocity": float(math.sqrt(pde.integral((u - z / scene.H) ** 2 + w**2, grid)))}

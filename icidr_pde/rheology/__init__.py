@@ -15,14 +15,15 @@
 Everything is non-dimensional with the scalings (3.12): d = rho_* = V0 = 1.
 """
 
-from .base import RHEOLOGIES, Rheology, chi, define_rheology, get_rheology
+from .base import RHEOLOGIES, Rheology, chi
 from .icidr import ICIDR
 from .kinematics import INVARIANTS, PLANE_FLOW, SHEAR_CELL, Kinematics
 from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, FrictionLaw, LinearDilatancy,
                    MuOfI, SaturatingDilatancy)
 from .material import Material, mu_of_I
 from .mui import MuIPhiI
-from .cidr import CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, load_law_file
+from .cidr import (CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, define_rheology,
+                   get_rheology, load_law_file)
 from . import blended, mu_psi, nonmonotonic, saturating  # noqa: F401,E402  (the shipped workbench laws)
 
 __all__ = [

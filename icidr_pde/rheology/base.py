@@ -21,10 +21,19 @@ from ..validation import ParameterError
 from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
 from .material import Material
 
-__all__ = ["Rheology", "RHEOLOGIES", "get_rheology", "define_rheology", "chi"]
+__all__ = ["Rheology", "RHEOLOGIES", "LawError", "chi", "ill_defined", "sample_states"]
 
 #: name -> Rheology subclass; filled by the subclasses themselves
 RHEOLOGIES: dict[str, type] = {}
+
+
+class LawError(ValueError):
+    """A law that cannot be used: names the condition and a state where it fails."""
+
+    def __init__(self, law: str, condition: str, state: dict | None = None, detail: str = ""):
+        self.law, self.condition, self.state = law, condition, state
+        where = "" if state is None else " at " + ", ".join(f"{k} = {v:.6g}" for k, v in state.items())
+        super().__init__(f"law {law!r}: {condition}{where}" + (f" ({detail})" if detail else ""))
 
 
 class Rheology:
@@ -114,13 +123,12 @@ class Rheology:
 
     def check_runnable(self) -> None:
         """Raise LawError (naming a state) if a law defined at run time has p or c not finite, or
-        p < 0, on the sample of :func:`~.cidr.sample_states` (an ill-defined law: nothing to run).
+        p < 0, on the sample of :func:`sample_states` (an ill-defined law: nothing to run).
 
         The built-in laws are not evaluated here (a test checks them), so running them costs no sympy work.
         """
         if not self.defined_at_run_time:
             return
-        from .cidr import LawError, ill_defined
 
         for what, state, value in ill_defined(self):
             if what != "c < 0":   # c < 0 (negative dissipation) is reported by `law check`, as Y < 0 is
@@ -180,11 +188,6 @@ class Rheology:
         return self.kernels(INVARIANTS).stress_numpy(phi, np.asarray(div_u, float),
                                                      np.asarray(norm_S, float), self.material.params)
 
-    def momentum_flux(self, phi, uz, wz):
-        """Fluxes of the shear-cell momentum equations: (tau_xz, tau_zz - p)."""
-        p, txz, tzz = self.stress(phi, uz, wz)
-        return txz, tzz - p
-
     def chi(self, phi, uz, wz):
         """chi of (A18) at these states (the ill-posedness indicator of mu(I), see :func:`chi`)."""
         return chi(phi, uz, wz, self.material)
@@ -214,56 +217,38 @@ def chi_of_M(M, uz, wz) -> np.ndarray:
     return ratio - M / np.sqrt(1.0 - M * M)
 
 
-def get_rheology(name, material: Material | None = None) -> Rheology:
-    """The rheology registered as `name` (see :data:`RHEOLOGIES`), a law file ``*.toml`` or
-    ``*.py`` (:func:`~icidr_pde.rheology.cidr.load_law_file`: a ``*.py`` file is run, it is a
-    program), or `name` if it is a Rheology."""
-    if isinstance(name, Rheology):
-        return name
-    from .cidr import is_file_law, load_law_file
+def sample_states(phi_range, n_phi=9, n_div=13, n_S=7):
+    """The sample of (phi, div u, ||S||) on which roots and closed forms are checked.
 
-    if is_file_law(name):   # a law written in a file (rheology workbench)
-        return load_law_file(name)(material)
-    try:
-        cls = RHEOLOGIES[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"`rheology` must be one of {sorted(RHEOLOGIES)}; got {name!r}") from None
-    return cls(material)
-
-
-def define_rheology(name: str, p, c, *, label: str | None = None, register: bool = True) -> type:
-    """Build (and register) a Rheology class from sympy expressions of the invariants.
-
-    `p` and `c` (tau = c S) are sympy expressions in the symbols of
-    :mod:`icidr_pde.rheology.symbols`: ``phi``, ``div_u``, ``norm_S``, the placeholders
-    ``M`` = M(phi) and ``Psi`` = Psi(phi), and material parameters
-    (``MATERIAL_SYMBOLS``), or formulas (text) in those names, read by the safe parser
-    (:func:`~.declarative.parse_expression`; text is never ``sympify``-d, which would ``eval`` it).
-    `name` may not be a built-in law's. Kernels are generated and cached like those of the
-    built-in rheologies. Returns the class; ``get_rheology(name, material)`` then works.
+    phi uniform inside `phi_range` (ends excluded), div u in [-2, 2] (0 included),
+    ||S|| log-uniform in [1e-3, 10]. Returns three flat arrays.
     """
-    import sympy as sp
+    lo, hi = phi_range
+    phis = np.linspace(lo, hi, n_phi + 2)[1:-1]
+    divs = np.linspace(-2.0, 2.0, n_div)
+    Ss = np.logspace(-3, 1, n_S)
+    P, D, S = np.meshgrid(phis, divs, Ss, indexing="ij")
+    return P.ravel(), D.ravel(), S.ravel()
 
-    from . import symbols as s
-    from .cidr import as_expression, check_law_name
 
-    if not isinstance(name, str) or not name.isidentifier():
-        raise ValueError(f"`name` must be an identifier-like string; got {name!r}")
-    check_law_name(name)
-    argnames = ("phi", "div_u", "norm_S", "M", "Psi")
-    p, c = as_expression(p, argnames, "`p`"), as_expression(c, argnames, "`c`")
-    key = f"{sp.srepr(p)}\n{sp.srepr(c)}"
+def ill_defined(rheology) -> list[tuple[str, dict, float]]:
+    """Where p or c (tau = c S) is not finite, or negative, on the sample of :func:`sample_states`.
 
-    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
-        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
-        subs.update({s.MATERIAL_SYMBOLS[k]: v for k, v in prm.items()})
-        return p.xreplace(subs), c.xreplace(subs)
-
-    cls = type(f"Rheology_{name}", (Rheology,),
-               {"law": law, "label": label or name, "definition_key": classmethod(lambda cls: key),
-                "__doc__": f"Rheology {name!r}: p = {p}, c = {c} (tau = c S)."})
-    cls.name = name
-    cls.defined_at_run_time = True
-    if register:
-        RHEOLOGIES[name] = cls
-    return cls
+    A list of (what, state, value), the first state of each failure ("p is not finite",
+    "c is not finite", "p < 0", "c < 0"); empty for a law defined everywhere on the sample.
+    A CIDR law's states without a positive solution for p (:meth:`~.cidr.CIDRLaw.inadmissible`) are
+    left out: there is no p there to judge.
+    """
+    phis, divs, Ss = sample_states(rheology.material.phi_range)
+    skip = rheology.inadmissible() if hasattr(rheology, "inadmissible") else np.zeros(phis.shape, dtype=bool)
+    with np.errstate(all="ignore"):
+        p, c = (np.broadcast_to(np.asarray(v, dtype=float), phis.shape)
+                for v in rheology.invariant_stress(phis, divs, Ss))
+    out = []
+    for what, bad, v in (("p is not finite", ~np.isfinite(p), p), ("c is not finite", ~np.isfinite(c), c),
+                         ("p < 0", p < 0, p), ("c < 0", c < 0, c)):
+        bad = bad & ~skip
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            out.append((what, {"phi": float(phis[i]), "div_u": float(divs[i]), "norm_S": float(Ss[i])}, float(v[i])))
+    return out

@@ -2,6 +2,7 @@
 
 import sys
 
-from .cli import main
+from icidr_pde.cli import main
 
-sys.exit(main())
+argv = sys.argv[1:]
+sys.exit(main(argv if argv[:1] == ["tstar"] else ["tstar"] + argv))

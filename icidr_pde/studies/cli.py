@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 
 from ..discretizations import DISCRETIZATIONS
 from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
@@ -25,7 +24,7 @@ from ..times import check_t_end
 from .failure_time import parse_range, sweep, threshold, tstar_mapping
 from .plots import plot_tstar
 
-__all__ = ["add_parser", "cmd_tstar", "main"]
+__all__ = ["add_parser", "cmd_tstar"]
 
 
 def _load_spec(text: str) -> tuple[str, str]:
@@ -124,15 +123,3 @@ def cmd_tstar(args) -> int:
                    paper=args.rheology == "mui" and args.scene == "shear")
         print(f"plot written to {args.plot}")
     return 0
-
-
-def main(argv=None) -> int:
-    """`python -m icidr_pde.studies ...`: the same as `icidr-pde tstar ...`."""
-    from ..cli import main as cli_main
-
-    argv = list(sys.argv[1:] if argv is None else argv)
-    return cli_main(argv if argv[:1] == ["tstar"] else ["tstar"] + argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from icidr_pde.studies import PAPER_TSTAR, failure_time, parse_range
-from icidr_pde.studies.cli import main
+from icidr_pde.cli import main as cli_main
 
 PAPER_T_STAR = 0.01052  # fig 4(a) caption: Chebyshev N_z = 201 becomes non-convergent
 
@@ -49,12 +49,12 @@ def test_parse_range():
 
 def test_tstar_command(tmp_path):
     out, png = tmp_path / "t.json", tmp_path / "t.png"
-    code = main(["--discretization", "cheb", "--N", "21,201", "--t-end", "0.05", "--jobs", "1",
-                 "--no-progress", "--json", str(out), "--plot", str(png)])
+    code = cli_main(["tstar", "--discretization", "cheb", "--N", "21,201", "--t-end", "0.05", "--jobs", "1",
+                     "--no-progress", "--json", str(out), "--plot", str(png)])
     assert code == 0
     data = json.loads(out.read_text())
     assert set(data) == {"21", "201"}
     assert data["21"] is None
     assert abs(data["201"] - PAPER_T_STAR) / PAPER_T_STAR < 0.05
     assert png.stat().st_size > 1000
-    assert main(["--N", "2"]) == 2  # invalid N: error code, no traceback
+    assert cli_main(["tstar", "--N", "2"]) == 2  # invalid N: error code, no traceback
