@@ -62,9 +62,9 @@ def main(argv=None):
     out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection)
     print(json.dumps(out, indent=1))
     if args.json:
-        from .outputs import write_atomically
+        from .outputs import write_json
 
-        write_atomically(args.json, lambda fh: json.dump(out, fh, indent=1))
+        write_json(out, args.json)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import os
 
 from ..discretizations import DISCRETIZATIONS
 from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
-from ..outputs import check_outputs, write_atomically
+from ..outputs import check_outputs, write_json
 from ..rheology import RHEOLOGIES
 from ..scenes import SCENES
 from ..times import check_t_end
@@ -114,7 +114,7 @@ def cmd_tstar(args) -> int:
             print(f"  N={n:4d}  t*={'null' if t is None else f'{t:.6g}'}")
     if args.json and mappings:
         payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
-        write_atomically(args.json, lambda fh: json.dump(payload, fh, indent=1))
+        write_json(payload, args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
         if not curves:
