@@ -2,10 +2,12 @@
 
 ``icidr-pde run --help`` and a ``run`` on the native engine import neither py-pde (the
 discretizations register themselves on import) nor scipy (the integrators): the run
-parser takes its choices from here. tests/test_native.py checks that these are exactly what
-the registries hold (``discretizations.DISCRETIZATIONS``, ``integrator.METHODS``,
-``integrator.JACOBIAN_MODES``).
+parser takes its choices from here. tests/test_native.py checks that the discretizations
+are exactly what the registry holds (``discretizations.DISCRETIZATIONS``); the methods and
+Jacobian modes are the engines' registry's (:mod:`icidr_pde.engines`, light).
 """
+
+from .engines import JACOBIAN_MODES, METHODS
 
 __all__ = ["DISCRETIZATIONS", "DISCRETIZATION_OPTIONS", "METHODS", "JACOBIAN_MODES"]
 
@@ -13,5 +15,3 @@ __all__ = ["DISCRETIZATIONS", "DISCRETIZATION_OPTIONS", "METHODS", "JACOBIAN_MOD
 DISCRETIZATIONS = ("fv2d", "cheb", "fd")
 #: option -> (the discretizations that have it, its valid values with the default first)
 DISCRETIZATION_OPTIONS = {"advection": (("fv2d", "fd"), ("upwind", "central"))}
-METHODS = ("BDF", "Radau", "LSODA", "CVODE")
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "sparse", "none")

@@ -11,7 +11,7 @@
 import numpy as np
 import pytest
 
-from icidr_pde.colored_fd import colored_fd_jacobian
+from icidr_pde.engines.colored_fd import colored_fd_jacobian
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.discretizations.fd import ShearCellPDE
 from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
@@ -74,7 +74,7 @@ def test_x_independent_rates_are_the_1d_rates(rheology, advection):
 def test_x_independent_run_reproduces_the_1d_run():
     from pde.solvers import Controller
 
-    from icidr_pde.integrator import StiffSolver
+    from icidr_pde.engines.stiff import StiffSolver
 
     fd = ShearCellPDE("icidr")
     g1 = fd.make_grid(16, H)
@@ -95,7 +95,7 @@ def test_x_independent_run_reproduces_the_1d_run():
 def test_mass_rate_sums_to_zero_and_run_conserves_mass():
     from pde.solvers import Controller
 
-    from icidr_pde.integrator import StiffSolver
+    from icidr_pde.engines.stiff import StiffSolver
 
     pde = ShearCell2DPDE("icidr")
     grid = pde.make_grid((12, 10), H, L=L)

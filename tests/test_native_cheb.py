@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from icidr_pde.native import NativeUnavailable, run_native
+from icidr_pde.native import NativeUnavailable
 from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebCase, ChebProblem
 
 try:
@@ -23,6 +23,15 @@ except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde 
     pytest.skip(f"native engine unavailable: {err}", allow_module_level=True)
 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
+
+
+def run_native(*args, **kwargs):
+    """A run that must take the native engine (api.run with engine 'native')."""
+    from icidr_pde.api import run
+
+    result = run(*args, engine="native", **kwargs)
+    assert result.settings["engine"] == "native"
+    return result
 
 
 def perturbed(case, seed, amplitude=0.05):
@@ -54,15 +63,18 @@ def test_points_walls_operators_and_initial_state_are_the_py_pde_paths():
 
 
 def test_settings_are_the_py_pde_paths():
-    from icidr_pde import native
     from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE
-    from icidr_pde.integrator import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
+    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+    from icidr_pde.engines.sundae import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
     from icidr_pde.native import cheb
 
     assert DENSE_LU_DELTA_GAMMA == pde_delta_gamma
     assert cheb.MAX_N == ChebyshevShearCellPDE.max_N
     assert cheb.memory_estimate(201) == ChebyshevShearCellPDE.memory_estimate(201)
-    assert native.unavailable(discretization="cheb", method="CVODE") is None
+    choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"])
+    assert (choice.engine, choice.linear_solver) == ("native", "dense LU (LAPACK)")
+    pde_choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"], request="pde")
+    assert (pde_choice.jacobian, pde_choice.linear_solver) == ("analytic", choice.linear_solver)
 
 
 def test_native_jacobian_is_the_derivative_of_the_native_rates():

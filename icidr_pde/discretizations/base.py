@@ -48,7 +48,7 @@ import numpy as np
 from pde import CartesianGrid, FieldCollection, ScalarField
 from pde.pdes.base import PDEBase
 
-from .. import integrator  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
+from ..engines import stiff  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
 from ..grid_size import FD, GridLimit, check_N
 from ..validation import real

@@ -16,7 +16,8 @@ import json
 import os
 
 from ..discretizations import DISCRETIZATIONS
-from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from ..engines import JACOBIAN_MODES, METHODS
+from ..engines.base import check_tolerances
 from ..outputs import check_outputs, write_json
 from ..rheology import RHEOLOGIES
 from ..scenes import SCENES
