@@ -421,6 +421,12 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
         options["advection"] = advection
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
                       options=options, scene_params=scene_params)
+    if not (save or movie or live_plot or max_wall):  # nothing for py-pde's trackers: the run path drives
+        result = _run_scheme(case, settings, t_end, times, choice, accuracy=accuracy, progress=progress,
+                             series_times=series_times, backend=backend)
+        if on_result is not None:
+            on_result(result)
+        return result
     solver = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
                          jacobian=choice.jacobian, backend=backend, choice=choice)
     recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
@@ -486,16 +492,18 @@ class _Outputs:
                    np.full(times.size, np.nan))
 
 
-def _advance_native(engine, out: _Outputs, bar):
-    """Advance the native engine through every output, chunk by chunk (no Python per step).
-    Returns (outputs done, failure or None); a KeyboardInterrupt ends it between two calls."""
+def _advance(engine, out: _Outputs, bar, measure):
+    """Advance the engine through every output, chunk by chunk (the native engine: no Python
+    per step). Returns (outputs done, failure or None); a KeyboardInterrupt ends it where the
+    engine stopped."""
     n_done, n_out, failure = 0, out.times.size, None
     size, smallest, largest = _CHUNK
     try:
         while n_done < n_out and failure is None:
             chunk = slice(n_done, min(n_done + size, n_out))
             call = _time.perf_counter()
-            done, failure = engine.advance_outputs(out.times[chunk], out.store[chunk], out.max_w[n_done:], out.states)
+            done, failure = engine.advance_outputs(out.times[chunk], out.store[chunk], out.max_w[n_done:], out.states,
+                                                   measure)
             call = _time.perf_counter() - call
             size = min(2 * size, largest) if call < 0.02 else max(size // 2, smallest) if call > 0.1 else size
             n_done += done
@@ -507,12 +515,76 @@ def _advance_native(engine, out: _Outputs, bar):
 
 
 def _outputs_reached(engine, out: _Outputs, n_done: int) -> int:
-    """Outputs done when Ctrl-C came: the signal is seen only once CVODE has returned, possibly
-    before Python counted the outputs of that call (the driver wrote them and keeps the last)."""
+    """Outputs done when Ctrl-C came: the signal is seen only once the engine has returned,
+    possibly before Python counted the outputs of that call (written, and the last kept)."""
     reached = int(np.searchsorted(out.times, engine.last_good()[0], side="right"))
     while reached > n_done and not np.isfinite(out.max_w[reached - 1]):  # stopped on an invalid state
         reached -= 1
     return max(n_done, reached)
+
+
+class _NativeView:
+    """The run path's view of a native case and its compiled problem."""
+
+    def __init__(self, case, problem):
+        self.case, self.problem = case, problem
+        self.scene, self.N, self.z, self.y0 = case.scene, case.N, case.z, case.y0
+        self.fields, self.mass = case.fields, case.mass
+
+    def initial_reason(self) -> str | None:
+        invalid = self.case.check_state(self.y0)
+        if invalid:
+            return f"initial state invalid: {invalid}"
+        return nonfinite_rates(self.fields(self.problem.rates(self.y0)))
+
+    def chi(self, data):
+        from .rheology.base import chi_of_M
+
+        z_f, phi_f, uz, wz = self.case.strain_rates(data)
+        return z_f, chi_of_M(self.problem.M(phi_f), uz, wz)
+
+
+class _SchemeView:
+    """The run path's view of a py-pde case on a Python engine, in the engine's ordering."""
+
+    def __init__(self, case, problem, ordering):
+        self.case, self.problem, self.ordering = case, problem, ordering
+        self.scene, self.N, self.z, self.y0 = case.scene, case.N, case.nodes(), problem.y0
+        self.fields, self.mass = ordering.to_native, case.mass
+
+    def initial_reason(self) -> str | None:
+        invalid = self.problem.check(self.y0)
+        if invalid:
+            return f"initial state invalid: {invalid}"
+        with np.errstate(all="ignore"):
+            return nonfinite_rates(self.ordering.rhs(self.fields(self.y0), 0.0), 0.0)
+
+    def chi(self, data):
+        pde = self.case.pde
+        z, phi, uz, wz = pde.strain_rates(data, self.case.grid)
+        return z, pde.rheology.chi(phi, uz, wz)
+
+    def max_abs_w(self, y) -> float:
+        return float(np.max(np.abs(self.fields(y)[2])))
+
+
+def _drive(view, make_engine, sched: Schedule, t_end: float, bar):
+    """Integrate from the view's y0 through the schedule: (outputs, outputs done, failure, engine)."""
+    out, y0 = _Outputs.of(sched, t_end, view.y0.size), view.y0
+    engine, n_done, failure = None, 0, None
+    try:
+        reason0 = view.initial_reason()
+        if reason0:
+            failure = (0.0, y0.copy(), reason0)
+        else:
+            engine = make_engine()
+            n_done, failure = _advance(engine, out, bar, getattr(view, "max_abs_w", None))
+    except KeyboardInterrupt:  # before the engine started: nothing computed past t = 0
+        engine = None
+    finally:
+        if bar is not None:
+            _close_bar(bar, failure, n_done < out.times.size, engine, t_end)
+    return out, n_done, failure, engine
 
 
 def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, material, advection, progress,
@@ -529,38 +601,75 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
     problem = case.problem()
     compile_s = _time.perf_counter() - start
     start, cpu_start = _time.perf_counter(), _time.process_time()
-    out, y0 = _Outputs.of(sched, t_end, case.y0.size), case.y0
     bar = None
     if progress:
         from .progress import TimeBar
 
         # refreshed every 0.1 s also into a pipe, as tqdm does by default: a reader sees the time move
         bar = TimeBar(t_end, "integrating", f"native, ready in {compile_s:.2g} s", log_interval=0.1)
-    engine, n_done, failure = None, 0, None
-    try:
-        invalid = case.check_state(y0)
-        reason0 = f"initial state invalid: {invalid}" if invalid else nonfinite_rates(case.fields(problem.rates(y0)))
-        if reason0:
-            failure = (0.0, y0.copy(), reason0)
-        else:
-            engine = NativeEngine("CVODE", problem, 0.0, y0, rtol=settings["rtol"], atol=settings["atol"],
-                                  check=case.check_state, linear_solver=choice.linear_solver)
-            n_done, failure = _advance_native(engine, out, bar)
-    except KeyboardInterrupt:  # before CVODE started: nothing computed past t = 0
-        engine = None
-    finally:
-        if bar is not None:
-            _close_bar(bar, failure, n_done < out.times.size, engine, t_end)
+    view = _NativeView(case, problem)
+
+    def make_engine():
+        return NativeEngine("CVODE", problem, 0.0, case.y0, rtol=settings["rtol"], atol=settings["atol"],
+                            check=case.check_state, linear_solver=choice.linear_solver)
+
+    out, n_done, failure, engine = _drive(view, make_engine, sched, t_end, bar)
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
-    outcome = _native_outcome(case, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
+    outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
     counts = problem.counts()
     return assemble(rheology=case.rheology.name, scene=case.scene, discretization=case.discretization, N=case.N,
                     z=case.z, mass=case.mass, material=case.rheology.material.to_dict(), t_end=t_end,
                     rtol=settings["rtol"], atol=settings["atol"], method="CVODE", choice=choice, accuracy=accuracy,
                     options={"advection": case.advection} if case.advection else {}, labels=sched.labels,
-                    recorded=_native_recorded(case, problem, sched, out, n_done), outcome=outcome,
+                    recorded=_recorded(view, sched, out, n_done), outcome=outcome,
                     counts=(counts["steps"], counts["rhs"], counts["jac"], counts["lu"]),
-                    y0_data=case.fields(y0))
+                    y0_data=case.fields(case.y0))
+
+
+def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend) -> Result:
+    """A run of a py-pde case on a Python engine (scipy, scikit-sundae) driven by the run path:
+    the engine advanced to each output time of the schedule, no py-pde Controller or tracker."""
+    from .engines import engine_class
+    from .engines.base import StepStatistics
+    from .engines.stiff import StiffSolver, check_memory, scheme_problem
+
+    check_atol(settings["atol"], case.state.data)
+    check_memory(case.pde, case.state, settings["method"], choice)  # before anything is allocated
+    sched = schedule(case.scene, t_end, times, series_times=series_times)
+    bar = None
+    if progress:
+        from .progress import TimeBar
+
+        bar = TimeBar(t_end, "compiling", log_interval=0.1)
+    start, cpu_start = _time.perf_counter(), _time.process_time()
+    stats = StepStatistics()
+    rhs = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
+                      backend=backend, choice=choice)._rates(case.state)
+    rhs(np.array(case.state.data), 0.0)  # compile or load now, so that it counts as set-up time
+    problem, ordering = scheme_problem(case.pde, case.state, choice, rhs, stats)
+    compile_s, compile_cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
+    if bar is not None:
+        bar.integrating(f"compiled in {compile_s:.1f} s")
+    view = _SchemeView(case, problem, ordering)
+
+    def make_engine():
+        return engine_class(choice.engine)(settings["method"], problem, 0.0, rtol=settings["rtol"],
+                                           atol=settings["atol"], linear_solver=choice.linear_solver)
+
+    out, n_done, failure, engine = _drive(view, make_engine, sched, t_end, bar)
+    wall = _time.perf_counter() - start - compile_s
+    cpu = _time.process_time() - cpu_start - compile_cpu
+    outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
+    if engine is not None:
+        stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
+        choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
+    recorded = _recorded(view, sched, out, n_done)
+    return assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,
+                    z=view.z, mass=case.mass, material=case.pde.material.to_dict(), t_end=t_end,
+                    rtol=settings["rtol"], atol=settings["atol"], method=settings["method"], choice=choice,
+                    accuracy=accuracy, options=case.pde.option_values(), labels=sched.labels, recorded=recorded,
+                    outcome=outcome, counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu),
+                    y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data))
 
 
 def _close_bar(bar, failure, interrupted, engine, t_end):
@@ -572,23 +681,21 @@ def _close_bar(bar, failure, interrupted, engine, t_end):
         bar.close(t_end)
 
 
-def _native_outcome(case, engine, out: _Outputs, n_done, failure, t_end, wall, compile_s, cpu) -> Outcome:
+def _outcome(view, engine, out: _Outputs, n_done, failure, t_end, wall, compile_s, cpu) -> Outcome:
     if failure is not None:
-        t_final, final = failure[0], case.fields(failure[1])
+        t_final, final = failure[0], view.fields(failure[1])
         return Outcome(final, True, float(t_final), failure[2], float(t_final), wall, compile_s, cpu)
-    if n_done < out.times.size:  # interrupted: the last output state CVODE returned (the driver keeps it)
-        t_final, y_last = engine.last_good() if engine is not None else (0.0, case.y0)
-        return Outcome(case.fields(y_last), False, None, f"interrupted at t = {t_final:.6g}", float(t_final),
+    if n_done < out.times.size:  # interrupted: the last output state the engine returned
+        t_final, y_last = engine.last_good() if engine is not None else (0.0, view.y0)
+        return Outcome(view.fields(y_last), False, None, f"interrupted at t = {t_final:.6g}", float(t_final),
                        wall, compile_s, cpu)
-    final = case.fields(out.states[out.store[-1]])
+    final = view.fields(out.states[out.store[-1]])
     return Outcome(final, False, None, "reached t_end", float(t_end), wall, compile_s, cpu)
 
 
-def _native_recorded(case, problem, sched: Schedule, out: _Outputs, n_done: int) -> Recorded:
-    """Snapshots, series and chi of the outputs a native run reached."""
-    from .rheology.base import chi_of_M
-
-    y0, fields = case.y0, case.fields
+def _recorded(view, sched: Schedule, out: _Outputs, n_done: int) -> Recorded:
+    """Snapshots, series and chi of the outputs a run reached."""
+    y0, fields = view.y0, view.fields
 
     def state_at(index):
         return y0 if index < 0 else out.states[out.store[index]]
@@ -596,7 +703,8 @@ def _native_recorded(case, problem, sched: Schedule, out: _Outputs, n_done: int)
     # one snapshot per distinct time, labelled by the first labels (as py-pde's storage records them)
     snap = sched.snap_times
     snaps = [k for k, i in enumerate(out.at_snap) if i < n_done and (k == 0 or snap[k] > snap[k - 1])]
-    data = np.array([fields(state_at(out.at_snap[k])) for k in snaps]).reshape(len(snaps), 3, case.N)
+    shape = fields(y0).shape
+    data = np.array([fields(state_at(out.at_snap[k])) for k in snaps]).reshape(len(snaps), *shape)
     recorded = Recorded(snap[snaps], data, None, None)
     if sched.series.size:
         done = [k for k, i in enumerate(out.at_series) if i < n_done]
@@ -609,8 +717,8 @@ def _native_recorded(case, problem, sched: Schedule, out: _Outputs, n_done: int)
         values = []
         for k in chi_done:
             with np.errstate(all="ignore"):  # a state overflowing the strain rates has chi = inf or nan
-                z_f, phi_f, uz, wz = case.strain_rates(fields(state_at(out.at_chi[k])))
-                values.append(chi_of_M(problem.M(phi_f), uz, wz))
+                z_f, chi = view.chi(fields(state_at(out.at_chi[k])))
+                values.append(chi)
         recorded.chi_t, recorded.chi_z = np.array([float(sched.chi_times[k]) for k in chi_done]), z_f
         recorded.chi = np.array(values)
     return recorded

@@ -189,7 +189,7 @@ def test_cli_auto_runs_cheb_natively_and_a_failed_run_exits_3(tmp_path):
     pde_path = tmp_path / "p.json"
     assert cli.main(argv + ["--json", str(pde_path), "--engine", "pde"]) == 3
     pde_data = json.loads(pde_path.read_text())
-    assert "engine" not in pde_data["settings"] and set(pde_data) == set(data)
+    assert pde_data["settings"]["engine"] == "sundae" and set(pde_data) == set(data)
     assert data["t_star"] == pytest.approx(pde_data["t_star"], rel=1e-4)
 
 

@@ -126,6 +126,11 @@ class Engine:
       (t_good, y_good, reason): the last valid accepted state and why it stopped;
     * ``value_at(t)`` is the state at a t inside the last step (dense output);
     * ``counts()`` is (steps or None, Jacobian evaluations, LU decompositions or None);
+    * ``advance_outputs(times, store, max_w, states, measure)`` advances through the output
+      `times`, writing measure(y) (max|w|) into max_w[k] and the state into states[store[k]]
+      where store[k] >= 0; returns (outputs done, None or the failure (t_good, y_good, reason)).
+      Here by :meth:`advance` and :meth:`value_at`; the native engine does it in C;
+    * ``last_good()`` is (t, y) of the last output reached (the initial state before any);
     * ``linear_solver`` names the solver of its Newton systems ('band LU', 'GMRES', ...).
 
     The step sequence does not depend on the times asked of ``advance``: both scipy's
@@ -144,6 +149,23 @@ class Engine:
 
     def counts(self):
         raise NotImplementedError
+
+    def advance_outputs(self, times, store, max_w, states, measure):
+        if not hasattr(self, "_last_output"):
+            self._last_output = (self.t, np.array(self.y))
+        for k, t in enumerate(times):
+            failure = self.advance(t)
+            if failure is not None:
+                return k, failure
+            y = self.value_at(t)
+            max_w[k] = measure(y)
+            if store[k] >= 0:
+                states[store[k]] = y
+            self._last_output = (float(t), np.array(y))
+        return len(times), None
+
+    def last_good(self):
+        return getattr(self, "_last_output", (self.t, self.y))
 
 
 def dense(jac):

@@ -28,10 +28,11 @@ class NativeEngine(Engine):
         self.problem, self.check, self.linear_solver = problem, check, linear_solver
         problem.start(y0, rtol=rtol, atol=atol, t0=t0)
 
-    def advance_outputs(self, times, store, max_w, states):
-        """CVODE through `times`, max|w| into `max_w`, the state of output k into
-        states[store[k]] where store[k] >= 0. Returns (outputs done, failure): failure is None
-        or (t_good, y_good, reason), the last valid state and why the run stopped."""
+    def advance_outputs(self, times, store, max_w, states, measure=None):
+        """CVODE through `times`, max|w| into `max_w` (computed in C: `measure` is not used),
+        the state of output k into states[store[k]] where store[k] >= 0. Returns (outputs done,
+        failure): failure is None or (t_good, y_good, reason), the last valid state and why
+        the run stopped."""
         done, status, flag = self.problem.advance(times, store, max_w, states)
         if not status:
             return done, None

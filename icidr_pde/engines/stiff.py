@@ -96,19 +96,8 @@ class StiffSolver(SolverBase):
 
     def check_memory(self, state) -> None:
         """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
-        scheme and linear algebra need more than half the memory available
-        (:func:`icidr_pde.grid_size.check_path`: a dense n x n array where this path has one)."""
-        limit = getattr(self.pde, "grid_limit", None)
-        if limit is None:
-            return
-        from ..grid_size import check_path
-
-        shape = tuple(state.grid.shape)
-        what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
-        mode = self._choose(state).memory_mode
-        hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
-                if mode == "analytic-band" else "")
-        check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), self.method, mode, hint)
+        scheme and linear algebra need more than half the memory available."""
+        check_memory(self.pde, state, self.method, self._choose(state))
 
     def record(self, times, callback) -> None:
         """Call `callback(t, data)` with the state data at each of `times` (sorted), from inside
@@ -125,6 +114,33 @@ class StiffSolver(SolverBase):
             return self.pde.make_rates(state)
         self._select_backend(state)
         return self.backend.make_pde_rhs(self.pde, state)
+
+
+def check_memory(pde, state, method: str, choice: Choice) -> None:
+    """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
+    scheme and linear algebra need more than half the memory available
+    (:func:`icidr_pde.grid_size.check_path`: a dense n x n array where this path has one)."""
+    limit = getattr(pde, "grid_limit", None)
+    if limit is None:
+        return
+    from ..grid_size import check_path
+
+    shape = tuple(state.grid.shape)
+    what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
+    mode = choice.memory_mode
+    hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
+            if mode == "analytic-band" else "")
+    check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), method, mode, hint)
+
+
+def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):
+    """(Problem, Ordering) of the py-pde scheme `pde` on `state` for the engines, with its
+    right-hand side `rhs(data, t)` (compiled), the Jacobian form of `choice`, the validity
+    bounds of phi; the right-hand side calls are counted in `stats`."""
+    spec, perm = jacobian_spec(pde, state, choice)  # a compiled Jacobian is loaded here
+    ordering = Ordering(rhs, state.data.shape, perm, stats)
+    validity = _validity(pde, state.data.shape, perm)
+    return make_problem(pde, ordering.to_engine(state.data), ordering, spec, validity), ordering
 
     def make_stepper(self, state, dt: float | None = None):
         """Return stepper(state, t_start, t_end) advancing one persistent integrator."""

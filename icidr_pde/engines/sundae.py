@@ -87,7 +87,9 @@ class CvodeEngine(Engine):
         kwargs.update(LINEAR_SOLVERS[linear_solver](problem, rtol, atol))
         kwargs.update(_events(problem))
         self.problem = problem
-        self.linear_solver = "GMRES + line preconditioner" if "precond" in kwargs else linear_solver
+        if linear_solver.startswith("GMRES"):  # what it is on this cell
+            linear_solver = "GMRES + line preconditioner" if "precond" in kwargs else "GMRES"
+        self.linear_solver = linear_solver
         self.interrupt = None
         self.output = _CapturedOutput()
         self.log: list[str] = []
