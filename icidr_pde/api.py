@@ -1,8 +1,14 @@
-"""One run path: build the case, attach the trackers, integrate, collect a Result.
+"""One run path: validate, choose the engine, build the case, integrate, assemble the Result.
 
-:func:`run` is :func:`~icidr_pde.case.build_case`, :func:`make_trackers`,
-:func:`integrate` and :func:`collect`; the failure-time study and the benchmarks use
-the same functions.
+:func:`run` checks every argument once, resolves the preset once, asks
+:func:`~icidr_pde.engines.choose.choose` once for the engine, Jacobian and linear solver,
+builds the case (the native engine's py-pde-free one, or the py-pde scheme's), advances the
+engine through the merged output times of :func:`schedule` (:func:`_drive`, the same for every
+engine: the native one many outputs per call into C) and builds the Result by :func:`assemble`.
+Only a run that asks for what py-pde's trackers write (a snapshot file, a movie, a live plot,
+a wall-clock limit) takes py-pde's Controller with :func:`make_trackers`, :func:`integrate` and
+:func:`collect` (also the failure-time study's functions). Light: a run on the native engine
+imports neither py-pde, numba, scipy, sympy nor scikit-sundae.
 """
 
 from __future__ import annotations
@@ -353,11 +359,13 @@ def run(
         backend: 'numba' (compiled kernels, cached on disk) or 'numpy'
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
         engine: 'auto' (default, as the CLI's --engine), 'native' or 'pde': 'auto' and 'native'
-            take the native engine (:mod:`icidr_pde.native`: C kernels and CVODE, no Python in the
-            loop) where it applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live plot
-            or wall limit), else this path; 'native' says on stderr why it fell back; 'pde' is always
-            this path (the one the regression anchors are pinned on). Both return the same Result
-            fields; CVODE's step choices may differ by round-off (docs/engines.md)
+            take the native engine (:mod:`icidr_pde.engines.native`: C kernels and CVODE, no Python
+            in the loop) where it applies (fd or cheb, CVODE, analytic Jacobian, no file, movie, live
+            plot or wall limit), else a Python engine on the py-pde scheme (scipy or scikit-sundae);
+            'native' says on stderr why it fell back; 'pde' is always the Python engines (the ones
+            the regression anchors are pinned on). All return the same Result fields, and the
+            settings name the engine, linear solver and Jacobian; CVODE's step choices may differ
+            by round-off (docs/engines.md)
         on_result: called with the Result once the run has ended and before the movie is
             rendered (the CLI writes --json and --plot there: an interrupt while the movie is
             rendered loses neither)

@@ -116,6 +116,23 @@ class StiffSolver(SolverBase):
         return self.backend.make_pde_rhs(self.pde, state)
 
 
+    def make_stepper(self, state, dt: float | None = None):
+        """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
+        start, cpu_start = time.perf_counter(), time.process_time()
+        rhs = self._rates(state)
+        rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
+        choice = self._choose(state)
+        spec, perm = jacobian_spec(self.pde, state, choice)  # a compiled Jacobian is loaded here
+        ordering = Ordering(rhs, state.data.shape, perm, self.stats)
+        validity = _validity(self.pde, state.data.shape, perm)
+        self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
+        self.info["compile_cpu_s"] = time.process_time() - cpu_start
+        self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
+                         linear_solver=choice.linear_solver, dt=None, steps=0)
+        self.interrupted = None
+        return _Stepper(self, ordering, spec, validity, dt)
+
+
 def check_memory(pde, state, method: str, choice: Choice) -> None:
     """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
     scheme and linear algebra need more than half the memory available
@@ -141,22 +158,6 @@ def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):
     ordering = Ordering(rhs, state.data.shape, perm, stats)
     validity = _validity(pde, state.data.shape, perm)
     return make_problem(pde, ordering.to_engine(state.data), ordering, spec, validity), ordering
-
-    def make_stepper(self, state, dt: float | None = None):
-        """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
-        start, cpu_start = time.perf_counter(), time.process_time()
-        rhs = self._rates(state)
-        rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
-        choice = self._choose(state)
-        spec, perm = jacobian_spec(self.pde, state, choice)  # a compiled Jacobian is loaded here
-        ordering = Ordering(rhs, state.data.shape, perm, self.stats)
-        validity = _validity(self.pde, state.data.shape, perm)
-        self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
-        self.info["compile_cpu_s"] = time.process_time() - cpu_start
-        self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
-                         linear_solver=choice.linear_solver, dt=None, steps=0)
-        self.interrupted = None
-        return _Stepper(self, ordering, spec, validity, dt)
 
 
 class Ordering:
