@@ -108,3 +108,11 @@ def test_without_dask_the_options_say_which_extra_to_install(monkeypatch):
     with pytest.raises(ValueError, match=r"pip install 'icidr-pde\[dask\]'"):
         with cluster(workers=1):
             pass
+
+
+def test_a_scheduler_file_names_the_cluster(client, tmp_path):
+    path = tmp_path / "scheduler.json"
+    client.write_scheduler_file(str(path))
+    with cluster(scheduler=str(path)) as other:
+        assert other.scheduler.address == client.scheduler.address
+        assert other.submit(sum, [1, 2, 3]).result() == 6

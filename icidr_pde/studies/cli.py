@@ -80,7 +80,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="run the cases as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the cases as tasks of the dask cluster whose scheduler is at ADDRESS "
-                        "(e.g. tcp://10.0.0.1:8786)")
+                        "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
     p.add_argument("--json", default=None, help="write {N: t*} here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",

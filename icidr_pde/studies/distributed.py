@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import sys
 import traceback
 from dataclasses import dataclass
@@ -60,8 +61,8 @@ def _check_workers(workers) -> int:
 
 @contextlib.contextmanager
 def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboard: bool = False):
-    """A dask Client for the block: on `scheduler` (an address such as tcp://host:8786) if
-    given, else on a new ``LocalCluster`` of `workers` processes, closed at the end.
+    """A dask Client for the block: on `scheduler` (an address such as tcp://host:8786, or the
+    file that ``dask scheduler --scheduler-file`` writes) if given, else on a new ``LocalCluster`` of `workers` processes, closed at the end.
 
     A scheduler that does not answer within :data:`CONNECT_TIMEOUT` seconds is bad input
     (ValueError naming it). With `dashboard`, the dashboard's link is printed on stderr.
@@ -88,12 +89,14 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
 
 
 def _connect(distributed, address: str):
+    where = {"scheduler_file": address} if os.path.isfile(address) else {"address": address}
     try:
-        return distributed.Client(address, timeout=CONNECT_TIMEOUT)
+        return distributed.Client(**where, timeout=CONNECT_TIMEOUT)
     except Exception as err:  # OSError, TimeoutError, ValueError of a malformed address, ...
         reason = (str(err).strip().splitlines() or [type(err).__name__])[0]
         raise ValueError(f"`scheduler` must be the address of a running dask scheduler "
-                         f"(tcp://host:port); could not connect to {address!r}: {reason}") from None
+                         f"(tcp://host:port) or its scheduler file; could not connect to {address!r}: "
+                         f"{reason}") from None
 
 
 _initialised = False
