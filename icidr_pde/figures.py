@@ -29,7 +29,7 @@ function, cached in the :class:`RunCache`) and decorate the drawing function wit
 gallery pick it up. The 2-D entries: ``polar2d`` (Lambda_max(theta) of both laws at steady
 shear, :mod:`stability.directional`), ``bump2d`` (mu(I) just before its failure against iCIDR
 at the same time, scene ``bump2d``) and ``tstar2d`` (t*(N) in 2-D against the x-independent
-1-D run, iCIDR's convergence: the committed :mod:`icidr_pde.studies2d` results plus a fresh
+1-D run, iCIDR's convergence: the committed :mod:`icidr_pde.studies.sim2d` results plus a fresh
 run on the small grids); the 2-D movie ``movie2d`` is drawn from ``bump2d``'s runs.
 """
 
@@ -626,7 +626,6 @@ def growth(runs):
 
 STEADY_SHEAR_2D = dict(phi0=0.78, velocity_gradient=(0.0, 1.0 / 30.0, 0.0, 0.0))  # u = z/H, H = 30: grad u = [[0, 1/H], [0, 0]]
 BUMP2D_N = (64, 32)  # bump2d grid Nx = Nz (gallery, draft)
-SIM2D_SETTINGS = dict(method="CVODE", rtol=1e-7, atol=1e-10)  # those of icidr_pde.studies2d (data/sim2d)
 
 
 def closed_form_ill_posed_interval(phi0, velocity_gradient, material=None) -> list[float]:
@@ -722,6 +721,7 @@ def bump2d_pair(runs, n: int | None = None) -> dict:
     {"mui", "icidr", "t_star_probe", "n"}; `n` defaults to BUMP2D_N (gallery or draft).
     """
     from .api import run
+    from .studies.sim2d import SETTINGS as SIM2D_SETTINGS
 
     n = n or BUMP2D_N[1 if runs.draft else 0]
     key = f"bump2d-pair-{n}"
@@ -841,22 +841,21 @@ CONVERGENCE2D_FRESH = ((16, 32, 64), (16, 32))  # grids of the fresh iCIDR check
 
 
 def _fresh_studies(runs) -> dict:
-    """studies2d.tstar_study and convergence_study on the small grids, once per RunCache (JSON in a temporary
+    """sim2d.tstar_study and convergence_study on the small grids, once per RunCache (JSON in a temporary
     folder: the committed data/sim2d is never overwritten)."""
     import tempfile
 
-    from . import studies2d
+    from .studies import sim2d
 
-    key = "studies2d-fresh"
+    key = "sim2d-fresh"
     if key not in runs._results:
         start = time.perf_counter()
         k = 1 if runs.draft else 0
         if runs.verbose:
-            print(f"  studies2d tstar {TSTAR2D_FRESH[k]}, convergence {CONVERGENCE2D_FRESH[k]} ...", flush=True)
+            print(f"  sim2d tstar {TSTAR2D_FRESH[k]}, convergence {CONVERGENCE2D_FRESH[k]} ...", flush=True)
         with tempfile.TemporaryDirectory() as folder:
-            tstar = studies2d.tstar_study(TSTAR2D_FRESH[k], path=Path(folder) / "tstar.json", **SIM2D_SETTINGS)
-            conv = studies2d.convergence_study(CONVERGENCE2D_FRESH[k], path=Path(folder) / "convergence.json",
-                                               **SIM2D_SETTINGS)
+            tstar = sim2d.tstar_study(TSTAR2D_FRESH[k], path=Path(folder) / "tstar.json")
+            conv = sim2d.convergence_study(CONVERGENCE2D_FRESH[k], path=Path(folder) / "convergence.json")
         runs._results[key] = {"tstar": tstar, "convergence": conv}
         runs.seconds[key] = time.perf_counter() - start
     return runs._results[key]
@@ -871,7 +870,7 @@ def _plain_ticks(ax, values, fmt="{:g}"):
 @register_figure("tstar2d", "2-D cell: mu(I),Phi(I) t*(N) on bump2d falls under refinement while the x-independent "
                  "1-D run decays up to N = 64; iCIDR's max|w| converges (committed study + a fresh run on small grids)",
                  "not in the paper: the 2-D analogue of fig 4(b) and of figs 6-7's grid agreement. Grids up to 128^2 "
-                 "are expensive, so the lines are the committed `python -m icidr_pde.studies2d tstar` and "
+                 "are expensive, so the lines are the committed `python -m icidr_pde.studies.sim2d tstar` and "
                  "`... convergence` (data/sim2d/*.json); the stars are recomputed by the same study code here",
                  dims="2d", source="data/sim2d/tstar.json, data/sim2d/convergence.json + computed")
 def tstar2d(runs):

@@ -1,8 +1,13 @@
-"""Studies of the discrete system (fig 4b and the discretization comparisons).
+"""Every study: what the runs of :func:`icidr_pde.run` say about the equations and their discretizations.
 
 * :mod:`.failure_time` -- t* of one case and sweeps over N (fig 4b), on the run path of ``run()``;
 * :mod:`.discrete` -- t* against integrator and tolerance, Chebyshev convergence, figs 6-7 agreement;
-* :mod:`.plots` -- the t*(N) figure; :mod:`.parallel` -- worker processes; :mod:`.cli` -- ``icidr-pde tstar``.
+* :mod:`.grid_convergence` -- errors of coarse runs against a fine one and the observed order;
+* :mod:`.references` -- converged reference solutions of the speed-accuracy study (data/reference);
+* :mod:`.sim2d` -- the 2-D shear cell: grid convergence, t*(N), growth of oblique modes (data/sim2d);
+* :mod:`.plots` -- the t*(N) figure; :mod:`.parallel` -- worker processes.
+
+The command ``icidr-pde tstar`` is :mod:`icidr_pde.tstar_cli`.
 """
 
 from .discrete import compare_discretizations, spectral_convergence, tolerance_study

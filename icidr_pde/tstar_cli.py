@@ -3,7 +3,7 @@
     icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
         --t-end 20 --json cheb.json --plot fig4b.png
 
-(also ``python -m icidr_pde.studies ...``). The JSON maps N (as a string) to t* (null where
+The JSON maps N (as a string) to t* (null where
 the run reached t-end without failing). Several discretizations at once
 (``--discretization fd cheb``) give one such mapping per discretization, keyed by its
 name; ``--load label=file.json`` adds saved sweeps to the plot.
@@ -15,14 +15,14 @@ import argparse
 import json
 import os
 
-from ..discretizations import DISCRETIZATIONS
-from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
-from ..outputs import check_outputs, write_json
-from ..rheology import RHEOLOGIES
-from ..scenes import SCENES
-from ..times import check_t_end
-from .failure_time import parse_range, sweep, threshold, tstar_mapping
-from .plots import plot_tstar
+from .discretizations import DISCRETIZATIONS
+from .integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from .outputs import check_outputs, write_json
+from .rheology import RHEOLOGIES
+from .scenes import SCENES
+from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
+from .studies.plots import plot_tstar
+from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
 
