@@ -75,7 +75,8 @@ class RunSpec:
     movie: str | None = None
 
     def kwargs(self, draft: bool) -> dict:
-        from .movies import MOVIES, frame_times
+        from .movies.registry import MOVIES
+        from .movies.schedule import frame_times
 
         times = set(self.times)
         if self.movie:
@@ -966,7 +967,7 @@ def movie2d(runs, path, *, verbose=True, dpi=90, stride=1) -> dict:
     """The 2-D movie: bump2d, mu(I),Phi(I) up to its failure against iCIDR at the same times
     (the runs of the ``bump2d`` figure, :func:`bump2d_pair`; every `stride`-th snapshot).
     Returns what the gallery lists."""
-    from .movies import movie_from_results_2d
+    from .movies.render import movie_from_results_2d
 
     pair = bump2d_pair(runs)
     mui, icidr = pair["mui"], pair["icidr"]
@@ -985,7 +986,8 @@ def movie2d(runs, path, *, verbose=True, dpi=90, stride=1) -> dict:
 def make_movies(only=None, out="docs/figures", *, draft=False, runs: RunCache | None = None, verbose=True,
                 suffix=".mp4") -> dict:
     """Write the movies (default: supplementary movies 1-6 and movie2d) from the shared runs."""
-    from .movies import MOVIES, MOVIES_2D, movie_from_result
+    from .movies.registry import MOVIES, MOVIES_2D
+    from .movies.render import movie_from_result
 
     names = list(MOVIES) + list(MOVIES_2D) if not only else list(only)
     runs = runs or RunCache(draft=draft, verbose=verbose)
@@ -1055,9 +1057,7 @@ def write_gallery(numbers: dict, out="docs/figures", movies: dict | None = None,
               "plane-wave analysis (docs/plane_waves.md); a further one is one "
               "`@register_figure(..., dims=\"2d\")` function in `icidr_pde/figures.py`.", ""]
     if movies:
-        from .movies import MOVIES
-
-        from .movies import MOVIES_2D
+        from .movies.registry import MOVIES, MOVIES_2D
 
         lines += ["## Supplementary movies 1-6 and the 2-D movie", "", "`icidr-pde figures --movies` (frames at a fixed "
                   "interval of simulated time; a failed run ends on its state at t*). Movies 7-8 of the paper are DEM "

@@ -118,7 +118,7 @@ def test_movie2d_has_every_frame_and_its_bar_counts_them(drawn, tmp_path, capsys
 
 
 def test_movie2d_bad_input_names_the_parameter(drawn, tmp_path):
-    from icidr_pde.movies import movie_from_results_2d, write_field_movie
+    from icidr_pde.movies.render import movie_from_results_2d, write_field_movie
 
     pair = bump2d_pair(drawn[1])
     with pytest.raises(ValueError, match="`stride` must be an integer >= 1"):
