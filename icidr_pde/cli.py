@@ -33,7 +33,7 @@ SUBCOMMANDS = {
     "stability": ("stability.cli", "add_stability_parser",
                   "symbols of the linearised 1-D system / 2-D plane waves at one state"),
     "dem": ("icidr_pde.dem.cli", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
-    "figures": ("icidr_pde.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
+    "figures": ("icidr_pde.figures.cli", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
     "law": ("icidr_pde.law_cli", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
     "cache": ("icidr_pde.cache_cli", "add_parser", "the kernel cache: where it is, its size, clear it"),
 }

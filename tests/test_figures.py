@@ -12,8 +12,12 @@ import pytest
 from scipy.optimize import brentq
 
 from icidr_pde import run
-from icidr_pde.figures import (DATA, FIGURES, PAPER_SETTINGS, RUNS, RunCache, make_figures, positive_intervals,
-                               write_gallery, yield_ratio)
+from icidr_pde.figures.gallery import write_gallery
+from icidr_pde.figures.make import make_figures
+from icidr_pde.figures.panels import positive_intervals
+from icidr_pde.figures.paper import yield_ratio
+from icidr_pde.figures.registry import FIGURES
+from icidr_pde.figures.runs import DATA, PAPER_SETTINGS, RUNS, RunCache
 from icidr_pde.rheology import ICIDR, Material
 
 
@@ -148,7 +152,7 @@ def test_fig7_draws_chi_infinite_where_u_z_changes_sign():
 
 
 def test_sign_changes_interpolates_between_nodes():
-    from icidr_pde.figures import sign_changes
+    from icidr_pde.figures.panels import sign_changes
 
     x = np.linspace(0, 1, 11)
     assert sign_changes(x, x - 0.33) == pytest.approx([0.33])  # linear: exact

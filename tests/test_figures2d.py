@@ -10,7 +10,11 @@ refinement, the x-independent 1-D run decays, iCIDR decays).
 import numpy as np
 import pytest
 
-from icidr_pde.figures import FIGURES, RunCache, bump2d_pair, make_figures, spectrum_fraction, write_gallery
+from icidr_pde.figures.gallery import write_gallery
+from icidr_pde.figures.make import make_figures
+from icidr_pde.figures.registry import FIGURES
+from icidr_pde.figures.runs import RunCache
+from icidr_pde.figures.two_d import bump2d_pair, spectrum_fraction
 from icidr_pde.rheology import Material
 
 NAMES_2D = ("polar2d", "bump2d", "tstar2d")
@@ -103,7 +107,7 @@ def _decode(path):
 def test_movie2d_has_every_frame_and_its_bar_counts_them(drawn, tmp_path, capsys):
     """The mp4 decodes to the snapshots kept plus mu(I)'s state at t*; the progress bar's total is that
     number and it ends there; the failure frame differs from the one before it."""
-    from icidr_pde.figures import movie2d
+    from icidr_pde.figures.make import movie2d
 
     _, runs, _ = drawn
     mui = bump2d_pair(runs)["mui"]
