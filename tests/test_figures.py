@@ -17,7 +17,8 @@ from icidr_pde.figures.make import make_figures
 from icidr_pde.figures.panels import positive_intervals
 from icidr_pde.figures.paper import yield_ratio
 from icidr_pde.figures.registry import FIGURES
-from icidr_pde.figures.runs import DATA, PAPER_SETTINGS, RUNS, RunCache
+from icidr_pde.figures.runs import DATA, RUNS, RunCache
+from icidr_pde.movies.registry import PAPER_SETTINGS
 from icidr_pde.rheology import ICIDR, Material
 
 

@@ -8,7 +8,7 @@ from ..outputs import write_atomically
 from .registry import FIGURES
 from .runs import at_resolution
 
-__all__ = ["_HIDDEN", "write_gallery"]
+__all__ = ["write_gallery"]
 
 
 def _fmt(value):

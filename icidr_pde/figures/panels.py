@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["chi_infinite_z", "grid_difference", "line_colors", "max_w_extrema", "positive_intervals", "pyplot",
-           "scheme_label", "sign_changes", "snapshot_at", "tstar_label"]
+__all__ = ["chi_infinite_z", "grid_difference", "grid_pair", "line_colors", "max_w_extrema", "max_w_pair",
+           "positive_intervals", "pyplot", "scheme_label", "sign_changes", "snapshot_at", "tstar_label"]
 
 
 def pyplot():
@@ -85,3 +85,17 @@ def grid_difference(coarse, fine, times):
     after t = 0 (at t = 0 both are the same formula; the difference would be interpolation error)."""
     return max(float(np.max(np.abs(np.interp(coarse.z, fine.z, fine.w[snapshot_at(fine, t)])
                                    - coarse.w[snapshot_at(coarse, t)]))) for t in times if t > 0)
+
+
+def grid_pair(ax, coarse, fine, field, times, ms):
+    """Snapshots of `field` at `times`: the fine run as lines, the coarse one as open circles (figs 6, 7)."""
+    for t, c in zip(times, line_colors(len(times))):
+        ax.plot(fine.z, getattr(fine, field)[snapshot_at(fine, t)], color=c, label=f"t = {t:g}")
+        ax.plot(coarse.z, getattr(coarse, field)[snapshot_at(coarse, t)], "o", color=c, mfc="none", ms=ms)
+
+
+def max_w_pair(ax, coarse, fine, ms):
+    """max|w|(t) of the coarse run (open circles) and the fine one (a red line) (figs 6, 7)."""
+    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=ms, markevery=6,
+            label=f"N = {coarse.N}")
+    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")

@@ -8,8 +8,8 @@ import json
 import numpy as np
 
 from .panels import (
-    chi_infinite_z, grid_difference, line_colors, max_w_extrema, positive_intervals, pyplot, scheme_label,
-    snapshot_at, tstar_label)
+    chi_infinite_z, grid_difference, grid_pair, line_colors, max_w_extrema, max_w_pair, positive_intervals, pyplot,
+    scheme_label, snapshot_at, tstar_label)
 from .registry import register_figure
 from .runs import DATA, FIG6_TIMES, FIG7_TIMES, PAPER_TSTAR_CHEB
 
@@ -193,15 +193,11 @@ def fig6(runs):
     coarse, fine = runs["icidr-shear-fd-coarse"], runs["icidr-shear-fd-fine"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     ax = axes[0]
-    for t, c in zip(FIG6_TIMES, line_colors(len(FIG6_TIMES))):
-        ax.plot(fine.z, fine.w[snapshot_at(fine, t)], color=c, label=f"t = {t:g}")
-        ax.plot(coarse.z, coarse.w[snapshot_at(coarse, t)], "o", color=c, mfc="none", ms=4)
+    grid_pair(ax, coarse, fine, "w", FIG6_TIMES, ms=4)
     ax.set(xlabel="z", ylabel="w", xlim=(0, 30), title=f"(a) lines N = {fine.N}, circles N = {coarse.N}")
     ax.legend(fontsize=7)
     ax = axes[1]
-    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=4, markevery=6,
-            label=f"N = {coarse.N}")
-    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")
+    max_w_pair(ax, coarse, fine, ms=4)
     ax.set(xlabel="t", ylabel="max|w|", yscale="log", xlim=(0, 10), title="(b)")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -223,9 +219,7 @@ def fig7(runs):
     coarse, fine = runs["icidr-sine-fd-coarse"], runs["icidr-sine-fd-fine"]
     fig, axes = plt.subplots(1, 5, figsize=(17, 3.8))
     for ax, name, label, letter in zip(axes[:3], ("phi", "u", "w"), (r"$\phi$", "u", "w"), "abc"):
-        for t, c in zip(FIG7_TIMES, line_colors(len(FIG7_TIMES))):
-            ax.plot(fine.z, getattr(fine, name)[snapshot_at(fine, t)], color=c, label=f"t = {t:g}")
-            ax.plot(coarse.z, getattr(coarse, name)[snapshot_at(coarse, t)], "o", color=c, mfc="none", ms=3)
+        grid_pair(ax, coarse, fine, name, FIG7_TIMES, ms=3)
         ax.set(xlabel="z", ylabel=label, xlim=(0, 30), title=f"({letter})")
     axes[0].legend(fontsize=6)
     ax = axes[3]
@@ -241,9 +235,7 @@ def fig7(runs):
     ax.set(xlabel="z", ylabel=r"$\chi$ at t = 0", xlim=(0, 30), ylim=(-10, 10),
            title="(d) shaded $\\chi>0$; dotted $\\chi=\\infty$")
     ax = axes[4]
-    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=3, markevery=6,
-            label=f"N = {coarse.N}")
-    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")
+    max_w_pair(ax, coarse, fine, ms=3)
     extrema = max_w_extrema(fine, t_min=1.0)
     for t, v in extrema["local_maxima"]:
         ax.plot([t], [v], "kv", ms=6)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["MovieSpec", "MOVIES", "MOVIES_2D"]
+__all__ = ["MovieSpec", "MOVIES", "MOVIES_2D", "PAPER_SETTINGS"]
 
 
 @dataclass(frozen=True)
@@ -22,32 +22,32 @@ class MovieSpec:
 
 
 # The paper's supplementary movies 1-6 (movies 7-8 are DEM renderings, not computed here).
-# ode15s-like settings as in the paper: BDF, rtol 1e-6, atol 1e-9.
-_PAPER = dict(method="BDF", rtol=1e-6, atol=1e-9)
-MOVIES = {
-    "movie1": MovieSpec("movie1", "mu(I),Phi(I), IC (3.16), finite volumes N = 201: blow-up (fig 3a)",
-                        dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
-                        frame_dt=2.5e-4),
-    "movie2": MovieSpec("movie2", "mu(I),Phi(I), IC (3.16), Chebyshev N = 201: blow-up (fig 3b)",
-                        dict(rheology="mui", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
-                        frame_dt=2.5e-4),
-    "movie3": MovieSpec("movie3", "mu(I),Phi(I), IC (3.16), finite volumes N = 47: decays (fig 3c)",
-                        dict(rheology="mui", scene="shear", N=47, t_end=10.0, discretization="fd", **_PAPER),
-                        frame_dt=0.1),
-    "movie4": MovieSpec("movie4", "iCIDR, IC (3.16), finite volumes N = 201 (fig 6)",
-                        dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="fd", **_PAPER),
-                        frame_dt=0.1),
-    "movie5": MovieSpec("movie5", "iCIDR, IC (3.16), Chebyshev N = 201 (fig 6)",
-                        dict(rheology="icidr", scene="shear", N=201, t_end=10.0, discretization="cheb", **_PAPER),
-                        frame_dt=0.1),
-    "movie6": MovieSpec("movie6", "iCIDR, IC (5.7), finite volumes N = 201 (fig 7)",
-                        dict(rheology="icidr", scene="sine", N=201, t_end=20.0, discretization="fd", **_PAPER),
-                        frame_dt=0.2),
-}
+#: ode15s-like settings as in the paper: BDF, rtol 1e-6, atol 1e-9 (also those of the figures' runs)
+PAPER_SETTINGS = dict(method="BDF", rtol=1e-6, atol=1e-9)
+
+
+def _paper_movie(name, caption, rheology, scene, N, discretization, frame_dt, t_end=10.0) -> MovieSpec:
+    return MovieSpec(name, caption, dict(rheology=rheology, scene=scene, N=N, t_end=t_end,
+                                         discretization=discretization, **PAPER_SETTINGS), frame_dt=frame_dt)
+
+
+# The paper's supplementary movies 1-6 (movies 7-8 are DEM renderings, not computed here).
+MOVIES = {spec.name: spec for spec in (
+    _paper_movie("movie1", "mu(I),Phi(I), IC (3.16), finite volumes N = 201: blow-up (fig 3a)",
+                 "mui", "shear", 201, "fd", frame_dt=2.5e-4),
+    _paper_movie("movie2", "mu(I),Phi(I), IC (3.16), Chebyshev N = 201: blow-up (fig 3b)",
+                 "mui", "shear", 201, "cheb", frame_dt=2.5e-4),
+    _paper_movie("movie3", "mu(I),Phi(I), IC (3.16), finite volumes N = 47: decays (fig 3c)",
+                 "mui", "shear", 47, "fd", frame_dt=0.1),
+    _paper_movie("movie4", "iCIDR, IC (3.16), finite volumes N = 201 (fig 6)", "icidr", "shear", 201, "fd", frame_dt=0.1),
+    _paper_movie("movie5", "iCIDR, IC (3.16), Chebyshev N = 201 (fig 6)", "icidr", "shear", 201, "cheb", frame_dt=0.1),
+    _paper_movie("movie6", "iCIDR, IC (5.7), finite volumes N = 201 (fig 7)", "icidr", "sine", 201, "fd",
+                 frame_dt=0.2, t_end=20.0),
+)}
 
 
 # The 2-D movie (not in the paper): bump2d, mu(I),Phi(I) up to its failure against iCIDR at the same times,
-# drawn from the runs of the bump2d gallery figure (icidr_pde.figures.bump2d_pair: CVODE rtol 1e-7, atol 1e-10).
+# drawn from the runs of the bump2d gallery figure (icidr_pde.figures.two_d.bump2d_pair: CVODE rtol 1e-7, atol 1e-10).
 MOVIES_2D = {
     "movie2d": MovieSpec("movie2d", "2-D cell, scene bump2d: mu(I),Phi(I) up to its failure (an oblique band) "
                          "against iCIDR at the same times, w and phi - phi0 side by side",
