@@ -113,8 +113,7 @@ def is_cli(module):
 
 def is_interface(module):
     """What faces a person: command lines, figures, movies, plots."""
-    return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting",
-                                   "icidr_pde.sim2d_figures")
+    return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting")
 
 
 def is_study(module):

@@ -11,7 +11,7 @@ made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
 ``python -m icidr_pde.studies.sim2d tables`` -- the tables of docs/sim2d.md from those files.
 
-The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.sim2d_figures`.
+The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
 Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path).
 """

@@ -1,6 +1,6 @@
 """The field images and the movie of docs/sim2d.md (scene bump2d, both rheologies).
 
-``python -m icidr_pde.sim2d_figures`` writes docs/sim2d_fields.png (w and phi - phi0 of both
+``python -m icidr_pde.figures.sim2d_fields`` writes docs/sim2d_fields.png (w and phi - phi0 of both
 rheologies) and docs/sim2d.mp4 (w of both runs side by side), from runs with the settings of
 :mod:`icidr_pde.studies.sim2d`.
 """
@@ -11,15 +11,15 @@ import sys
 
 import numpy as np
 
-from .outputs import replacing, save_figure
-from .plotting import field_panel
-from .studies.sim2d import SETTINGS
+from ..outputs import replacing, save_figure
+from ..plotting import field_panel
+from ..studies.sim2d import SETTINGS
 
 __all__ = ["field_figure", "movie"]
 
 
 def _snapshots(rheology, n, t_end, n_frames):
-    from .api import run
+    from ..api import run
 
     t_end = float(f"{t_end:.4g}")  # the labels below must not round past t_end
     times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)[:-1]] + [f"{t_end:.6g}"]
@@ -30,7 +30,7 @@ def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
     """w and phi - phi0 of both rheologies on bump2d: iCIDR at t = 0.5, 2, 10, mu(I) before t*."""
     import matplotlib.pyplot as plt
 
-    from .api import run
+    from ..api import run
 
     icidr = run("icidr", "bump2d", (n, n), 10.0, ["0.5", "2", "10"], series_times=[], **SETTINGS)
     probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
@@ -57,7 +57,7 @@ def movie(path="docs/sim2d.mp4", n=48, n_frames=60) -> None:
     import matplotlib.animation as animation
     import matplotlib.pyplot as plt
 
-    from .api import run
+    from ..api import run
 
     matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
     icidr = _snapshots("icidr", n, 10.0, n_frames)
