@@ -21,7 +21,6 @@ from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
 from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
-from .studies.plots import plot_tstar
 from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
@@ -117,6 +116,8 @@ def cmd_tstar(args) -> int:
         write_json(payload, args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
+        from .figures.tstar_plot import plot_tstar
+
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
         plot_tstar(curves, args.plot, t_end=args.t_end,

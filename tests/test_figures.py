@@ -225,7 +225,7 @@ def test_draft_never_overwrites_the_committed_gallery(tmp_path, monkeypatch, cap
 def test_tstar_plot_names_the_scheme_as_the_discretization_does(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 
-    from icidr_pde.studies.plots import plot_tstar
+    from icidr_pde.figures.tstar_plot import plot_tstar
 
     legends = []
     monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: legends.extend(

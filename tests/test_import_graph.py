@@ -1,6 +1,6 @@
 """No circles among the module-level imports of icidr_pde and stability, and the layers of
-docs/engines.md: studies and DEM know no command line; schemes know no run path's caller
-(no study, no interface); the run path knows no study and no interface.
+docs/engines.md: studies and DEM know no command line, studies no interface (figures, movies,
+plots); schemes and the run path know no study and no interface.
 
 For circles, imports inside functions are lazy and are not edges; every module-level
 ``import``/``from ... import`` (including inside ``if``/``try`` at top level) is. For the
@@ -134,6 +134,7 @@ RULES = {
     # the DEM has a command of its own (dem.cli, dem.__main__); studies/ holds none
     "a study or DEM module imports a command line": (
         lambda m: is_study(m) or (under(m, "icidr_pde.dem") and not is_cli(m)), is_cli),
+    "a study imports an interface": (is_study, is_interface),
     "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
     "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
 }
@@ -175,6 +176,8 @@ def test_a_study_importing_the_command_line_is_found():
         "a study or DEM module imports a command line": [("icidr_pde.dem.fit", "icidr_pde.argtypes"),
                                                           ("icidr_pde.studies.__main__", "icidr_pde.cli"),
                                                           ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
+        "a study imports an interface": [("icidr_pde.studies.__main__", "icidr_pde.cli"),
+                                         ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
         "a scheme imports a study or an interface": [("icidr_pde.discretizations.fd", "icidr_pde.studies")],
         "the run path imports a study or an interface": [("icidr_pde.api", "icidr_pde.plotting")]}
 

@@ -36,7 +36,7 @@ Modules: :mod:`.runs` (the shared runs), :mod:`.registry`, :mod:`.panels` (what 
 draw or measure), the figures (:mod:`.paper` figs 2-7, :mod:`.dem` figs 1 and 8, :mod:`.project`,
 :mod:`.two_d`), :mod:`.make` (drawing them and the movies), :mod:`.gallery` (README.md) and
 :mod:`.cli` (``icidr-pde figures``); :mod:`.sim2d_fields` draws the field images and movie of
-docs/sim2d.md. Importing the package registers every figure.
+docs/sim2d.md, :mod:`.tstar_plot` the t*(N) plot of ``icidr-pde tstar --plot``. Importing the package registers every figure.
 """
 
 # each module registers its figures; the order of these imports is the gallery's
