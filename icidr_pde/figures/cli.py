@@ -19,7 +19,6 @@ GALLERY = "docs/figures"  # the committed gallery (paper resolution)
 DRAFT_OUT = "figures-draft"  # where `icidr-pde figures --draft` writes unless told otherwise
 
 
-
 def add_parser(subparsers):
     p = subparsers.add_parser("figures", help="redraw the paper's figures (and movies 1-6) into docs/figures")
     p.description = ("Redraw the paper's figures (and movies) with numbers.json and a gallery page README.md. "

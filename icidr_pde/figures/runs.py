@@ -25,8 +25,6 @@ FIG7_TIMES = (0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0)
 BLOWUP_DT = 2.5e-4  # snapshot interval of the mu(I) fine runs (figure lines every 0.0025, movie frames)
 
 
-
-
 @dataclass(frozen=True)
 class RunSpec:
     """Keyword arguments of :func:`icidr_pde.run` for one run, N given as (paper, draft)."""
