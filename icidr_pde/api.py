@@ -20,7 +20,7 @@ from pde.trackers.trackers import CallbackTracker
 from .case import Case, build_case, make_pde
 from .discretizations import DISCRETIZATIONS, get_discretization
 from .integrator import SimulationFailed, StiffSolver
-from .movies import MovieTracker
+from .movies.tracker import MovieTracker
 from .presets import resolve
 from .result import Result
 from .rheology import Material

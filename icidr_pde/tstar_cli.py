@@ -3,7 +3,7 @@
     icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
         --t-end 20 --json cheb.json --plot fig4b.png
 
-(also ``python -m icidr_pde.studies ...``). The JSON maps N (as a string) to t* (null where
+The JSON maps N (as a string) to t* (null where
 the run reached t-end without failing). Several discretizations at once
 (``--discretization fd cheb``) give one such mapping per discretization, keyed by its
 name; ``--load label=file.json`` adds saved sweeps to the plot.
@@ -16,16 +16,14 @@ import contextlib
 import json
 import os
 
-from ..argtypes import positive_int
-
-from ..discretizations import DISCRETIZATIONS
-from ..integrator import JACOBIAN_MODES, METHODS, check_tolerances
-from ..outputs import check_outputs, write_json
-from ..rheology import RHEOLOGIES
-from ..scenes import SCENES
-from ..times import check_t_end
-from .failure_time import parse_range, sweep, threshold, tstar_mapping
-from .plots import plot_tstar
+from .argtypes import positive_int
+from .discretizations import DISCRETIZATIONS
+from .integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from .outputs import check_outputs, write_json
+from .rheology import RHEOLOGIES
+from .scenes import SCENES
+from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
+from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
 
@@ -95,7 +93,7 @@ def _client(args):
     """The dask client of --workers/--scheduler (None, the process pool, without either)."""
     if args.workers is None and args.scheduler is None:
         return contextlib.nullcontext()
-    from .distributed import cluster
+    from .studies.distributed import cluster
 
     return cluster(args.workers, args.scheduler, dashboard=not args.no_progress)
 
@@ -135,6 +133,8 @@ def cmd_tstar(args) -> int:
         write_json(payload, args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
+        from .figures.tstar_plot import plot_tstar
+
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
         plot_tstar(curves, args.plot, t_end=args.t_end,
