@@ -74,7 +74,7 @@ def timed(args, env, cwd=None) -> tuple[float, subprocess.CompletedProcess]:
 
 def max_w_error(summary: dict, case: str = "icidr-sine") -> float:
     """Largest |max|w|(t) - reference| over the snapshot times, relative to the reference's max."""
-    from icidr_pde.reference import reference
+    from icidr_pde.studies.references import reference
 
     ref = reference(case)
     ref_max = np.abs(ref["w_series"]).max(axis=1)

@@ -8,7 +8,7 @@ adaptive explicit Runge-Kutta), Jacobian mode, rtol, grid N, discretization. Bas
 the same run: (a) solve_ivp(method="BDF") with no Jacobian and no sparsity, (b) py-pde's
 stock `scipy` solver with a tracker every 0.1, (c) our persistent scipy BDF with its best
 (analytic) Jacobian. Errors: max|w|(t) series error relative to max|w| (`series`) and the
-largest relative L2 error of (phi, u, w) profiles (`profiles`); see icidr_pde/reference.py.
+largest relative L2 error of (phi, u, w) profiles (`profiles`); see icidr_pde/studies/references.py.
 Timings are medians of `--repeats` runs, numba compile time is reported separately.
 Writes data/benchmarks/work_precision[_quick].json, docs/wp_<case>.png and a markdown table.
 """
@@ -28,7 +28,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from icidr_pde import build_case, run  # noqa: E402
-from icidr_pde.reference import (  # noqa: E402
+from icidr_pde.studies.references import (  # noqa: E402
     CASES, case_run, profile_error, reference, series_error, series_times)
 
 
@@ -146,7 +146,7 @@ def configurations(quick: bool):
 def tstar_study(discretization: str, quick: bool, repeats: int) -> dict:
     """Case (iii): error of the failure time t* (mu(I), shear, N = 201) against the
     tight-tolerance reference, and its cost, for each integrator and rtol."""
-    from icidr_pde.reference import reference_tstar
+    from icidr_pde.studies.references import reference_tstar
 
     ref = reference_tstar(discretization)
     rtols = [1e-3, 1e-6] if quick else [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]

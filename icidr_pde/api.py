@@ -135,7 +135,7 @@ def _view_trackers(case, t_end, progress, live_plot, movie, frame_dt) -> list:
                 return z_s, case.pde.rheology.chi(phi, uz, wz)
         trackers.append(LivePlotTracker(case.nodes(), t_end, chi=chi, title=title))
     if movie:  # rendered by run() after the timing
-        from .movies import MovieTracker
+        from .movies.tracker import MovieTracker
 
         trackers.append(MovieTracker(movie, case.nodes(), t_end, frame_dt, title=title, write_on_finalize=False,
                                      progress=progress))

@@ -1,10 +1,10 @@
-"""argparse types shared by the command lines (``icidr-pde`` and ``python -m icidr_pde.dem``)."""
+"""argparse types and pieces shared by the command lines (``icidr-pde`` and ``python -m icidr_pde.dem``)."""
 
 from __future__ import annotations
 
 import argparse
 
-__all__ = ["int_at_least", "positive_int"]
+__all__ = ["int_at_least", "positive_int", "subcommand"]
 
 
 def int_at_least(lowest):
@@ -23,3 +23,10 @@ def int_at_least(lowest):
 
 
 positive_int = int_at_least(1)
+
+
+def subcommand(subparsers, name, func, **kwargs) -> argparse.ArgumentParser:
+    """Add the subcommand `name`, run as ``func(args)``; `kwargs` go to ``add_parser`` (help, description)."""
+    parser = subparsers.add_parser(name, **kwargs)
+    parser.set_defaults(func=func)
+    return parser

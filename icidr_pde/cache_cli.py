@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+from .argtypes import subcommand
+
 __all__ = ["add_parser"]
 
 
@@ -17,12 +19,10 @@ def add_parser(subparsers):
                     "$XDG_CACHE_HOME/icidr_pde/kernels, else ~/.cache/icidr_pde/kernels. Kernels of older code "
                     "versions are removed when a new version writes its first kernel.")
     sub = p.add_subparsers(dest="cache_command", required=True)
-    i = sub.add_parser("info", help="folder, size, number of kernels, how many belong to this code version")
+    i = subcommand(sub, "info", _info, help="folder, size, number of kernels, how many belong to this code version")
     i.add_argument("--json", action="store_true", help="print the figures as JSON")
-    i.set_defaults(func=_info)
-    c = sub.add_parser("clear", help="remove every kernel (they are rebuilt when next needed)")
+    c = subcommand(sub, "clear", _clear, help="remove every kernel (they are rebuilt when next needed)")
     c.add_argument("--stale", action="store_true", help="remove only the kernels of other code versions")
-    c.set_defaults(func=_clear)
     return p
 
 

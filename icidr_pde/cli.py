@@ -28,12 +28,12 @@ SUBCOMMANDS = {
     "demo": (None, "add_demo_parser",
              "the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges"),
     "run": (None, "add_run_parser", "run one scene with one rheology"),
-    "tstar": ("icidr_pde.studies.cli", "add_parser", "failure time t*(N) sweep (fig 4b)"),
+    "tstar": ("icidr_pde.tstar_cli", "add_parser", "failure time t*(N) sweep (fig 4b)"),
     "verify": ("stability.cli", "add_verify_parser", "check every equation of the paper symbolically (report table)"),
     "stability": ("stability.cli", "add_stability_parser",
                   "symbols of the linearised 1-D system / 2-D plane waves at one state"),
     "dem": ("icidr_pde.dem.cli", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
-    "figures": ("icidr_pde.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
+    "figures": ("icidr_pde.figures.cli", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
     "law": ("icidr_pde.law_cli", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
     "cache": ("icidr_pde.cache_cli", "add_parser", "the kernel cache: where it is, its size, clear it"),
 }
@@ -293,8 +293,6 @@ def cmd_run(args) -> int:
 def _write_run_plot(result, path):
     from .plotting import plot_result
 
-    if result.measures is not None:
-        from .studies2d import plot_fields as plot_result
     plot_result(result, path)
 
 

@@ -18,6 +18,8 @@ from __future__ import annotations
 import json
 import sys
 
+from .argtypes import subcommand
+
 
 def _check(args) -> int:
     from stability.workbench import law_report, write_report
@@ -92,16 +94,14 @@ def add_parser(subparsers):
                                           "formulas, read as data; e.g. examples/icidr.toml) or a Python law file "
                                           "*.py defining those functions.\n" + PYTHON_FILE_WARNING)
     sub = p.add_subparsers(dest="law_command", required=True)
-    c = sub.add_parser("check", help="conditions (4.3)-(4.5), equation of state, symbol over a grid of states",
-                       description="Conditions (4.3)-(4.5), p and c finite and >= 0, the equation of state and "
-                                   "the symbol over a grid of states.\n" + PYTHON_FILE_WARNING
-                                   + "\nexit status: 0 the report was made (whatever the verdict); 2 bad input "
-                                     "(one line; a Python law file may have run by then)")
+    c = subcommand(sub, "check", _check, help="conditions (4.3)-(4.5), equation of state, symbol over a grid of states",
+                   description="Conditions (4.3)-(4.5), p and c finite and >= 0, the equation of state and "
+                               "the symbol over a grid of states.\n" + PYTHON_FILE_WARNING
+                               + "\nexit status: 0 the report was made (whatever the verdict); 2 bad input "
+                                 "(one line; a Python law file may have run by then)")
     c.add_argument("law", help="registered name (see `law list`), a .toml law file, or a .py law file (run!)")
     c.add_argument("--json", default=None, help="write the full report here")
     c.add_argument("--no-curves", action="store_true", help="skip the Y/p and steady mu(I), Phi(I) curves")
-    c.set_defaults(func=_check)
-    ls = sub.add_parser("list", help="the registered laws")
+    ls = subcommand(sub, "list", _list, help="the registered laws")
     ls.add_argument("--json", action="store_true", help="print the list as JSON")
-    ls.set_defaults(func=_list)
     return p

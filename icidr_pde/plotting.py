@@ -8,7 +8,7 @@ import numpy as np
 from .outputs import save_figure
 from .result import Result
 
-__all__ = ["plot_result", "plot_profiles", "plot_max_w", "demo_figure"]
+__all__ = ["plot_result", "plot_fields", "field_panel", "plot_profiles", "plot_max_w", "demo_figure"]
 
 
 def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_prefix: str = "",
@@ -54,7 +54,9 @@ def plot_max_w(ax, result: Result, label: str | None = None, **kwargs):
 
 
 def plot_result(result: Result, path=None):
-    """Four panels: w, u, phi snapshots and max|w|(t)."""
+    """Four panels: w, u, phi snapshots and max|w|(t); a 2-D run: :func:`plot_fields`."""
+    if result.measures is not None:
+        return plot_fields(result, path)
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     plot_profiles(axes[0, 0], result, "w")
     plot_profiles(axes[0, 1], result, "u")
@@ -66,6 +68,37 @@ def plot_result(result: Result, path=None):
     fig.tight_layout()
     if path:
         save_figure(fig, path, dpi=120)
+    return fig
+
+
+def field_panel(ax, result, k, frame, label):
+    """Image of w (k = "w") or phi - phi0 of snapshot `frame` of a 2-D run of scene bump2d."""
+    from .scenes2d import Bump2DScene
+
+    scene = Bump2DScene(**{k_: v for k_, v in result.scene_params.items() if k_ in ("L", "H", "phi0", "eps", "ell")})
+    field = (result.w if k == "w" else result.phi - scene.phi0)[frame]
+    vmax = float(np.max(np.abs(field))) or 1.0
+    im = ax.imshow(field.T, origin="lower", extent=(0, scene.L, 0, scene.H), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
+    ax.set_title(f"{label}: {'w' if k == 'w' else 'phi - phi0'}, t = {result.times[frame]:.3g}", fontsize=8)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z")
+    return im
+
+
+def plot_fields(result: Result, path=None):
+    """w and phi - phi0 at the last snapshot of a 2-D run, and max|w|(t)."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), constrained_layout=True)
+    if len(result.times):
+        for ax, k in zip(axes[:2], ("w", "phi")):
+            fig.colorbar(field_panel(ax, result, k, len(result.times) - 1, result.rheology), ax=ax, shrink=0.8)
+    if len(result.max_w_t):
+        axes[2].semilogy(result.max_w_t, result.max_w)
+    axes[2].set_xlabel("t")
+    axes[2].set_ylabel("max |w|")
+    state = f"fails at t* = {result.t_star:.4g}" if result.blew_up else "reached t_end"
+    fig.suptitle(f"{result.rheology}, {result.scene}, {result.Nx}x{result.N}: {state}")
+    if path:
+        save_figure(fig, path, dpi=90)
     return fig
 
 

@@ -12,8 +12,13 @@ import pytest
 from scipy.optimize import brentq
 
 from icidr_pde import run
-from icidr_pde.figures import (DATA, FIGURES, PAPER_SETTINGS, RUNS, RunCache, make_figures, positive_intervals,
-                               write_gallery, yield_ratio)
+from icidr_pde.figures.gallery import write_gallery
+from icidr_pde.figures.make import make_figures
+from icidr_pde.figures.panels import positive_intervals
+from icidr_pde.figures.paper import yield_ratio
+from icidr_pde.figures.registry import FIGURES
+from icidr_pde.figures.runs import DATA, RUNS, RunCache
+from icidr_pde.movies.registry import PAPER_SETTINGS
 from icidr_pde.rheology import ICIDR, Material
 
 
@@ -148,7 +153,7 @@ def test_fig7_draws_chi_infinite_where_u_z_changes_sign():
 
 
 def test_sign_changes_interpolates_between_nodes():
-    from icidr_pde.figures import sign_changes
+    from icidr_pde.figures.panels import sign_changes
 
     x = np.linspace(0, 1, 11)
     assert sign_changes(x, x - 0.33) == pytest.approx([0.33])  # linear: exact
@@ -220,7 +225,7 @@ def test_draft_never_overwrites_the_committed_gallery(tmp_path, monkeypatch, cap
 def test_tstar_plot_names_the_scheme_as_the_discretization_does(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 
-    from icidr_pde.studies.plots import plot_tstar
+    from icidr_pde.figures.tstar_plot import plot_tstar
 
     legends = []
     monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: legends.extend(

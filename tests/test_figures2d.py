@@ -10,7 +10,11 @@ refinement, the x-independent 1-D run decays, iCIDR decays).
 import numpy as np
 import pytest
 
-from icidr_pde.figures import FIGURES, RunCache, bump2d_pair, make_figures, spectrum_fraction, write_gallery
+from icidr_pde.figures.gallery import write_gallery
+from icidr_pde.figures.make import make_figures
+from icidr_pde.figures.registry import FIGURES
+from icidr_pde.figures.runs import RunCache
+from icidr_pde.figures.two_d import bump2d_pair, spectrum_fraction
 from icidr_pde.rheology import Material
 
 NAMES_2D = ("polar2d", "bump2d", "tstar2d")
@@ -103,7 +107,7 @@ def _decode(path):
 def test_movie2d_has_every_frame_and_its_bar_counts_them(drawn, tmp_path, capsys):
     """The mp4 decodes to the snapshots kept plus mu(I)'s state at t*; the progress bar's total is that
     number and it ends there; the failure frame differs from the one before it."""
-    from icidr_pde.figures import movie2d
+    from icidr_pde.figures.make import movie2d
 
     _, runs, _ = drawn
     mui = bump2d_pair(runs)["mui"]
@@ -118,7 +122,7 @@ def test_movie2d_has_every_frame_and_its_bar_counts_them(drawn, tmp_path, capsys
 
 
 def test_movie2d_bad_input_names_the_parameter(drawn, tmp_path):
-    from icidr_pde.movies import movie_from_results_2d, write_field_movie
+    from icidr_pde.movies.render import movie_from_results_2d, write_field_movie
 
     pair = bump2d_pair(drawn[1])
     with pytest.raises(ValueError, match="`stride` must be an integer >= 1"):
@@ -127,3 +131,21 @@ def test_movie2d_bad_input_names_the_parameter(drawn, tmp_path):
         write_field_movie(tmp_path / "m.avi", (0, 1, 0, 1), [0.0], {"a": np.zeros((1, 2, 3, 3))})
     with pytest.raises(ValueError, match="`frames` must map labels"):
         write_field_movie(tmp_path / "m.mp4", (0, 1, 0, 1), [0.0, 1.0], {"a": np.zeros((1, 2, 3, 3))})
+
+
+def test_the_plot_of_a_2d_run_shows_its_last_fields(tmp_path):
+    """``--plot`` of a 2-D run (plotting.plot_result): the images are w and phi - phi0 of the last
+    snapshot, the third panel max|w|(t) of the run."""
+    from matplotlib.image import AxesImage
+
+    from icidr_pde import run
+    from icidr_pde.plotting import plot_result
+
+    result = run("icidr", "bump2d", (8, 8), 0.2, ["0", "0.2"], method="CVODE", rtol=1e-6, atol=1e-9)
+    path = tmp_path / "fields.png"
+    fig = plot_result(result, path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    images = [a for ax in fig.axes for a in ax.get_children() if isinstance(a, AxesImage)]
+    np.testing.assert_array_equal(images[0].get_array(), result.w[-1].T)
+    np.testing.assert_allclose(images[1].get_array(), (result.phi[-1] - result.scene_params["phi0"]).T)
+    np.testing.assert_array_equal(fig.axes[2].lines[0].get_ydata(), result.max_w)

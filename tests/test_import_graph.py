@@ -1,8 +1,10 @@
-"""No circles among the module-level imports of icidr_pde and stability.
+"""No circles among the module-level imports of icidr_pde and stability, and the layers of
+docs/engines.md: studies and DEM know no command line, studies no interface (figures, movies,
+plots); schemes and the run path know no study and no interface.
 
-Imports inside functions are lazy and are not edges here; every module-level
-``import``/``from ... import`` (including inside ``if``/``try`` at top level)
-is.
+For circles, imports inside functions are lazy and are not edges; every module-level
+``import``/``from ... import`` (including inside ``if``/``try`` at top level) is. For the
+layers every import is an edge, lazy or not: a lazy import is still a dependency.
 """
 
 import ast
@@ -99,6 +101,58 @@ def cycles(graph):
     return found
 
 
+def under(module, *packages):
+    return any(module == p or module.startswith(p + ".") for p in packages)
+
+
+def is_cli(module):
+    """A command line: ``*.cli``, ``*_cli``, ``__main__`` and the argparse types."""
+    last = module.rpartition(".")[2]
+    return last in ("cli", "__main__") or last.endswith("_cli") or module == "icidr_pde.argtypes"
+
+
+def is_interface(module):
+    """What faces a person: command lines, figures, movies, plots."""
+    return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting")
+
+
+def is_study(module):
+    return under(module, "icidr_pde.studies")
+
+
+def is_scheme(module):
+    return under(module, "icidr_pde.rheology", "icidr_pde.discretizations", "icidr_pde.chebyshev",
+                 "icidr_pde.grid_size")
+
+
+def is_run_path(module):
+    return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines",
+                 "icidr_pde.native", "icidr_pde.trackers", "icidr_pde.result", "icidr_pde.validation")
+
+
+RULES = {
+    # the DEM has a command of its own (dem.cli, dem.__main__); studies/ holds none
+    "a study or DEM module imports a command line": (
+        lambda m: is_study(m) or (under(m, "icidr_pde.dem") and not is_cli(m)), is_cli),
+    "a study imports an interface": (is_study, is_interface),
+    "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
+    "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
+}
+#: the one edge left: ``run(movie=...)`` adds the py-pde tracker that renders the movie at the end
+KNOWN = {("icidr_pde.api", "icidr_pde.movies.tracker")}
+
+
+def layer_violations(graph, known=frozenset()):
+    """{rule: sorted [(module, target)]} of the edges that break a rule of :data:`RULES`."""
+    found = {}
+    for rule, (source, target) in RULES.items():
+        edges = sorted((m, t) for m in graph if source(m) for t in graph[m]
+                       if target(t) and (m, t) not in known)
+        if edges:
+            found[rule] = edges
+    return found
+
+
 def test_the_graph_sees_known_edges():
     graph = import_graph()
     assert "icidr_pde.rheology" in graph
@@ -113,10 +167,34 @@ def test_no_import_circles():
     assert cycles(import_graph()) == []
 
 
-if __name__ == "__main__":  # list the circles that lazy imports (inside functions) close as well
+def test_a_study_importing_the_command_line_is_found():
+    graph = {"icidr_pde.studies.sim2d": {"icidr_pde.cli"}, "icidr_pde.dem.fit": {"icidr_pde.argtypes"},
+             "icidr_pde.studies.__main__": {"icidr_pde.cli"},
+             "icidr_pde.dem.cli": {"icidr_pde.argtypes"}, "icidr_pde.discretizations.fd": {"icidr_pde.studies"},
+             "icidr_pde.api": {"icidr_pde.plotting", "icidr_pde.scenes"}}
+    assert layer_violations(graph) == {
+        "a study or DEM module imports a command line": [("icidr_pde.dem.fit", "icidr_pde.argtypes"),
+                                                          ("icidr_pde.studies.__main__", "icidr_pde.cli"),
+                                                          ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
+        "a study imports an interface": [("icidr_pde.studies.__main__", "icidr_pde.cli"),
+                                         ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
+        "a scheme imports a study or an interface": [("icidr_pde.discretizations.fd", "icidr_pde.studies")],
+        "the run path imports a study or an interface": [("icidr_pde.api", "icidr_pde.plotting")]}
+
+
+def test_the_layers_are_kept():
+    assert layer_violations(import_graph(lazy=True), KNOWN) == {}
+
+
+if __name__ == "__main__":  # list the circles that lazy imports (inside functions) close as well, and the layers
     graph, eager = import_graph(lazy=True), import_graph()
     for component in cycles(graph):
         for module in component:
             for target in sorted(graph[module] & set(component)):
                 print(module, "->", target, "" if target in eager[module] else "(lazy)")
         print()
+    for rule, edges in layer_violations(graph).items():
+        print(f"{rule}:")
+        for module, target in edges:
+            print(f"  {module} -> {target}{'' if target in eager[module] else ' (lazy)'}"
+                  f"{' (known)' if (module, target) in KNOWN else ''}")

@@ -114,7 +114,7 @@ def test_live_plot_rejects_bad_budget():
 def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
     """run(): the failed mu(I) run's bar stops at t* with the reason; its movie ends on the t* state."""
     from icidr_pde import run
-    from icidr_pde.movies import frame_times
+    from icidr_pde.movies.schedule import frame_times
 
     path = tmp_path / "m.mp4"
     res = run("mui", "shear", 101, 1.0, [0], method="BDF", rtol=1e-6, atol=1e-9, progress=True,

@@ -3,7 +3,11 @@
 import numpy as np
 import pytest
 
-from icidr_pde.movies import MOVIES, MovieTracker, _FrameFigure, ffmpeg_exe, frame_times, write_movie
+from icidr_pde.movies.registry import MOVIES
+from icidr_pde.movies.render import _FrameFigure, write_movie
+from icidr_pde.movies.schedule import frame_times
+from icidr_pde.movies.sink import ffmpeg_exe
+from icidr_pde.movies.tracker import MovieTracker
 
 
 def _frames(n=12, nz=61):
@@ -73,7 +77,7 @@ def test_bad_input_names_the_parameter(tmp_path):
 
 
 def test_a_failure_while_writing_leaves_no_file(tmp_path, monkeypatch):
-    import icidr_pde.movies as movies
+    import icidr_pde.movies.render as movies
 
     def broken(plot, times, frames, reason, grab):
         grab(plot.fig)
@@ -159,7 +163,7 @@ def test_movie_captions_name_the_scheme_as_the_discretization_does():
 def test_the_failure_frame_shows_the_state_at_t_star(tmp_path, monkeypatch):
     """The last frame of a failed run is rescaled to the state at t* (1e6 times the regular frames here)
     and its title gives the head of the reason."""
-    import icidr_pde.movies as movies
+    import icidr_pde.movies.render as movies
 
     plots = []
     figure = movies._FrameFigure

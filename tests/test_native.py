@@ -88,7 +88,7 @@ def test_native_jacobian_is_the_derivative_of_the_native_rates():
 def test_native_run_reaches_the_references(case):
     """README (presets): CVODE rtol 1e-5 at N = 201 is within 1e-3 of the converged max|w|
     series (the grid's own error is 2.4e-4 and 4.7e-4); mass conserved to round-off."""
-    from icidr_pde.reference import CASES, reference, series_error, series_times
+    from icidr_pde.studies.references import CASES, reference, series_error, series_times
 
     spec = CASES[case]
     result = run_native(spec["rheology"], spec["scene"], 201, spec["t_end"], list(series_times(spec["t_end"])))

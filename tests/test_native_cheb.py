@@ -99,7 +99,7 @@ def test_tstar_is_the_converged_one_and_the_py_pde_paths():
     on the same equations (an ulp apart in BLAS, so not the same steps) agrees to the
     tolerance; the run fails in CVODE's error test at h_min, not at phi's range."""
     from icidr_pde.api import run
-    from icidr_pde.reference import reference_tstar
+    from icidr_pde.studies.references import reference_tstar
 
     converged = reference_tstar("cheb")["t_star"]
     result = run_native("mui", "shear", 201, 1.0, ["0", "0.01", "0.5"], discretization="cheb", method="CVODE",
@@ -127,7 +127,7 @@ def test_sine_reaches_the_reference():
     6e-5 to 4.4e-4, depends on the rounding of the LU through CVODE's step choices); mass
     conserved to round-off (Clenshaw-Curtis is exact for D(phi w), so the discrete mass
     cannot change but by rounding)."""
-    from icidr_pde.reference import reference
+    from icidr_pde.studies.references import reference
 
     ref = reference("icidr-sine")
     result = run_native("icidr", "sine", 201, 15.0, ["0", "3", "5", "10", "15"], discretization="cheb",

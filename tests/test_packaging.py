@@ -51,7 +51,7 @@ def test_non_editable_install_finds_the_data_outside_the_repository(tmp_path):
     whl = next(wheel_dir.glob("*.whl"))
     subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site),
                     str(whl)], check=True)
-    code = ("import icidr_pde, icidr_pde.reference as r\n"
+    code = ("import icidr_pde, icidr_pde.studies.references as r\n"
             "from icidr_pde.dem.paths import committed\n"
             "import json\n"
             f"assert icidr_pde.__file__.startswith({str(site)!r}), icidr_pde.__file__\n"

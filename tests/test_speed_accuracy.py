@@ -6,7 +6,7 @@ import pytest
 
 from icidr_pde import run
 from icidr_pde.presets import PRESETS, resolve
-from icidr_pde.reference import CASES, REFERENCE_DIR, reference, series_error
+from icidr_pde.studies.references import CASES, REFERENCE_DIR, reference, series_error
 
 
 def test_presets_resolve_and_explicit_knobs_override():
@@ -30,7 +30,7 @@ def test_run_records_the_settings_it_used():
 def test_reference_cache_is_consistent(case):
     """The committed reference matches the code's scene, material and settings, is
     converged in space and time as recorded, conserves mass and decays to (3.10)."""
-    assert (REFERENCE_DIR / f"{case}.npz").exists(), "run: python -m icidr_pde.reference"
+    assert (REFERENCE_DIR / f"{case}.npz").exists(), "run: python -m icidr_pde.studies.references"
     ref = reference(case)
     meta = ref["meta"]
     spec = CASES[case]

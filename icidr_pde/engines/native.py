@@ -9,7 +9,6 @@ the Result. numpy and ctypes only.
 
 from __future__ import annotations
 
-import numpy as np
 
 from .base import Engine
 

@@ -1,14 +1,18 @@
-"""Studies of the discrete system (fig 4b and the discretization comparisons).
+"""Every study: what the runs of :func:`icidr_pde.run` say about the equations and their discretizations.
 
 * :mod:`.failure_time` -- t* of one case and sweeps over N (fig 4b), on the run path of ``run()``;
 * :mod:`.discrete` -- t* against integrator and tolerance, Chebyshev convergence, figs 6-7 agreement;
-* :mod:`.plots` -- the t*(N) figure; :mod:`.parallel` -- worker processes; :mod:`.cli` -- ``icidr-pde tstar``.
+* :mod:`.grid_convergence` -- errors of coarse runs against a fine one and the observed order;
+* :mod:`.references` -- converged reference solutions of the speed-accuracy study (data/reference);
+* :mod:`.sim2d` -- the 2-D shear cell: grid convergence, t*(N), growth of oblique modes (data/sim2d);
+* :mod:`.parallel` -- worker processes.
+
+The command ``icidr-pde tstar`` is :mod:`icidr_pde.tstar_cli`, its figure :mod:`icidr_pde.figures.tstar_plot`.
 """
 
 from .discrete import compare_discretizations, spectral_convergence, tolerance_study
 from .failure_time import PAPER_TSTAR, failure_time, parse_range, sweep, threshold, tstar_mapping
 from .parallel import limit_blas_threads
-from .plots import plot_tstar
 
-__all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR", "plot_tstar",
+__all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR",
            "tolerance_study", "spectral_convergence", "compare_discretizations", "limit_blas_threads"]

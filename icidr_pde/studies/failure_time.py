@@ -120,12 +120,14 @@ def sweep(
     *,
     jobs: int = 2,
     progress: bool = True,
+    client=None,
     **kwargs,
 ) -> dict[str, dict[int, dict]]:
     """t* for every N and discretization: {discretization: {N: failure_time(...) dict}}.
 
     Runs in `jobs` worker processes (spawned, with one BLAS thread each; jobs=1 runs
-    in this process) with a tqdm progress bar. `kwargs` go to :func:`failure_time`.
+    in this process), or as tasks of the dask `client` (:mod:`.distributed`), with a
+    tqdm progress bar. `kwargs` go to :func:`failure_time`.
     """
     Ns = [int(n) for n in Ns]
     cases = [dict(kwargs, discretization=d, N=n) for d in discretizations
@@ -137,7 +139,8 @@ def sweep(
         t = "none" if res["t_star"] is None else f"{res['t_star']:.5g}"
         return f"{disc} N={res['N']} t*={t}"
 
-    for disc, res in run_cases(_run_case, cases, jobs, progress, ordered=False, desc="t*(N)", postfix=label):
+    for disc, res in run_cases(_run_case, cases, jobs, progress, ordered=False, desc="t*(N)", postfix=label,
+                               client=client):
         out[disc][res["N"]] = res
     return {d: dict(sorted(v.items())) for d, v in out.items()}
 

@@ -1,4 +1,8 @@
-"""Worker processes for the studies: one BLAS thread each, spawned, with a progress bar."""
+"""Worker processes for the studies: one BLAS thread each, spawned, with a progress bar.
+
+:func:`run_cases` runs on a process pool of this machine, or, given a dask client, as its
+tasks (:mod:`.distributed`: a ``LocalCluster`` or a cluster's scheduler).
+"""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ import re
 import sys
 import warnings
 
-__all__ = ["limit_blas_threads", "run_cases", "worker_init"]
+__all__ = ["limit_blas_threads", "run_cases", "single_thread_environment", "worker_init"]
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -41,17 +45,29 @@ def limit_blas_threads(n: int = 1) -> list[str]:
     return done
 
 
+def single_thread_environment() -> None:
+    """One BLAS thread in the worker processes spawned from now on (read before numpy loads)."""
+    for var in _BLAS_ENV:
+        os.environ.setdefault(var, "1")
+
+
 def worker_init() -> None:
     limit_blas_threads(1)
     warnings.simplefilter("ignore")
 
 
 def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool = True, desc=None,
-              postfix=None):
-    """Yield function(case) for every case, in `jobs` spawned workers (jobs=1: this process).
+              postfix=None, client=None):
+    """Yield function(case) for every case, in `jobs` spawned workers (jobs=1: this process),
+    or as tasks of the dask `client` if given (`jobs` is then unused).
 
     With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
     """
+    if client is not None:
+        from .distributed import map_cases
+
+        yield from map_cases(function, cases, client, progress, ordered=ordered, desc=desc, postfix=postfix)
+        return
     from tqdm.auto import tqdm
 
     with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
@@ -60,8 +76,7 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
             results = map(function, cases)
             pool = None
         else:
-            for var in _BLAS_ENV:  # inherited by the spawned workers before numpy loads
-                os.environ.setdefault(var, "1")
+            single_thread_environment()
             pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=worker_init)
             results = (pool.imap if ordered else pool.imap_unordered)(function, cases)
         try:

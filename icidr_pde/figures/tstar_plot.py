@@ -1,9 +1,9 @@
-"""Fig 4(b): the failure time t* against N."""
+"""Fig 4(b): the failure time t* against N (``icidr-pde tstar --plot``)."""
 
 from __future__ import annotations
 
 from ..outputs import save_figure
-from .failure_time import PAPER_TSTAR, threshold
+from ..studies.failure_time import PAPER_TSTAR, threshold
 
 __all__ = ["plot_tstar"]
 

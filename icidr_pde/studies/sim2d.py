@@ -1,17 +1,17 @@
 """Studies of the 2-D shear cell (scene ``bump2d``), their tables, field images and movie.
 
-``python -m icidr_pde.studies2d convergence`` -- iCIDR on bump2d at 16^2 .. 128^2: max_w,
+``python -m icidr_pde.studies.sim2d convergence`` -- iCIDR on bump2d at 16^2 .. 128^2: max_w,
 max_phi_dev, l2_velocity at t = 0.5, 1, 2, 5, 10 and the observed orders
 (data/sim2d/convergence.json);
-``python -m icidr_pde.studies2d tstar`` -- mu(I),Phi(I) on bump2d at 16^2 .. 128^2: the
+``python -m icidr_pde.studies.sim2d tstar`` -- mu(I),Phi(I) on bump2d at 16^2 .. 128^2: the
 failure time t* of every 2-D grid beside the 1-D finite-volume run of the same perturbation
 made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 (data/sim2d/tstar.json);
-``python -m icidr_pde.studies2d growth`` -- mode2d waves at several angles, the measured
+``python -m icidr_pde.studies.sim2d growth`` -- mode2d waves at several angles, the measured
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
-``python -m icidr_pde.studies2d tables`` -- the tables of docs/sim2d.md from those files;
-``python -m icidr_pde.studies2d figures`` -- field images of w and phi for both rheologies
-(docs/sim2d_fields.png) and a movie of both runs (docs/sim2d.mp4).
+``python -m icidr_pde.studies.sim2d tables`` -- the tables of docs/sim2d.md from those files.
+
+The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
 Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path).
 """
@@ -26,10 +26,10 @@ import sys
 
 import numpy as np
 
-from .outputs import replacing, save_figure, write_json
+from ..outputs import write_json
 
-__all__ = ["plot_fields", "convergence_study", "tstar_study", "convergence_table", "tstar_table",
-           "observed_orders", "field_figure", "movie"]
+__all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
+           "observed_orders", "mode_growth", "predicted_growth", "SETTINGS"]
 
 TIMES = ("0.5", "1", "2", "5", "10")
 SIZES = (16, 32, 64, 128)
@@ -50,7 +50,7 @@ def observed_orders(values: list[float]) -> list[float | None]:
 
 def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", **settings) -> dict:
     """iCIDR on bump2d at Nx = Nz = N for each N in `sizes`; the JSON of each run plus orders."""
-    from .api import run
+    from ..api import run
 
     settings = {**SETTINGS, **settings}
     runs = {}
@@ -63,15 +63,15 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": "python -m icidr_pde.studies2d convergence"}
+               "command": "python -m icidr_pde.studies.sim2d convergence"}
     write_json(payload, path)
     return payload
 
 
 def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", **settings) -> dict:
     """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz."""
-    from .api import run
-    from .scenes2d import Bump2DScene
+    from ..api import run
+    from ..scenes2d import Bump2DScene
 
     settings = {**SETTINGS, **settings}
     scene = Bump2DScene()
@@ -84,7 +84,7 @@ def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "ts
                      "reason_1d": r1.reason, "max_w_1d_end": None if r1.blew_up else float(np.max(np.abs(r1.final[2])))})
         print(f"mu(I) bump2d N = {n}: 2-D {r2}; 1-D {r1}", flush=True)
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
-               "command": "python -m icidr_pde.studies2d tstar"}
+               "command": "python -m icidr_pde.studies.sim2d tstar"}
     write_json(payload, path)
     return payload
 
@@ -154,8 +154,8 @@ def mode_growth(rheology, theta, n=64, k=0.9, eps=1e-8, material=None) -> dict:
     grid-scale waves an ill-posed law amplifies from round-off are not counted), its
     log-slope fitted over the second half of the snapshots reached.
     """
-    from .api import run
-    from .scenes2d import Mode2DScene
+    from ..api import run
+    from ..scenes2d import Mode2DScene
 
     scene = Mode2DScene(theta=theta, k=k, eps=eps)
     pred = predicted_growth(rheology, scene, material)
@@ -181,7 +181,7 @@ def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth
             row = mode_growth(rheology, theta, n=n, eps=1e-6)
             rows.append(row)
             print(f"{rheology} theta = {theta:g}: measured {row['measured']:.4g}, symbol {row['symbol']:.4g}", flush=True)
-    payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "python -m icidr_pde.studies2d growth"}
+    payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "python -m icidr_pde.studies.sim2d growth"}
     write_json(payload, path)
     return payload
 
@@ -195,104 +195,9 @@ def growth_table(payload: dict) -> str:
     return "\n".join(lines)
 
 
-# --- figures and movie ---------------------------------------------------------------------
-
-
-def _snapshots(rheology, n, t_end, n_frames):
-    from .api import run
-
-    t_end = float(f"{t_end:.4g}")  # the labels below must not round past t_end
-    times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)[:-1]] + [f"{t_end:.6g}"]
-    return run(rheology, "bump2d", (n, n), t_end, times, series_times=[], **SETTINGS)
-
-
-def _panel(ax, result, k, frame, label):
-    from .scenes2d import Bump2DScene
-
-    scene = Bump2DScene(**{k_: v for k_, v in result.scene_params.items() if k_ in ("L", "H", "phi0", "eps", "ell")})
-    field = (result.w if k == "w" else result.phi - scene.phi0)[frame]
-    vmax = float(np.max(np.abs(field))) or 1.0
-    im = ax.imshow(field.T, origin="lower", extent=(0, scene.L, 0, scene.H), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
-    ax.set_title(f"{label}: {'w' if k == 'w' else 'phi - phi0'}, t = {result.times[frame]:.3g}", fontsize=8)
-    ax.set_xlabel("x")
-    ax.set_ylabel("z")
-    return im
-
-
-def plot_fields(result, path) -> None:
-    """PNG of w and phi - phi0 at the last snapshot of a 2-D run, and max|w|(t)."""
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), constrained_layout=True)
-    if len(result.times):
-        for ax, k in zip(axes[:2], ("w", "phi")):
-            fig.colorbar(_panel(ax, result, k, len(result.times) - 1, result.rheology), ax=ax, shrink=0.8)
-    if len(result.max_w_t):
-        axes[2].semilogy(result.max_w_t, result.max_w)
-    axes[2].set_xlabel("t")
-    axes[2].set_ylabel("max |w|")
-    state = f"fails at t* = {result.t_star:.4g}" if result.blew_up else "reached t_end"
-    fig.suptitle(f"{result.rheology}, {result.scene}, {result.Nx}x{result.N}: {state}")
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
-
-
-def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
-    """w and phi - phi0 of both rheologies on bump2d: iCIDR at t = 0.5, 2, 10, mu(I) before t*."""
-    import matplotlib.pyplot as plt
-
-    from .api import run
-
-    icidr = run("icidr", "bump2d", (n, n), 10.0, ["0.5", "2", "10"], series_times=[], **SETTINGS)
-    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
-    t_star = probe.t_star if probe.blew_up else 10.0
-    mui = run("mui", "bump2d", (n, n), 10.0, [f"{f * t_star:.6g}" for f in (0.25, 0.6, 0.97)],
-              series_times=[], **SETTINGS)
-    fig, axes = plt.subplots(4, 3, figsize=(10, 12), constrained_layout=True)
-    for row, (res, k, label) in enumerate(((icidr, "w", "iCIDR"), (icidr, "phi", "iCIDR"),
-                                           (mui, "w", "mu(I)"), (mui, "phi", "mu(I)"))):
-        for col in range(3):
-            if col < len(res.times):
-                im = _panel(axes[row, col], res, k, col, label)
-                fig.colorbar(im, ax=axes[row, col], shrink=0.8)
-    fig.suptitle(f"bump2d, {n}x{n}: iCIDR decays smoothly; mu(I),Phi(I) fails at t* = {t_star:.3g}")
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
-    print(f"figure written to {path}")
-
-
-def movie(path="docs/sim2d.mp4", n=48, n_frames=60) -> None:
-    """Side-by-side movie of w: iCIDR to t = 10 and mu(I),Phi(I) up to its failure, same frame count."""
-    import imageio_ffmpeg
-    import matplotlib
-    import matplotlib.animation as animation
-    import matplotlib.pyplot as plt
-
-    from .api import run
-
-    matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
-    icidr = _snapshots("icidr", n, 10.0, n_frames)
-    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
-    t_star = probe.t_star if probe.blew_up else 10.0
-    mui = _snapshots("mui", n, 0.99 * t_star, n_frames)
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2), constrained_layout=True)
-
-    def draw(frame):
-        for ax in axes:
-            ax.clear()
-        _panel(axes[0], icidr, "w", min(frame, len(icidr.times) - 1), "iCIDR")
-        _panel(axes[1], mui, "w", min(frame, len(mui.times) - 1), "mu(I)")
-
-    anim = animation.FuncAnimation(fig, draw, frames=n_frames)
-    with replacing(path) as tmp:
-        anim.save(tmp, writer=animation.FFMpegWriter(fps=12, bitrate=900))
-    plt.close(fig)
-    print(f"movie written to {path}")
-
-
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies2d", description=__doc__.split("\n")[0])
-    parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables", "figures"])
+    parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies.sim2d", description=__doc__.split("\n")[0])
+    parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables"])
     parser.add_argument("--sizes", type=int, nargs="+", default=None)
     args = parser.parse_args(argv)
     if args.study == "convergence":
@@ -301,9 +206,6 @@ def main(argv=None) -> int:
         tstar_study(**({"sizes": tuple(args.sizes)} if args.sizes else {}))
     elif args.study == "growth":
         growth_study()
-    elif args.study == "figures":
-        field_figure()
-        movie()
     else:
         print(convergence_table(json.loads((DATA / "convergence.json").read_text())))
         print()

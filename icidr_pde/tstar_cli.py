@@ -3,7 +3,7 @@
     icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
         --t-end 20 --json cheb.json --plot fig4b.png
 
-(also ``python -m icidr_pde.studies ...``). The JSON maps N (as a string) to t* (null where
+The JSON maps N (as a string) to t* (null where
 the run reached t-end without failing). Several discretizations at once
 (``--discretization fd cheb``) give one such mapping per discretization, keyed by its
 name; ``--load label=file.json`` adds saved sweeps to the plot.
@@ -12,18 +12,19 @@ name; ``--load label=file.json`` adds saved sweeps to the plot.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 
-from ..discretizations import DISCRETIZATIONS
-from ..engines import JACOBIAN_MODES, METHODS
-from ..engines.base import check_tolerances
-from ..outputs import check_outputs, write_json
-from ..rheology import RHEOLOGIES
-from ..scenes import SCENES
-from ..times import check_t_end
-from .failure_time import parse_range, sweep, threshold, tstar_mapping
-from .plots import plot_tstar
+from .argtypes import positive_int
+from .discretizations import DISCRETIZATIONS
+from .engines import JACOBIAN_MODES, METHODS
+from .engines.base import check_tolerances
+from .outputs import check_outputs, write_json
+from .rheology import RHEOLOGIES
+from .scenes import SCENES
+from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
+from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
 
@@ -73,7 +74,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
                    help="right-hand side backend (numpy: no compile time, default)")
-    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes of this machine's process pool")
+    p.add_argument("--workers", type=positive_int, default=None, metavar="N",
+                   help="run the cases as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the cases as tasks of the dask cluster whose scheduler is at ADDRESS "
+                        "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
     p.add_argument("--json", default=None, help="write {N: t*} here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
@@ -82,6 +88,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_tstar)
     return p
+
+
+def _client(args):
+    """The dask client of --workers/--scheduler (None, the process pool, without either)."""
+    if args.workers is None and args.scheduler is None:
+        return contextlib.nullcontext()
+    from .studies.distributed import cluster
+
+    return cluster(args.workers, args.scheduler, dashboard=not args.no_progress)
 
 
 def cmd_tstar(args) -> int:
@@ -98,11 +113,12 @@ def cmd_tstar(args) -> int:
         Ns = parse_range(args.N or "21:201:2")
         check_tolerances(args.rtol, args.atol)
         check_t_end(args.t_end)
-        results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
-                        progress=not args.no_progress, rheology=args.rheology,
-                        scene=args.scene, t_end=args.t_end, method=args.method,
-                        rtol=args.rtol, atol=args.atol, jacobian=args.jacobian,
-                        backend=args.backend)
+        with _client(args) as client:
+            results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
+                            progress=not args.no_progress, client=client, rheology=args.rheology,
+                            scene=args.scene, t_end=args.t_end, method=args.method,
+                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian,
+                            backend=args.backend)
     mappings = {d: tstar_mapping(r) for d, r in results.items()}
     for disc, mapping in mappings.items():
         curves[disc] = mapping
@@ -118,6 +134,8 @@ def cmd_tstar(args) -> int:
         write_json(payload, args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
+        from .figures.tstar_plot import plot_tstar
+
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
         plot_tstar(curves, args.plot, t_end=args.t_end,

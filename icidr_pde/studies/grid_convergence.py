@@ -1,6 +1,6 @@
 """Grid-convergence study: error of coarse runs against a fine run, and the observed order.
 
-Run ``python -m icidr_pde.convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``.
+Run ``python -m icidr_pde.studies.grid_convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import json
 import numpy as np
 from tqdm import tqdm
 
-from .api import run
-from .discretizations import get_discretization
+from ..api import run
+from ..discretizations import get_discretization
 
 __all__ = ["convergence_study"]
 
@@ -62,7 +62,7 @@ def main(argv=None):
     out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection)
     print(json.dumps(out, indent=1))
     if args.json:
-        from .outputs import write_json
+        from ..outputs import write_json
 
         write_json(out, args.json)
 

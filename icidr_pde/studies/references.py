@@ -17,8 +17,8 @@ import json
 
 import numpy as np
 
-from .api import run
-from .datafiles import data_dir
+from ..api import run
+from ..datafiles import data_dir
 
 __all__ = ["CASES", "case_run", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
 

@@ -1,0 +1,181 @@
+"""Independent runs as dask.distributed tasks: on this machine or on a cluster.
+
+* :func:`cluster` -- a :class:`distributed.Client` on a ``LocalCluster`` of `workers`
+  processes (one thread, one BLAS thread each), or on the scheduler at `scheduler`
+  (a cluster started by ``dask scheduler``/``dask worker`` or by dask-jobqueue);
+* :func:`map_cases` -- ``function(case)`` for every case as tasks, with one progress bar
+  over them (the engine of :func:`~icidr_pde.studies.parallel.run_cases` given a client);
+* :func:`run_many` -- :func:`icidr_pde.api.run` for a list of cases, the
+  :class:`~icidr_pde.result.Result`\\ s in the order asked; a task that raised is a
+  :class:`TaskError` naming its case, in its place.
+
+A task computes what the serial run computes: the same function on the same arguments in
+a process with one BLAS thread, so t* agrees bit for bit (tests/test_distributed.py).
+dask is the optional extra ``pip install "icidr-pde[dask]"``; see docs/distributed.md.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import sys
+import traceback
+from dataclasses import dataclass
+
+from .parallel import single_thread_environment, worker_init
+
+__all__ = ["TaskError", "cluster", "map_cases", "run_many"]
+
+#: seconds to wait for a scheduler to answer before giving up (bad input, exit 2 on the CLI)
+CONNECT_TIMEOUT = 3.0
+
+
+@dataclass
+class TaskError:
+    """A case whose task raised: the case (keyword arguments), the exception's type and
+    message, and the worker's traceback."""
+
+    case: dict
+    error: str
+    traceback: str
+
+    def __str__(self) -> str:
+        return f"case {self.case!r} raised {self.error}"
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise ValueError("`workers`/`scheduler` need dask.distributed, which is not installed: "
+                         "pip install 'icidr-pde[dask]'") from None
+    return distributed
+
+
+def _check_workers(workers) -> int:
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"`workers` must be an integer >= 1; got {workers!r}")
+    return workers
+
+
+@contextlib.contextmanager
+def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboard: bool = False):
+    """A dask Client for the block: on `scheduler` (an address such as tcp://host:8786, or the
+    file that ``dask scheduler --scheduler-file`` writes) if given, else on a new ``LocalCluster`` of `workers` processes, closed at the end.
+
+    A scheduler that does not answer within :data:`CONNECT_TIMEOUT` seconds is bad input
+    (ValueError naming it). With `dashboard`, the dashboard's link is printed on stderr.
+    """
+    if scheduler is not None and workers is not None:
+        raise ValueError(f"give `workers` (a cluster on this machine) or `scheduler` (an existing one), "
+                         f"not both; got workers={workers!r}, scheduler={scheduler!r}")
+    if scheduler is None:
+        _check_workers(workers)
+    distributed = _distributed()
+    with contextlib.ExitStack() as stack:
+        if scheduler is None:
+            single_thread_environment()  # inherited by the spawned worker processes
+            local = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                             host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                                             silence_logs=logging.ERROR)
+            stack.enter_context(local)
+            client = stack.enter_context(distributed.Client(local))
+        else:
+            client = stack.enter_context(_connect(distributed, scheduler))
+        if dashboard:
+            print(f"dask dashboard: {client.dashboard_link}", file=sys.stderr, flush=True)
+        yield client
+
+
+def _connect(distributed, address: str):
+    where = {"scheduler_file": address} if os.path.isfile(address) else {"address": address}
+    try:
+        return distributed.Client(**where, timeout=CONNECT_TIMEOUT)
+    except Exception as err:  # OSError, TimeoutError, ValueError of a malformed address, ...
+        reason = (str(err).strip().splitlines() or [type(err).__name__])[0]
+        raise ValueError(f"`scheduler` must be the address of a running dask scheduler "
+                         f"(tcp://host:port) or its scheduler file; could not connect to {address!r}: "
+                         f"{reason}") from None
+
+
+_initialised = False
+
+
+def _task(function, case):
+    """`function(case)` in a worker: one BLAS thread, warnings off, as the process pool does."""
+    global _initialised
+    if not _initialised:
+        worker_init()
+        _initialised = True
+    return function(case)
+
+
+def map_cases(function, cases: list, client, progress: bool, *, ordered: bool = True, desc=None,
+              postfix=None):
+    """Yield function(case) for every case, computed as tasks of `client`.
+
+    With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
+    An exception of a task is raised here (with the worker's traceback); the tasks not yet
+    run are cancelled when the caller stops (or is interrupted).
+    """
+    from distributed import as_completed
+    from tqdm.auto import tqdm
+
+    futures = [client.submit(_task, function, case, pure=False) for case in cases]
+    index = {f.key: i for i, f in enumerate(futures)}
+    done: dict[int, object] = {}
+    following = 0
+    try:
+        with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
+            for future in as_completed(futures):
+                result = future.result()
+                if postfix is not None:
+                    bar.set_postfix_str(postfix(result))
+                bar.update()
+                if not ordered:
+                    yield result
+                    continue
+                done[index[future.key]] = result
+                while following in done:
+                    yield done.pop(following)
+                    following += 1
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+
+
+def _run_one(case: dict):
+    """api.run(**case); an exception is returned as a :class:`TaskError` (a blow-up is a Result)."""
+    from ..api import run
+
+    try:
+        return run(**case)
+    except Exception as err:
+        return TaskError(dict(case), f"{type(err).__name__}: {err}", traceback.format_exc())
+
+
+def run_many(cases, client=None, workers: int | None = None, *, progress: bool = False) -> list:
+    """:func:`icidr_pde.api.run` for every case (a dict of its keyword arguments), as dask tasks.
+
+    On `client` if given, else on a ``LocalCluster`` of `workers` processes started for the
+    call, else (neither) one after the other in this process. Returns, in the order of
+    `cases`, a :class:`~icidr_pde.result.Result` per case (a run that blew up is one, with
+    ``blew_up`` and ``t_star``) or a :class:`TaskError` for a case whose run raised (bad
+    input, say): one failure does not stop the others.
+    """
+    cases = [dict(c) for c in cases]
+    for i, case in enumerate(cases):
+        for name in ("progress", "live_plot", "on_result"):
+            if case.get(name):
+                raise ValueError(f"`cases[{i}]` asks for {name}={case[name]!r}, which a task cannot show "
+                                 f"or call back; use progress=True of run_many for one bar over the runs")
+    if client is not None and workers is not None:
+        raise ValueError(f"give `client` or `workers`, not both; got workers={workers!r}")
+    if client is not None:
+        return list(map_cases(_run_one, cases, client, progress, desc="runs"))
+    if workers is not None:
+        with cluster(workers) as own:
+            return list(map_cases(_run_one, cases, own, progress, desc="runs"))
+    from .parallel import run_cases
+
+    return list(run_cases(_run_one, cases, 1, progress, desc="runs"))

@@ -1,0 +1,118 @@
+"""Sweeps and runs as dask.distributed tasks (icidr_pde.studies.distributed, tstar --workers/--scheduler).
+
+Truth: the serial path (a task computes the same function on the same arguments), and the
+regression anchor t*(Chebyshev N=201, mu(I), scipy BDF) = 0.010581191657354078 of
+``run("mui", "shear", 201, 0.05, discretization="cheb", method="BDF", rtol=1e-6, atol=1e-9,
+engine="pde")`` (docs/engines.md) with OpenBLAS's default threads. Tasks, like the serial
+sweep, run on one BLAS thread, whose round-off moves t* in the 12th digit: they agree with
+the anchor to round-off and with the serial path bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+pytest.importorskip("distributed", reason="dask.distributed is not installed (the [dask] or [test] extra)")
+
+from icidr_pde.cli import main  # noqa: E402
+from icidr_pde.result import Result  # noqa: E402
+from icidr_pde.studies.distributed import TaskError, cluster, run_many  # noqa: E402
+from icidr_pde.studies.failure_time import sweep  # noqa: E402
+
+ANCHOR_TSTAR_CHEB_201 = 0.010581191657354078
+SWEEP = dict(rheology="mui", scene="shear", t_end=20.0, method="BDF", backend="numpy")
+
+
+@pytest.fixture(scope="module")
+def client():
+    with cluster(workers=2) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def serial_sweep():
+    return sweep([101, 201], ("cheb",), jobs=1, progress=False, **SWEEP)
+
+
+def test_a_sweep_as_tasks_gives_the_serial_t_star_bit_for_bit(client, serial_sweep):
+    on_dask = sweep([101, 201], ("cheb",), progress=False, client=client, **SWEEP)
+    assert on_dask["cheb"][201]["t_star"] == pytest.approx(ANCHOR_TSTAR_CHEB_201, rel=1e-9)
+    assert {n: r["t_star"] for n, r in on_dask["cheb"].items()} == \
+        {n: r["t_star"] for n, r in serial_sweep["cheb"].items()}
+    assert {n: r["n_steps"] for n, r in on_dask["cheb"].items()} == \
+        {n: r["n_steps"] for n, r in serial_sweep["cheb"].items()}
+
+
+def test_tstar_on_a_scheduler_writes_the_serial_mapping(client, serial_sweep, tmp_path, capsys):
+    out = tmp_path / "tstar.json"
+    code = main(["tstar", "--discretization", "cheb", "--N", "101,201", "--t-end", "20",
+                 "--scheduler", client.scheduler.address, "--json", str(out)])
+    assert code == 0
+    assert json.loads(out.read_text()) == {str(n): r["t_star"] for n, r in serial_sweep["cheb"].items()}
+    assert "dask dashboard: http" in capsys.readouterr().err
+
+
+def test_run_many_returns_results_in_order_with_failures_as_values(client):
+    cases = [dict(rheology="mui", scene="shear", N=201, t_end=0.05, discretization="cheb", method="BDF",
+                  rtol=1e-6, atol=1e-9, engine="pde"),
+             dict(rheology="icidr", discretization="cheb", N=21, t_end=0.01, method="BDF", backend="numpy"),
+             dict(rheology="no-such-law", N=21, t_end=0.01)]
+    results = run_many(cases, client=client)
+    assert [type(r) for r in results] == [Result, Result, TaskError]
+    blown, finished, error = results
+    assert blown.blew_up and blown.t_star == pytest.approx(ANCHOR_TSTAR_CHEB_201, rel=1e-9)
+    assert not finished.blew_up and finished.t_final == 0.01
+    assert error.case == cases[2] and "no-such-law" in error.error and "Traceback" in error.traceback
+    serial = run_many(cases[:2])
+    assert [r.t_star for r in serial] == [r.t_star for r in results[:2]]
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(workers=0), "`workers` must be an integer >= 1; got 0"),
+    (dict(workers=2, client=object()), "not both"),
+])
+def test_run_many_refuses_bad_workers_before_running(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        run_many([dict(N=21)], **kwargs)
+
+
+def test_a_case_asking_for_a_live_view_is_refused():
+    with pytest.raises(ValueError, match=r"`cases\[1\]` asks for progress=True"):
+        run_many([dict(N=21), dict(N=21, progress=True)])
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["--workers", "0"], "--workers"),
+    (["--workers", "two"], "--workers"),
+    (["--scheduler", "tcp://127.0.0.1:1"], "--scheduler"),
+    (["--scheduler", "no-port"], "--scheduler"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "--workers"),
+])
+def test_tstar_refuses_bad_workers_or_scheduler_in_one_line(argv, option, capsys):
+    try:
+        code = main(["tstar", "--N", "21", "--t-end", "0.01", "--no-progress", *argv])
+    except SystemExit as stop:  # argparse's refusal
+        code = stop.code
+    assert code == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and option in errors[0], err
+    assert "Traceback" not in err
+
+
+def test_without_dask_the_options_say_which_extra_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ValueError, match=r"pip install 'icidr-pde\[dask\]'"):
+        with cluster(workers=1):
+            pass
+
+
+def test_a_scheduler_file_names_the_cluster(client, tmp_path):
+    path = tmp_path / "scheduler.json"
+    client.write_scheduler_file(str(path))
+    with cluster(scheduler=str(path)) as other:
+        assert other.scheduler.address == client.scheduler.address
+        assert other.submit(sum, [1, 2, 3]).result() == 6
