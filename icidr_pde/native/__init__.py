@@ -12,7 +12,7 @@ the light parts of the package (rheology classes, scenes, presets, Result).
 
 Chebyshev collocation (``discretization="cheb"``) runs the same way (:mod:`.cheb`):
 the C printed from ``templates/cheb.py`` (the right-hand side and the dense Jacobian), with
-the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.chebyshev`), and
+the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.discretizations.chebyshev`), and
 CVODE's dense LU (LAPACK's where scikit-sundae ships it) kept as the py-pde path keeps it.
 
 The walls are the ghost-cell maps of :meth:`ShearCellPDE.ghost_coefficients` (a test
@@ -36,7 +36,7 @@ import time as _time
 
 import numpy as np
 
-from ..grid_size import FD
+from ..discretizations.grid_size import FD
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
@@ -274,8 +274,8 @@ class NativeCase:
     grid_limit = FD
 
     def _scene_law_and_size(self, rheology, scene, N, material, scene_params):
-        """Set scene, rheology and N (checked against :attr:`grid_limit`, :mod:`icidr_pde.grid_size`)."""
-        from ..grid_size import check_N
+        """Set scene, rheology and N (checked against :attr:`grid_limit`, :mod:`icidr_pde.discretizations.grid_size`)."""
+        from ..discretizations.grid_size import check_N
         from ..rheology import get_rheology
         from ..scenes import get_scene
 

@@ -4,7 +4,7 @@
 template ``discretizations/templates/cheb.py``: rates and dense Jacobian) with CVODE's dense linear
 solver; :class:`ChebCase` is what :func:`icidr_pde.case.build_case` builds for
 ``discretization="cheb"`` (the same checks, points, walls and initial state), from the
-numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's vector
+numpy operators of :mod:`icidr_pde.discretizations.chebyshev`. The state is the py-pde path's vector
 (phi, u, w) in blocks, so CVODE integrates the same numbers in the same order.
 """
 
@@ -14,12 +14,12 @@ import os
 
 import numpy as np
 
-from ..grid_size import CHEB
+from ..discretizations.grid_size import CHEB
 from . import NativeCase, NativeProblem, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
 
-MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.grid_size)
+MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate
 DENSE_LU_DELTA_GAMMA = 1.0  # integrator.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
@@ -69,7 +69,7 @@ class ChebCase(NativeCase):
     grid_limit = CHEB
 
     def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        from ..chebyshev import cc_weights, cgl_nodes, diff_matrix
+        from ..discretizations.chebyshev import cc_weights, cgl_nodes, diff_matrix
 
         if advection is not None:
             raise ValueError("`advection` is not an option of discretization 'cheb'")
