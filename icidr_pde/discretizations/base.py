@@ -226,4 +226,7 @@ class ShearCell1DBase(ShearCellBase):
     def make_evolution_rate(self, state: FieldCollection, backend="numba") -> Callable:
         """rhs(state_data, t) for any py-pde backend: the compiled kernels of :meth:`make_rates`
         (py-pde's numba backend compiles this thin wrapper; the scheme has no numpy copy)."""
-        return self.make_rates(state)
+        core = self.core(state.grid)
+        if "_pde_rhs" not in core.__dict__:  # one wrapper per grid: py-pde compiles it once
+            core._pde_rhs = core.make_rates(state.data, contiguous=False)
+        return core._pde_rhs

@@ -95,18 +95,25 @@ class FiniteVolumes(Scheme1D):
 
     # --- compiled kernels ---------------------------------------------------------------------
 
-    def make_rates(self, probe=None) -> Callable:
+    def make_rates(self, probe=None, contiguous: bool = True) -> Callable:
         """rhs(data, t) -> (3, N) rates of (3, N) data, the compiled kernel (cached on disk);
-        compiled or loaded now, on `probe` data (default: a uniform state)."""
+        compiled or loaded now, on `probe` data (default: a uniform state); with
+        `contiguous` False, a wrapper that py-pde's numba backend can compile (it copies nothing)."""
         from ..rheology.codegen import first_call
 
         loops = self.loops()
         kernel, ghost, h, upwind, params = loops.rates, self.ghost, self.h, self.upwind, self.material.params
 
-        def rhs(data, t=0.0):
-            out = np.empty(data.shape)
-            kernel(np.ascontiguousarray(data, dtype=float), ghost, h, upwind, params, out)
-            return out
+        if not contiguous:  # py-pde's numba backend compiles this: C-contiguous float data given
+            def rhs(data, t=0.0):
+                out = np.empty(data.shape)
+                kernel(data, ghost, h, upwind, params, out)
+                return out
+        else:
+            def rhs(data, t=0.0):
+                out = np.empty(data.shape)
+                kernel(np.ascontiguousarray(data, dtype=float), ghost, h, upwind, params, out)
+                return out
 
         first_call(loops, lambda: rhs(self._probe() if probe is None else probe), f"{self.rheology.name} on fd")
         return rhs
