@@ -121,8 +121,7 @@ def is_study(module):
 
 
 def is_scheme(module):
-    return under(module, "icidr_pde.rheology", "icidr_pde.discretizations", "icidr_pde.chebyshev",
-                 "icidr_pde.grid_size")
+    return under(module, "icidr_pde.rheology", "icidr_pde.discretizations")
 
 
 def is_run_path(module):

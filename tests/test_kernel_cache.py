@@ -15,7 +15,7 @@ from icidr_pde import build_case
 case = build_case("icidr", "sine", "fd", int(sys.argv[1]))
 rhs = case.pde.make_rates(case.state)
 rhs(case.state.data)
-rates = case.pde._loops().rates
+rates = case.scheme.loops().rates
 print(json.dumps({"sympy": "sympy" in sys.modules, "hits": sum(rates.stats.cache_hits.values()),
                   "misses": sum(rates.stats.cache_misses.values())}))
 """
@@ -36,6 +36,6 @@ def test_second_process_loads_cached_kernels_for_any_N():
 def test_parameter_values_are_arguments_not_compiled_in():
     a = build_case("icidr", "sine", "fd", 21)
     b = build_case("icidr", "sine", "fd", 21, material=Material(mu_s=0.3, a=0.25))
-    assert a.pde._loops() is b.pde._loops()  # one module for both: values are passed at run time
+    assert a.scheme.loops() is b.scheme.loops()  # one module for both: values are passed at run time
     ra, rb = a.pde.make_rates(a.state)(a.state.data), b.pde.make_rates(b.state)(b.state.data)
     assert abs(ra - rb).max() > 0

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from icidr_pde import catalog
-from icidr_pde.native import FdCase, FdProblem, NativeUnavailable, cell_centres, ghost_coefficients
+from icidr_pde.native import FdCase, FdProblem, NativeUnavailable
 
 try:
     FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)
@@ -46,22 +46,6 @@ def test_catalog_is_what_the_registries_hold():
     for key, (schemes, _) in catalog.DISCRETIZATION_OPTIONS.items():
         assert schemes == tuple(n for n, c in DISCRETIZATIONS.items() if key in c.options)
     assert (catalog.METHODS, catalog.JACOBIAN_MODES) == (METHODS, JACOBIAN_MODES)
-
-
-def test_grid_walls_and_initial_state_are_py_pdes():
-    from icidr_pde.case import build_case
-
-    for scene in ("shear", "sine"):
-        c = build_case("icidr", scene, "fd", 37)
-        light = FdCase("icidr", scene, 37)
-        assert np.allclose(cell_centres(37, 30.0), c.grid.axes_coords[0], rtol=0, atol=1e-14)
-        assert np.array_equal(ghost_coefficients(c.pde.V0), c.pde.ghost_coefficients(c.grid))
-        perm = c.pde.interleaving(c.state)[0]
-        assert np.array_equal(light.y0, c.state.data.ravel()[perm])
-        data = c.state.data + 0.01 * np.random.default_rng(0).standard_normal(c.state.data.shape)
-        for mine, theirs in zip(light.strain_rates(data), c.pde.strain_rates(data, c.grid)):
-            assert np.allclose(mine, theirs, rtol=1e-15, atol=1e-15)
-        assert light.mass(data) == pytest.approx(c.pde.integral(data[0], c.grid), rel=1e-15)
 
 
 def test_native_jacobian_is_the_derivative_of_the_native_rates():

@@ -43,25 +43,6 @@ def perturbed(case, seed, amplitude=0.05):
     return data.ravel()
 
 
-def test_points_walls_operators_and_initial_state_are_the_py_pde_paths():
-    from icidr_pde.case import build_case
-
-    for scene in ("shear", "sine"):
-        c = build_case("icidr", scene, "cheb", 33)
-        light = ChebCase("icidr", scene, 33)
-        z, D, weights = c.pde.operators(c.grid)
-        assert np.array_equal(light.z, z) and np.array_equal(light.D, D) and np.array_equal(light.weights, weights)
-        assert np.array_equal(light.y0, c.state.data.ravel())
-        data = light.fields(perturbed(light, 1))
-        for mine, theirs in zip(light.strain_rates(data), c.pde.strain_rates(data, c.grid)):
-            assert np.array_equal(mine, theirs)
-        assert light.mass(data) == c.pde.integral(data[0], c.grid)
-        assert light.check_state(data.ravel()) == c.pde.check_state(data)
-        bad = data.copy()
-        bad[0, 3] = 0.9
-        assert light.check_state(bad.ravel()) == c.pde.check_state(bad)
-
-
 def test_settings_are_the_py_pde_paths():
     from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE
     from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
@@ -164,7 +145,7 @@ def test_bad_input_is_named_before_any_work():
         run_native("icidr", "shear", 2, 1.0, discretization="cheb")
     with pytest.raises(ParameterError, match="`N` = 5000 is too large for discretization 'cheb'"):
         run_native("icidr", "shear", 5000, 1.0, discretization="cheb")
-    with pytest.raises(ValueError, match="`advection` is not an option of discretization 'cheb'"):
+    with pytest.raises(ValueError, match=r"unknown option\(s\) \['advection'\] for discretization 'cheb'"):
         run_native("icidr", "shear", 11, 1.0, discretization="cheb", advection="upwind")
 
 

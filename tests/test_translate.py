@@ -50,7 +50,7 @@ def test_cheb_c_is_the_numba_template(rheology, N):
     c = build_case(rheology, "sine", "cheb", N)
     case = ChebCase(rheology, "sine", N)
     problem = case.problem()
-    rhs, jacobian = c.pde.make_rates(c.state), c.pde._loops().jacobian
+    rhs, jacobian = c.pde.make_rates(c.state), c.scheme.loops().jacobian
     D, params = c.pde.operators(c.grid)[1], c.pde.material.params
     rng = np.random.default_rng(5)
     for trial in range(3):

@@ -1,15 +1,18 @@
-"""The discretization contract: what a scheme of the shear-cell equations provides.
+"""The discretization contract: what a scheme of the shear-cell equations provides to py-pde.
 
-A discretization is a py-pde ``PDEBase`` subclass of :class:`ShearCellBase` that
-registers itself under its ``name`` in :data:`DISCRETIZATIONS` (the CLI, ``run()``,
-presets, studies and the contract tests read that registry; nothing tests names). The
-contract is dimension-agnostic: ``grid.shape`` may have one axis (the 1-D cell) or more.
+A discretization is a py-pde ``PDEBase`` subclass of :class:`ShearCellBase` registered under
+its ``name`` in :data:`~.registry.SCHEMES` (the CLI, ``run()``, presets, studies and the
+contract tests read that registry, which imports no py-pde; nothing tests names). The 1-D
+schemes are thin adapters over their py-pde-free cores (:mod:`.fd_core`, :mod:`.cheb_core`,
+one per grid: :meth:`ShearCellBase.core`). The contract is dimension-agnostic: ``grid.shape``
+may have one axis (the 1-D cell) or more.
 
 Class attributes
-    ``name``, ``label``; ``default_N`` (the N of a grid when none is given); ``options``
-    (keyword -> tuple of valid values, with the first the default; e.g. ``advection``);
-    ``kinematics`` (the :mod:`icidr_pde.rheology.kinematics` adapter whose rates the
-    scheme feeds to the rheology: its kernels are ``rheology.kernels(kinematics)``).
+    ``name``; from the registry entry: ``label``, ``default_N`` (the N of a grid when none is
+    given), ``options`` (keyword -> tuple of valid values, with the first the default; e.g.
+    ``advection``), ``grid_limit``; ``kinematics`` (the :mod:`icidr_pde.rheology.kinematics`
+    adapter whose rates the scheme feeds to the rheology: its kernels are
+    ``rheology.kernels(kinematics)``).
 
 State layout
     ``FieldCollection`` of the scalar fields ``fields`` (phi and the velocity components,
@@ -29,9 +32,9 @@ Methods (all must be implemented unless marked optional)
     phi, *rates)`` where the stresses are evaluated, rates in ``kinematics.rates`` order;
     ``make_rates(state)`` -- ``rhs(data, t) -> rates`` evaluated by compiled kernels cached
     on disk (no per-process compilation, see :mod:`icidr_pde.rheology.codegen`);
-    ``make_evolution_rate(state, backend)`` -- py-pde's hook ('numpy' evaluates an
-    independent numpy implementation, which the contract tests compare with
-    ``make_rates``); ``make_jacobian(state)`` -- ``jac(t, y)`` of the flat right-hand side,
+    ``make_evolution_rate(state, backend)`` -- py-pde's hook (the same compiled kernels for
+    every backend: the numpy implementations are test oracles, ``tests/oracles``);
+    ``make_jacobian(state)`` -- ``jac(t, y)`` of the flat right-hand side,
     sparse (scipy) or dense; ``jacobian_sparsity(state)`` -- pattern for colored finite
     differences, or None if the Jacobian is dense; ``interleaving(state)`` --
     ``(perm, lband, uband)`` of an ordering ``y[perm]`` in which the Jacobian is banded, or
@@ -50,18 +53,17 @@ from pde.pdes.base import PDEBase
 
 from ..engines import stiff  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
-from ..grid_size import FD, GridLimit, check_N
 from ..validation import real
+from .core import PhiRange
+from .grid_size import FD, GridLimit, check_N
+from .registry import SCHEMES, check_options
 
-__all__ = ["ShearCellBase", "DISCRETIZATIONS", "get_discretization"]
-
-#: name -> discretization class; filled by the subclasses themselves
-DISCRETIZATIONS: dict[str, type] = {}
+__all__ = ["ShearCellBase"]
 
 
-class ShearCellBase(PDEBase):
+class ShearCellBase(PhiRange, PDEBase):
     """What every discretization of the shear cell shares: the rheology, the walls (3.9),
-    state construction, the numpy rate and the validity checks (see the module docstring).
+    state construction and the validity checks (see the module docstring).
 
     Args:
         rheology: a registered rheology name ('mui': (3.6), (3.8); 'icidr': (4.12), (4.14))
@@ -77,12 +79,18 @@ class ShearCellBase(PDEBase):
     options: ClassVar[dict[str, tuple]] = {}
     fields: ClassVar[tuple[str, ...]] = ("phi", "u", "w")
     kinematics = SHEAR_CELL
-    check_implementation = False  # make_rates is compared with the numpy path by the contract tests
+    check_implementation = False  # py-pde's own check compares backends: here both are the compiled kernels
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        if cls.__dict__.get("name"):
-            DISCRETIZATIONS[cls.name] = cls
+        entry = SCHEMES.get(cls.__dict__.get("name", ""))
+        if entry is not None:
+            for key in ("label", "default_N", "options", "grid_limit"):
+                if key not in cls.__dict__:
+                    setattr(cls, key, getattr(entry, key))
+            limit = cls.grid_limit
+            cls.max_N, cls.memory_note = limit.max_N, limit.memory_note
+            cls.memory_estimate = staticmethod(limit.memory_estimate)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, **options):
@@ -91,14 +99,7 @@ class ShearCellBase(PDEBase):
         if not np.isfinite(V0):
             raise ValueError(f"`V0` must be finite; got {V0}")
         self.V0 = float(V0)
-        unknown = set(options) - set(self.options)
-        if unknown:
-            raise ValueError(f"unknown option(s) {sorted(unknown)} for discretization {self.name!r}; "
-                             f"valid: {sorted(self.options)}")
-        for key, valid in self.options.items():
-            value = options.get(key, valid[0])
-            if value not in valid:
-                raise ValueError(f"`{key}` must be one of {valid}; got {value!r}")
+        for key, value in check_options(self.name, options).items():
             setattr(self, key, value)
 
     @property
@@ -111,7 +112,7 @@ class ShearCellBase(PDEBase):
 
     # --- grid and state -------------------------------------------------------------------
 
-    #: documented largest N, and what a run on N points needs (:mod:`icidr_pde.grid_size`)
+    #: documented largest N, and what a run on N points needs (:mod:`.grid_size`)
     grid_limit: ClassVar[GridLimit] = FD
     max_N: ClassVar[int] = FD.max_N
     memory_note: ClassVar[str] = FD.memory_note
@@ -137,15 +138,8 @@ class ShearCellBase(PDEBase):
         """Positions of the unknowns."""
         raise NotImplementedError
 
-    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
-        """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays."""
-        self.check_grid(grid)
-        z = self.nodes(grid)
-        fields = []
-        for label, f in zip(self.fields, (phi, u, w)):
-            data = f(z) if callable(f) else np.broadcast_to(np.asarray(f, float), grid.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
-        return FieldCollection(fields)
+    def make_state(self, grid, phi, u, w) -> FieldCollection:
+        raise NotImplementedError
 
     def integral(self, values: np.ndarray, grid) -> float:
         raise NotImplementedError
@@ -153,17 +147,14 @@ class ShearCellBase(PDEBase):
     def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
         raise NotImplementedError
 
-    # --- right-hand side --------------------------------------------------------------------
-
     def make_rates(self, state: FieldCollection) -> Callable:
         """rhs(data, t) from compiled kernels cached on disk."""
         raise NotImplementedError
 
     def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
-        """Numpy evaluation of the right-hand side."""
-        rhs = self.make_evolution_rate(state, "numpy")
+        """The right-hand side at `state` (the compiled kernels)."""
         result = state.copy(label="evolution rate")
-        result.data[:] = rhs(state.data, t)
+        result.data[:] = self.make_rates(state)(state.data, t)
         return result
 
     # --- what the stiff integrator asks -------------------------------------------------------
@@ -185,36 +176,57 @@ class ShearCellBase(PDEBase):
         """
         return super().solve(state, t_range, dt, tracker, solver=solver, **kwargs)
 
-    def check_state(self, data: np.ndarray) -> str | None:
-        """Reason why `data` is outside the inertial regime, or None if it is valid."""
-        phi = data[0]
-        lo, hi = self.validity_bounds()
-        if np.all(phi > lo) and np.all(phi < hi):
-            return None
-        lo_name, hi_name = self.material.dilatancy.range_names()
-        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
 
-    def validity_margins(self, data: np.ndarray) -> np.ndarray:
-        """Distances of phi from the ends of its inertial range; all positive while valid."""
-        phi = data[0]
-        lo, hi = self.validity_bounds()
-        return np.array([phi.min() - lo, hi - phi.max()])
+class ShearCell1DBase(ShearCellBase):
+    """A 1-D scheme's py-pde class: a thin adapter over its py-pde-free core
+    (:meth:`core`, one per grid), which holds the nodes, quadrature, walls, strain rates and
+    compiled kernels."""
 
-    def validity_bounds(self) -> tuple[float, float]:
-        """(lo, hi) of :meth:`validity_margins` and :meth:`check_state`: the state is valid
-        while lo < phi < hi at every node (the stiff integrator evaluates this on its own
-        vector, at every step, without reordering it). A subclass that redefines validity
-        redefines this too, or sets it to None."""
-        return self.material.phi_range
+    def core(self, grid):
+        """The py-pde-free core of this scheme on `grid` (one per grid)."""
+        self.check_grid(grid)
+        N, (z0, H) = int(grid.shape[0]), grid.axes_bounds[0]
+        key = (N, float(H))
+        cores = self.__dict__.setdefault("_cores", {})
+        if key not in cores:
+            cores[key] = SCHEMES[self.name].core_class()(self.rheology, N, H, V0=self.V0, **self.option_values())
+        return cores[key]
 
+    def nodes(self, grid) -> np.ndarray:
+        """Positions of the unknowns."""
+        return self.core(grid).z.copy()
 
-def get_discretization(name) -> type:
-    """The discretization class registered as `name`."""
-    if isinstance(name, type) and issubclass(name, ShearCellBase):
-        return name
-    try:
-        return DISCRETIZATIONS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"`discretization` must be one of {sorted(DISCRETIZATIONS)}; "
-                         f"got {name!r}") from None
+    def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
+        """FieldCollection of phi, u, w sampled at :meth:`nodes` from callables or arrays."""
+        return self.state_of(grid, self.core(grid).initial_data(phi, u, w))
+
+    def state_of(self, grid, data) -> FieldCollection:
+        """The FieldCollection of (3, N) `data` on `grid`."""
+        return FieldCollection([ScalarField(grid, np.array(values, dtype=float), label=label)
+                                for label, values in zip(self.fields, data)])
+
+    def integral(self, values: np.ndarray, grid) -> float:
+        """The scheme's quadrature over 0 < z < H of values at the nodes."""
+        return self.core(grid).integral(values)
+
+    def quadrature_weights(self, grid) -> np.ndarray:
+        """Weights c of :meth:`integral` (integral = c . values)."""
+        return self.core(grid).weights.copy()
+
+    def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
+        """Positions where the stresses live and (phi, u_z, w_z) there."""
+        return self.core(grid).strain_rates(data)
+
+    # --- right-hand side --------------------------------------------------------------------
+
+    def make_rates(self, state: FieldCollection) -> Callable:
+        """rhs(data, t) from the compiled kernels cached on disk."""
+        return self.core(state.grid).make_rates(state.data)
+
+    def make_evolution_rate(self, state: FieldCollection, backend="numba") -> Callable:
+        """rhs(state_data, t) for any py-pde backend: the compiled kernels of :meth:`make_rates`
+        (py-pde's numba backend compiles this thin wrapper; the scheme has no numpy copy)."""
+        core = self.core(state.grid)
+        if "_pde_rhs" not in core.__dict__:  # one wrapper per grid: py-pde compiles it once
+            core._pde_rhs = core.make_rates(state.data, contiguous=False)
+        return core._pde_rhs

@@ -44,7 +44,7 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
-from ..grid_size import FV2D, check_cells
+from .grid_size import FV2D, check_cells
 from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
 from .base import ShearCellBase

@@ -63,7 +63,7 @@ class Choice:
 
     @property
     def memory_mode(self) -> str:
-        """The Jacobian as :func:`icidr_pde.grid_size.check_path` names it."""
+        """The Jacobian as :func:`icidr_pde.discretizations.grid_size.check_path` names it."""
         return "analytic-band" if (self.jacobian, self.linear_solver) == ("analytic", "band LU") else self.jacobian
 
 

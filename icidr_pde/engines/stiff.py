@@ -136,11 +136,11 @@ class StiffSolver(SolverBase):
 def check_memory(pde, state, method: str, choice: Choice) -> None:
     """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
     scheme and linear algebra need more than half the memory available
-    (:func:`icidr_pde.grid_size.check_path`: a dense n x n array where this path has one)."""
+    (:func:`icidr_pde.discretizations.grid_size.check_path`: a dense n x n array where this path has one)."""
     limit = getattr(pde, "grid_limit", None)
     if limit is None:
         return
-    from ..grid_size import check_path
+    from ..discretizations.grid_size import check_path
 
     shape = tuple(state.grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))

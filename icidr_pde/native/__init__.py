@@ -13,7 +13,7 @@ the light parts of the package (rheology classes, scenes, presets, Result).
 
 Chebyshev collocation (``discretization="cheb"``) runs the same way (:mod:`.cheb`):
 the C printed from ``templates/cheb.py`` (the right-hand side and the dense Jacobian), with
-the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.chebyshev`), and
+the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.discretizations.chebyshev`), and
 CVODE's dense LU (LAPACK's where scikit-sundae ships it) kept as the py-pde path keeps it.
 
 The walls are the ghost-cell maps of :meth:`ShearCellPDE.ghost_coefficients` (a test
@@ -33,28 +33,14 @@ import ctypes
 
 import numpy as np
 
+from ..discretizations.fd_core import ghost_coefficients
+from ..discretizations.grid_size import FD
 from ..engines.time_scale import MIN_STEP_FRACTION, fastest_time_scale
-from ..grid_size import FD
 from .build import NativeUnavailable
 
-__all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients",
-           "cell_centres", "MAX_N"]
+__all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients", "MAX_N"]
 
 MAX_N = FD.max_N
-
-
-def cell_centres(N: int, H: float) -> np.ndarray:
-    """Cell centres of py-pde's CartesianGrid([[0, H]], N): (i + 1/2) H/N."""
-    return (np.arange(N) + 0.5) * (H / N)
-
-
-def ghost_coefficients(V0: float = 1.0) -> np.ndarray:
-    """(3, 2, 2) ghost-cell maps of the fd walls, as :meth:`ShearCellPDE.ghost_coefficients`:
-    phi zero gradient (ghost = edge), u = 0 and V0 and w = 0 as Dirichlet values on the wall
-    (ghost = 2 value - edge)."""
-    return np.array([[[1.0, 0.0], [1.0, 0.0]],
-                     [[-1.0, 0.0], [-1.0, 2.0 * V0]],
-                     [[-1.0, 0.0], [-1.0, 0.0]]])
 
 
 def _pointer(array):
@@ -196,82 +182,53 @@ class FdProblem(NativeProblem):
 
 
 class NativeCase:
-    """What the native cases share: the scene, the law and N checked as
-    :func:`icidr_pde.case.build_case` checks them, and the validity check of a state."""
+    """A 1-D case on the native engine: :func:`icidr_pde.case.build_case`'s scene and scheme
+    core (its checks, nodes, walls, initial data, quadrature, strain rates and validity), with
+    the engine's state vector y (the core's ``pack``: interleaved for fd, blocks for cheb)."""
 
     discretization = ""
-    grid_limit = FD
 
-    def _scene_law_and_size(self, rheology, scene, N, material, scene_params):
-        """Set scene, rheology and N (checked against :attr:`grid_limit`, :mod:`icidr_pde.grid_size`)."""
-        from ..grid_size import check_N
-        from ..rheology import get_rheology
+    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
+        from ..case import build_case
         from ..scenes import get_scene
 
-        self.scene = get_scene(scene, **(scene_params or {}))
-        if getattr(self.scene, "dim", 1) != 1:
+        if getattr(get_scene(scene, **(scene_params or {})), "dim", 1) != 1:
             raise NativeUnavailable("a 2-D scene")
-        self.rheology = get_rheology(rheology, material)
-        getattr(self.rheology, "check_runnable", lambda: None)()
-        self.rheology.material.check_phi(self.scene.phi0, "phi0")
-        self.N = N = check_N(self.discretization, N, self.grid_limit)
-        return N
+        options = {} if advection is None else {"advection": advection}
+        case = build_case(rheology, scene, self.discretization, N, material=material, options=options,
+                          scene_params=scene_params)
+        self.scheme, self.scene = case.scheme, case.scene
+        self.rheology, self.N, self.H, self.V0 = self.scheme.rheology, self.scheme.N, self.scheme.H, self.scheme.V0
+        self.z = self.scheme.z
+        self.advection = self.scheme.option_values.get("advection")
+        self.y0 = self.scheme.pack(case.data)
+
+    def fields(self, y) -> np.ndarray:
+        """(3, N) fields of the state vector `y`."""
+        return self.scheme.unpack(y)
 
     def phi(self, y) -> np.ndarray:
-        raise NotImplementedError
+        return self.scheme.phi_of(y)
+
+    def mass(self, data) -> float:
+        """The scheme's integral of phi."""
+        return self.scheme.mass(data)
+
+    def strain_rates(self, data):
+        """Where the stresses live and (phi, u_z, w_z) there."""
+        return self.scheme.strain_rates(data)
 
     def check_state(self, y) -> str | None:
         """Why the state `y` is invalid (as the stiff solver's check), or None."""
         if not np.all(np.isfinite(y)):
             return "state became non-finite"
-        phi = self.phi(y)
-        lo, hi = self.rheology.material.phi_range
-        if np.all(phi > lo) and np.all(phi < hi):
-            return None
-        lo_name, hi_name = self.rheology.material.dilatancy.range_names()
-        return (f"phi left ({lo_name}, {hi_name}) = ({lo:g}, {hi}): "
-                f"min {phi.min():.6g}, max {phi.max():.6g}")
+        return self.scheme.check_state(self.fields(y))
 
 
 class FdCase(NativeCase):
-    """Scene, law and initial state of a 1-D fd run without py-pde: what
-    :func:`icidr_pde.case.build_case` builds for ``discretization="fd"``, with the same checks
-    (the scene's parameters, the law, phi0 in the law's range, N, the advection option)."""
+    """A finite-volume case (``discretization="fd"``, option ``advection``) on the native engine."""
 
     discretization = "fd"
 
-    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        self.advection = "upwind" if advection is None else advection
-        if self.advection not in ("upwind", "central"):
-            raise ValueError(f"`advection` must be one of ('upwind', 'central'); got {self.advection!r}")
-        N = self._scene_law_and_size(rheology, scene, N, material, scene_params)
-        self.V0 = 1.0
-        self.H = float(self.scene.H)
-        self.h = self.H / N
-        self.z = cell_centres(N, self.H)
-        data = np.array([np.broadcast_to(np.asarray(f, float), (N,)) for f in self.scene.initial_condition(self.z)])
-        self.y0 = np.ascontiguousarray(data.T).ravel()  # interleaved: y[3 i + k] = field k of cell i
-
     def problem(self) -> FdProblem:
         return FdProblem(self.rheology, self.N, self.H, advection=self.advection, V0=self.V0)
-
-    def fields(self, y) -> np.ndarray:
-        """(3, N) fields of the interleaved state vector `y`."""
-        return np.ascontiguousarray(np.asarray(y).reshape(self.N, 3).T)
-
-    def phi(self, y) -> np.ndarray:
-        return np.asarray(y)[0::3]  # interleaved
-
-    def mass(self, data) -> float:
-        """Midpoint rule of phi (ShearCellPDE.integral)."""
-        return float(np.sum(data[0]) * self.h)
-
-    def strain_rates(self, data):
-        """Faces and (phi, u_z, w_z) on them (ShearCellPDE.strain_rates)."""
-        c = ghost_coefficients(self.V0)
-        g = np.empty((3, self.N + 2))
-        g[:, 1:-1] = data
-        g[:, 0] = c[:, 0, 0] * data[:, 0] + c[:, 0, 1]
-        g[:, -1] = c[:, 1, 0] * data[:, -1] + c[:, 1, 1]
-        z_f = np.linspace(0.0, self.H, self.N + 1)
-        return z_f, 0.5 * (g[0, 1:] + g[0, :-1]), np.diff(g[1]) / self.h, np.diff(g[2]) / self.h

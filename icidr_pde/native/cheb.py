@@ -2,10 +2,10 @@
 
 :class:`ChebProblem` is the compiled Chebyshev problem (the C printed from the numba
 template ``discretizations/templates/cheb.py``: rates and dense Jacobian) with CVODE's dense linear
-solver; :class:`ChebCase` is what :func:`icidr_pde.case.build_case` builds for
-``discretization="cheb"`` (the same checks, points, walls and initial state), from the
-numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's vector
-(phi, u, w) in blocks, so CVODE integrates the same numbers in the same order.
+solver; :class:`ChebCase` is the case of :func:`icidr_pde.case.build_case` for
+``discretization="cheb"`` (its core :class:`~icidr_pde.discretizations.cheb_core.Collocation`:
+points, D, walls and initial state). The state is the py-pde path's vector (phi, u, w) in
+blocks, so CVODE integrates the same numbers in the same order.
 """
 
 from __future__ import annotations
@@ -14,12 +14,12 @@ import os
 
 import numpy as np
 
-from ..grid_size import CHEB
+from ..discretizations.grid_size import CHEB
 from . import NativeCase, NativeProblem, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
 
-MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.grid_size)
+MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate
 DENSE_LU_DELTA_GAMMA = 1.0  # engines.sundae.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
@@ -63,43 +63,9 @@ class ChebProblem(NativeProblem):
 
 
 class ChebCase(NativeCase):
-    """Scene, law and initial state of a Chebyshev run without py-pde (see the module docstring)."""
+    """A Chebyshev case (``discretization="cheb"``) on the native engine: the state in blocks."""
 
     discretization = "cheb"
-    grid_limit = CHEB
-
-    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        from ..chebyshev import cc_weights, cgl_nodes, diff_matrix
-
-        if advection is not None:
-            raise ValueError("`advection` is not an option of discretization 'cheb'")
-        self.advection = None
-        N = self._scene_law_and_size(rheology, scene, N, material, scene_params)
-        self.V0 = 1.0
-        self.H = float(self.scene.H)
-        self.z = cgl_nodes(N, self.H)
-        self.D = diff_matrix(N, self.H)
-        self.weights = cc_weights(N, self.H)
-        data = np.array([np.broadcast_to(np.asarray(f(self.z) if callable(f) else f, float), (N,))
-                         for f in self.scene.initial_condition(self.z)])
-        data[1, [0, -1]] = 0.0, self.V0  # the Dirichlet walls (3.9), as ChebyshevShearCellPDE.make_state
-        data[2, [0, -1]] = 0.0
-        self.y0 = np.ascontiguousarray(data).ravel()
 
     def problem(self, **options) -> ChebProblem:
-        return ChebProblem(self.rheology, self.D, **{"solver": DENSE_SOLVER, **options})
-
-    def fields(self, y) -> np.ndarray:
-        """(3, N) fields of the state vector `y`."""
-        return np.asarray(y).reshape(3, self.N)
-
-    def phi(self, y) -> np.ndarray:
-        return np.asarray(y)[:self.N]
-
-    def mass(self, data) -> float:
-        """Clenshaw-Curtis integral of phi (ChebyshevShearCellPDE.integral)."""
-        return float(np.dot(self.weights, data[0]))
-
-    def strain_rates(self, data):
-        """The points and (phi, u_z, w_z) there (ChebyshevShearCellPDE.strain_rates)."""
-        return self.z.copy(), np.array(data[0]), self.D @ data[1], self.D @ data[2]
+        return ChebProblem(self.rheology, self.scheme.D, **{"solver": DENSE_SOLVER, **options})

@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .validation import ParameterError, format_bytes, integer, memory_bytes
+from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
 __all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "path_bytes", "check_path",
            "check_memory"]

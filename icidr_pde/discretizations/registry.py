@@ -1,0 +1,123 @@
+"""The registry of the schemes, readable without importing py-pde, numba or scipy.
+
+Each scheme is one :class:`Scheme` entry: its name, label, dimension, the N of a grid when
+none is given, its options (keyword -> valid values, the default first), its grid limit
+(:mod:`.grid_size`), where its py-pde-free core lives (the 1-D schemes) and where its py-pde
+adapter lives (loaded on first use). The CLI takes its choices from here; the core and
+adapter classes take their name, label, default N and options from their entry.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from .grid_size import CHEB, FD, FV2D, GridLimit
+
+__all__ = ["Scheme", "SCHEMES", "DISCRETIZATIONS", "ADVECTION_SCHEMES", "get_discretization",
+           "get_scheme", "option_choices"]
+
+#: advection of w d_z: first-order upwind (the default, as the paper's differences) or central
+ADVECTION_SCHEMES = ("upwind", "central")
+
+
+def _load(path: str):
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module, __package__), name)
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """One discretization of the shear-cell equations (see the module docstring)."""
+
+    name: str
+    label: str
+    dim: int
+    default_N: int
+    grid_limit: GridLimit
+    adapter: str
+    core: str | None = None
+    options: dict = field(default_factory=dict)
+
+    def adapter_class(self) -> type:
+        """The py-pde class (imports py-pde)."""
+        return _load(self.adapter)
+
+    def core_class(self) -> type:
+        """The py-pde-free core (numpy only at import)."""
+        if self.core is None:
+            raise ValueError(f"discretization {self.name!r} has no py-pde-free core")
+        return _load(self.core)
+
+
+SCHEMES: dict[str, Scheme] = {s.name: s for s in (
+    Scheme("fv2d", "finite volumes, 2-D", 2, 64, FV2D, ".cartesian2d:ShearCell2DPDE",
+           options={"advection": ADVECTION_SCHEMES}),
+    Scheme("cheb", "Chebyshev", 1, 65, CHEB, ".cheb:ChebyshevShearCellPDE", ".cheb_core:Collocation"),
+    Scheme("fd", "finite volumes", 1, 201, FD, ".fd:ShearCellPDE", ".fd_core:FiniteVolumes",
+           options={"advection": ADVECTION_SCHEMES}),
+)}
+
+
+class _Adapters(Mapping):
+    """name -> py-pde class, each imported when first looked up."""
+
+    def __getitem__(self, name):
+        return SCHEMES[name].adapter_class()
+
+    def __iter__(self):
+        return iter(SCHEMES)
+
+    def __len__(self):
+        return len(SCHEMES)
+
+    def __contains__(self, name):
+        return name in SCHEMES
+
+
+#: name -> the scheme's py-pde class (loaded on lookup; names and options are in :data:`SCHEMES`)
+DISCRETIZATIONS = _Adapters()
+
+
+def get_scheme(name) -> Scheme:
+    """The registry entry `name`."""
+    try:
+        return SCHEMES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"`discretization` must be one of {sorted(SCHEMES)}; got {name!r}") from None
+
+
+def get_discretization(name) -> type:
+    """The py-pde class registered as `name` (a class is returned as it is)."""
+    if isinstance(name, type):
+        return name
+    return get_scheme(name).adapter_class()
+
+
+def option_choices() -> dict[str, tuple[tuple[str, ...], tuple]]:
+    """option -> (the schemes that have it, its valid values with the default first)."""
+    out: dict[str, tuple] = {}
+    for scheme in SCHEMES.values():
+        for key, valid in scheme.options.items():
+            names, values = out.get(key, ((), ()))
+            out[key] = (names + (scheme.name,), tuple(dict.fromkeys(values + tuple(valid))))
+    return out
+
+
+def check_options(name: str, options: dict) -> dict:
+    """The options of scheme `name` with defaults filled in; a clear error for an unknown
+    option or a value outside its valid ones."""
+    valid_options = get_scheme(name).options
+    unknown = set(options) - set(valid_options)
+    if unknown:
+        raise ValueError(f"unknown option(s) {sorted(unknown)} for discretization {name!r}; "
+                         f"valid: {sorted(valid_options)}")
+    out = {}
+    for key, valid in valid_options.items():
+        value = options.get(key)
+        value = valid[0] if value is None else value
+        if value not in valid:
+            raise ValueError(f"`{key}` must be one of {valid}; got {value!r}")
+        out[key] = value
+    return out
