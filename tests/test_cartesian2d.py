@@ -299,3 +299,18 @@ def test_upwind_reproduces_the_first_order_study():
             assert d[q][t] == pytest.approx(study["runs"]["16"][q][t], rel=1e-9), (q, t)
     default = run("icidr", "bump2d", (16, 16), float(times[-1]), times, **study["settings"]).to_dict()
     assert abs(default["max_w"]["10"] / d["max_w"]["10"] - 1) > 0.1  # the default is not upwind
+
+
+def test_krylov_solves_of_2d_runs_use_the_tight_tolerance(monkeypatch):
+    """CVODE's GMRES runs at eps_lin = KRYLOV_EPS_LIN (5e-5), not SUNDIALS' 0.05: the tighter
+    linear solves need more Jacobian-vector products (difference quotients, one RHS call each)."""
+    from icidr_pde import integrator, run
+
+    def n_rhs():
+        return run("mui", "bump2d", (16, 16), 0.5, ["0", "0.5"], series_times=[], method="CVODE",
+                   jacobian="krylov", rtol=1e-7, atol=1e-10).to_dict()["n_rhs"]
+
+    assert integrator.KRYLOV_EPS_LIN == 5e-5
+    tight = n_rhs()
+    monkeypatch.setattr(integrator, "KRYLOV_EPS_LIN", 0.05)
+    assert tight > 1.1 * n_rhs()
