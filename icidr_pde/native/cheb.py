@@ -10,14 +10,15 @@ numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's ve
 
 from __future__ import annotations
 
+import ctypes
 import os
 
 import numpy as np
 
 from ..grid_size import CHEB
-from . import NativeCase, NativeProblem, _pointer
+from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
 
-__all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "MAX_N"]
+__all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.grid_size)
 memory_estimate = CHEB.memory_estimate
@@ -31,20 +32,39 @@ DENSE_SOLVERS = ("lapack", "sundials")
 BLAS_THREADS = 1
 #: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
 DENSE_SOLVER = "lapack"
+#: Newton's linear solves: "dense" (the dense LU of I - gamma J, :data:`DENSE_SOLVER`) or "krylov"
+#: (GMRES preconditioned by a lagged dense LU; cvode_driver.c, docs/chebyshev.md)
+LINEAR_SOLVERS = ("dense", "krylov")
+#: the one a run takes
+LINEAR_SOLVER = "dense"
+#: the Krylov path's settings: subspace dimension, GMRES tolerance factor (CVODE's eplifac, its
+#: default 0.05), steps between preconditioner set-ups (msbp), steps after which the
+#: preconditioner's Jacobian is stale (msbj), gamma change that refactors it (dgmax_lsetup)
+KRYLOV = {"max_krylov": 5, "eps_lin": 0.05, "setup_steps": 20, "jac_steps": 51, "delta_gamma": 0.3}
 
 
 class ChebProblem(NativeProblem):
     """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
-    `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`)."""
+    `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
+    "krylov" (default :data:`LINEAR_SOLVER`), GMRES preconditioned by a lagged dense LU, its settings
+    `krylov` over :data:`KRYLOV`)."""
 
     kernel_repeats = 20
 
     def __init__(self, rheology, D, *, bounds=None, solver: str = "lapack",
-                 delta_gamma: float = DENSE_LU_DELTA_GAMMA):
+                 delta_gamma: float | None = None, linear_solver: str | None = None, krylov: dict | None = None):
         if solver not in DENSE_SOLVERS:
             raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
+        linear_solver = LINEAR_SOLVER if linear_solver is None else linear_solver
+        if linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"`linear_solver` must be one of {LINEAR_SOLVERS}; got {linear_solver!r}")
+        settings = {**KRYLOV, **(krylov or {})}
+        if set(settings) != set(KRYLOV):
+            raise ValueError(f"`krylov` takes the keys {sorted(KRYLOV)}; got {sorted(krylov)}")
+        if delta_gamma is None:
+            delta_gamma = settings["delta_gamma"] if linear_solver == "krylov" else DENSE_LU_DELTA_GAMMA
         params, lo, hi = self._open(rheology, bounds)
         if not any(os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")):
             self.lib.icidr_blas_threads(BLAS_THREADS)
@@ -53,6 +73,28 @@ class ChebProblem(NativeProblem):
         self.solver = solver
         self._attach(self.lib.icidr_cheb_problem(self.N, _pointer(self.D), _pointer(params), params.size, lo, hi,
                                                  int(solver == "lapack"), float(delta_gamma)))
+        self.linear_solver = linear_solver
+        if linear_solver == "krylov":
+            status = self.lib.icidr_cheb_krylov(self.handle, int(settings["max_krylov"]), float(settings["eps_lin"]),
+                                                int(settings["setup_steps"]), int(settings["jac_steps"]))
+            if status < 0:
+                raise MemoryError(f"Krylov preconditioner of N = {self.N} not allocated")
+            if status == 0:
+                raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
+                                        "not both shipped with this scikit-sundae")
+
+    def counts(self) -> dict:
+        """CVODE's counts (``lu``: factorisations, of the preconditioner on the Krylov path; ``jac``:
+        analytic Jacobians) and, on the Krylov path, GMRES iterations and failures, preconditioner
+        solves, products J v and their right-hand sides (``rhs`` includes them)."""
+        counts = super().counts()
+        if self.linear_solver == "krylov":
+            out = (ctypes.c_long * 6)()
+            self.lib.icidr_krylov_counts(self.handle, out)
+            krylov = dict(zip(("krylov_iterations", "krylov_failures", "preconditioner_setups",
+                               "preconditioner_solves", "jv", "jv_rhs"), map(int, out)))
+            counts.update(krylov, rhs=counts["rhs"] + krylov["jv_rhs"])
+        return counts
 
     def jacobian_dense(self, y) -> np.ndarray:
         """The (3N, 3N) Jacobian d rates / d y."""

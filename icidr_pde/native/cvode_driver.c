@@ -13,6 +13,12 @@
    (cheb_jacobian) and the dense LU, LAPACK's (SUNLinSol_LapackDense, OpenBLAS) where the
    build found it, else SUNDIALS' own; the factored Newton matrix kept until gamma changed
    by delta_gamma (integrator.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
+   Or (icidr_cheb_krylov, where the build found SPGMR and LAPACK): Newton-Krylov, SUNDIALS'
+   GMRES (SPGMR, left preconditioning) with CVODE's difference-quotient products J v (one
+   right-hand side each, O(N^2)), preconditioned by the LU of I - gamma J_p, J_p the analytic
+   dense Jacobian of an earlier step: a preconditioner may be stale where a direct solve's
+   matrix may not, so it is refactored only every `setup_steps` steps or when gamma changed
+   by delta_gamma, and J_p re-evaluated only when CVODE says it is stale (jok = 0).
    Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
    printed from the numba templates discretizations/templates/fd.py and cheb.py
    (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
@@ -40,6 +46,14 @@ typedef struct {
     double *D;            /* cheb: differentiation matrix, row-major */
     int lapack;           /* cheb: LAPACK's dense LU (else SUNDIALS' own) */
     double delta_gamma;   /* cheb: refactor when gamma changed by more than this (0: SUNDIALS' 0.3) */
+    int krylov;           /* cheb: GMRES preconditioned by a lagged dense LU (icidr_cheb_krylov) */
+    int max_krylov;       /* cheb, krylov: Krylov subspace dimension */
+    double eps_lin;       /* cheb, krylov: GMRES tolerance factor (CVODE's eplifac) */
+    long setup_steps;     /* cheb, krylov: steps between preconditioner set-ups (CVODE's msbp) */
+    long jac_steps;       /* cheb, krylov: steps after which J_p is stale (CVODE's msbj) */
+    long n_jac;           /* cheb, krylov: analytic Jacobians evaluated for the preconditioner */
+    double *Jp, *P;       /* cheb, krylov: J_p and the LU of I - gamma J_p, column-major */
+    int *pivots;
     double t_good;
     void *cvode;
     SUNContext ctx;
@@ -121,6 +135,43 @@ static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *use
     }
     return 0;
 }
+
+#if defined(ICIDR_SPGMR) && defined(ICIDR_BLAS)
+#define ICIDR_KRYLOV
+void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda, const int *ipiv,
+             double *b, const int *ldb, int *info);
+
+/* the preconditioner I - gamma J_p, factored (LAPACK); J_p re-evaluated unless CVODE says it may be kept */
+static int prec_setup(sunrealtype t, N_Vector y, N_Vector fy, int jok, int *jcur, sunrealtype gamma,
+                      void *user_data)
+{
+    Native *p = (Native *)user_data;
+    int neq = 3 * p->n, info = 0;
+    size_t size = (size_t)neq * neq;
+    if (!jok) {
+        problem_jacobian(p, N_VGetArrayPointer(y), p->Jp);
+        p->n_jac++;
+    }
+    *jcur = !jok;
+    for (size_t k = 0; k < size; k++)
+        p->P[k] = -gamma * p->Jp[k];
+    for (int i = 0; i < neq; i++)
+        p->P[(size_t)i * neq + i] += 1.0;
+    dgetrf_(&neq, &neq, p->P, &neq, p->pivots, &info);
+    return info == 0 ? 0 : 1;  /* > 0: recoverable, CVODE retries with a fresh J_p or a smaller step */
+}
+
+static int prec_solve(sunrealtype t, N_Vector y, N_Vector fy, N_Vector r, N_Vector z, sunrealtype gamma,
+                      sunrealtype delta, int lr, void *user_data)
+{
+    Native *p = (Native *)user_data;
+    int neq = 3 * p->n, one = 1, info = 0;
+    memcpy(N_VGetArrayPointer(z), N_VGetArrayPointer(r), sizeof(double) * neq);
+    dgetrs_("N", &neq, &one, p->P, &neq, p->pivots, N_VGetArrayPointer(z), &neq, &info);
+    return info == 0 ? 0 : -1;
+}
+#endif
 
 static int root_fn(sunrealtype t, N_Vector y, sunrealtype *gout, void *user_data)
 {
@@ -204,6 +255,28 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     }
     memcpy(p->D, D, sizeof(double) * (size_t)n * n);
     return p;
+}
+
+/* cheb: Newton-Krylov instead of the dense LU (see the file's docstring); returns 0 where the build
+   has no SPGMR or no LAPACK (the dense LU stays) */
+EXPORT int icidr_cheb_krylov(Native *p, int max_krylov, double eps_lin, long setup_steps, long jac_steps)
+{
+#ifdef ICIDR_KRYLOV
+    size_t size = (size_t)9 * p->n * p->n;
+    p->Jp = malloc(sizeof(double) * size);
+    p->P = malloc(sizeof(double) * size);
+    p->pivots = malloc(sizeof(int) * 3 * (size_t)p->n);
+    if (!p->Jp || !p->P || !p->pivots)
+        return -1;
+    p->krylov = 1;
+    p->max_krylov = max_krylov;
+    p->eps_lin = eps_lin;
+    p->setup_steps = setup_steps;
+    p->jac_steps = jac_steps;
+    return 1;
+#else
+    return 0;
+#endif
 }
 
 EXPORT void icidr_rates(Native *p, const double *y, double *out)
@@ -305,7 +378,21 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetUserData(p->cvode, p));
     CHECK(CVodeInit(p->cvode, rhs_fn, t0, p->y));
     CHECK(CVodeSStolerances(p->cvode, rtol, atol));
-    if (p->kind == KIND_CHEB) {
+    if (p->kind == KIND_CHEB && p->krylov) {
+#ifdef ICIDR_KRYLOV
+        p->LS = SUNLinSol_SPGMR(p->y, SUN_PREC_LEFT, p->max_krylov, p->ctx);
+        if (!p->LS) {
+            snprintf(error, error_len, "SPGMR not created");
+            goto fail;
+        }
+        CHECK(SUNLinSol_SPGMRSetGSType(p->LS, SUN_CLASSICAL_GS));
+        CHECK(CVodeSetLinearSolver(p->cvode, p->LS, NULL));
+        CHECK(CVodeSetPreconditioner(p->cvode, prec_setup, prec_solve));
+        CHECK(CVodeSetEpsLin(p->cvode, p->eps_lin));
+        CHECK(CVodeSetLSetupFrequency(p->cvode, p->setup_steps));
+        CHECK(CVodeSetJacEvalFrequency(p->cvode, p->jac_steps));
+#endif
+    } else if (p->kind == KIND_CHEB) {
         p->A = SUNDenseMatrix(neq, neq, p->ctx);
 #ifdef ICIDR_LAPACK_DENSE
         p->LS = p->A ? (p->lapack ? SUNLinSol_LapackDense(p->y, p->A, p->ctx) : SUNLinSol_Dense(p->y, p->A, p->ctx))
@@ -317,12 +404,14 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
         p->A = SUNBandMatrix(neq, FD_LOWER, FD_LOWER, p->ctx);
         p->LS = p->A ? SUNLinSol_Band(p->y, p->A, p->ctx) : NULL;
     }
-    if (!p->A || !p->LS) {
-        snprintf(error, error_len, "matrix or linear solver not created");
-        goto fail;
+    if (!p->krylov) {
+        if (!p->A || !p->LS) {
+            snprintf(error, error_len, "matrix or linear solver not created");
+            goto fail;
+        }
+        CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
+        CHECK(CVodeSetJacFn(p->cvode, jac_fn));
     }
-    CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
-    CHECK(CVodeSetJacFn(p->cvode, jac_fn));
     if (p->kind == KIND_CHEB && p->delta_gamma > 0)
         CHECK(CVodeSetDeltaGammaMaxLSetup(p->cvode, p->delta_gamma));
     CHECK(CVodeSetMaxNonlinIters(p->cvode, 3));
@@ -437,6 +526,24 @@ EXPORT void icidr_cvode_counts(Native *p, long *out)
     CVodeGetNumErrTestFails(p->cvode, &v); out[4] = v;
     CVodeGetNumNonlinSolvIters(p->cvode, &v); out[5] = v;
     CVodeGetNumNonlinSolvConvFails(p->cvode, &v); out[6] = v;
+    if (p->krylov)
+        out[2] = p->n_jac;
+}
+
+/* cheb, krylov: GMRES iterations, their convergence failures, preconditioner set-ups (LUs) and
+   solves, products J v, right-hand sides of those products (not in icidr_cvode_counts' count) */
+EXPORT void icidr_krylov_counts(Native *p, long *out)
+{
+    long v = 0;
+    memset(out, 0, 6 * sizeof(long));
+    if (!p->cvode || !p->krylov)
+        return;
+    CVodeGetNumLinIters(p->cvode, &v); out[0] = v;
+    CVodeGetNumLinConvFails(p->cvode, &v); out[1] = v;
+    CVodeGetNumPrecEvals(p->cvode, &v); out[2] = v;
+    CVodeGetNumPrecSolves(p->cvode, &v); out[3] = v;
+    CVodeGetNumJtimesEvals(p->cvode, &v); out[4] = v;
+    CVodeGetNumLinRhsEvals(p->cvode, &v); out[5] = v;
 }
 
 EXPORT void icidr_free(Native *p)
@@ -454,5 +561,6 @@ EXPORT void icidr_free(Native *p)
     if (p->ctx)
         SUNContext_Free(&p->ctx);
     free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D);
+    free(p->Jp); free(p->P); free(p->pivots);
     free(p);
 }
