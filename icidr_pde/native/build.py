@@ -70,7 +70,7 @@ def _scheme_kernels() -> str:
 
     fd, cheb = _scheme_templates()
     return "\n".join([_text("kernel_support.c"), translate(fd, "fd_", {"J": "FD_BAND_AT"}),
-                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT"})])
+                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"})])
 
 
 def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
@@ -225,8 +225,9 @@ def _declare(lib) -> None:
         "icidr_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
         "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
-        "icidr_cheb_krylov": (I, [P, I, D, L, L]),
+        "icidr_cheb_krylov": (I, [P, I, D, L, L, I, ptr(D)]),
         "icidr_krylov_counts": (None, [P, ptr(L)]),
+        "icidr_cheb_low_order_jacobian": (None, [P, ptr(D), ptr(D), ptr(D)]),
         "icidr_blas_threads": (I, [I]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),

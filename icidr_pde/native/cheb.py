@@ -37,10 +37,13 @@ DENSE_SOLVER = "lapack"
 LINEAR_SOLVERS = ("dense", "krylov")
 #: the one a run takes
 LINEAR_SOLVER = "dense"
-#: the Krylov path's settings: subspace dimension, GMRES tolerance factor (CVODE's eplifac, its
+PRECONDITIONERS = ("dense", "band")
+#: the Krylov path's settings: the preconditioner ("dense": the LU of I - gamma J, J of an earlier
+#: step; "band": the band LU of I - gamma J_lo, J_lo the same law's Jacobian with D replaced by
+#: low-order differences on the same points), subspace dimension, GMRES tolerance factor (CVODE's eplifac, its
 #: default 0.05), steps between preconditioner set-ups (msbp), steps after which the
 #: preconditioner's Jacobian is stale (msbj), gamma change that refactors it (dgmax_lsetup)
-KRYLOV = {"max_krylov": 5, "eps_lin": 0.05, "setup_steps": 20, "jac_steps": 51, "delta_gamma": 0.3}
+KRYLOV = {"preconditioner": "dense", "max_krylov": 5, "eps_lin": 0.05, "setup_steps": 20, "jac_steps": 51, "delta_gamma": 0.3}
 
 
 class ChebProblem(NativeProblem):
@@ -63,6 +66,8 @@ class ChebProblem(NativeProblem):
         settings = {**KRYLOV, **(krylov or {})}
         if set(settings) != set(KRYLOV):
             raise ValueError(f"`krylov` takes the keys {sorted(KRYLOV)}; got {sorted(krylov)}")
+        if settings["preconditioner"] not in PRECONDITIONERS:
+            raise ValueError(f"the preconditioner must be one of {PRECONDITIONERS}; got {settings['preconditioner']!r}")
         if delta_gamma is None:
             delta_gamma = settings["delta_gamma"] if linear_solver == "krylov" else DENSE_LU_DELTA_GAMMA
         params, lo, hi = self._open(rheology, bounds)
@@ -76,12 +81,32 @@ class ChebProblem(NativeProblem):
         self.linear_solver = linear_solver
         if linear_solver == "krylov":
             status = self.lib.icidr_cheb_krylov(self.handle, int(settings["max_krylov"]), float(settings["eps_lin"]),
-                                                int(settings["setup_steps"]), int(settings["jac_steps"]))
+                                                int(settings["setup_steps"]), int(settings["jac_steps"]),
+                                                int(settings["preconditioner"] == "band"), _pointer(self.nodes()))
             if status < 0:
                 raise MemoryError(f"Krylov preconditioner of N = {self.N} not allocated")
             if status == 0:
                 raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
                                         "not both shipped with this scikit-sundae")
+
+    def nodes(self) -> np.ndarray:
+        """The points of D: Trefethen's CGL points mapped to [0, H], H from D's corner entry
+        D[0, 0] = -(2 (N - 1)^2 + 1) / (3 H)."""
+        from ..chebyshev import cgl_nodes
+
+        return np.ascontiguousarray(cgl_nodes(self.N, -(2 * (self.N - 1) ** 2 + 1) / (3 * self.D[0, 0])))
+
+    def jacobian_low_order(self, y) -> np.ndarray:
+        """The band preconditioner's J_lo (3N, 3N) at y, in the interleaved ordering (phi_0, u_0, w_0, ...)."""
+        y = np.ascontiguousarray(y, dtype=float)
+        n = 3 * self.N
+        jb = np.zeros((n, 11))  # column c holds rows c - 5 .. c + 5
+        self.lib.icidr_cheb_low_order_jacobian(self.handle, _pointer(y), _pointer(self.nodes()), _pointer(jb))
+        rows, cols = np.arange(n)[:, None] + np.arange(-5, 6), np.repeat(np.arange(n)[:, None], 11, axis=1)
+        inside = (rows >= 0) & (rows < n)
+        J = np.zeros((n, n))
+        J[rows[inside], cols[inside]] = jb[inside]
+        return J
 
     def counts(self) -> dict:
         """CVODE's counts (``lu``: factorisations, of the preconditioner on the Krylov path; ``jac``:

@@ -19,6 +19,9 @@
    dense Jacobian of an earlier step: a preconditioner may be stale where a direct solve's
    matrix may not, so it is refactored only every `setup_steps` steps or when gamma changed
    by delta_gamma, and J_p re-evaluated only when CVODE says it is stale (jok = 0).
+   Or (band = 1) preconditioned by I - gamma J_lo, J_lo the Jacobian of the same law with D
+   replaced by low-order differences on the same points (cheb_low_order_jacobian), a band
+   (5, 5) in the interleaved ordering factored by LAPACK's band LU: O(N) a set-up.
    Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
    printed from the numba templates discretizations/templates/fd.py and cheb.py
    (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
@@ -54,6 +57,9 @@ typedef struct {
     long n_jac;           /* cheb, krylov: analytic Jacobians evaluated for the preconditioner */
     double *Jp, *P;       /* cheb, krylov: J_p and the LU of I - gamma J_p, column-major */
     int *pivots;
+    int band;             /* cheb, krylov: the low-order band preconditioner instead of J_p */
+    double *z;            /* cheb, band: the collocation points */
+    double *x;            /* cheb, band: a vector in the interleaved ordering */
     double t_good;
     void *cvode;
     SUNContext ctx;
@@ -142,6 +148,49 @@ void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, i
 void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda, const int *ipiv,
              double *b, const int *ldb, int *info);
 
+void dgbtrf_(const int *m, const int *n, const int *kl, const int *ku, double *ab, const int *ldab, int *ipiv,
+             int *info);
+void dgbtrs_(const char *trans, const int *n, const int *kl, const int *ku, const int *nrhs, const double *ab,
+             const int *ldab, const int *ipiv, double *b, const int *ldb, int *info);
+#define CHEB_LDAB (3 * FD_LOWER + 1)  /* LAPACK's band storage with room for the LU's fill */
+
+/* the band preconditioner I - gamma J_lo in LAPACK's band storage, factored; J_lo at y unless kept */
+static int band_setup(Native *p, const double *y, int jok, int *jcur, double gamma)
+{
+    int neq = 3 * p->n, kl = FD_LOWER, ldab = CHEB_LDAB, info = 0;
+    if (!jok) {
+        cheb_low_order_jacobian((double *)y, 3, p->n, p->D, p->n, p->n, p->z, p->n, p->params, p->n_params, p->jb,
+                                neq, neq);
+        p->n_jac++;
+    }
+    *jcur = !jok;
+    for (int col = 0; col < neq; col++) {
+        double *ab = p->P + (size_t)col * CHEB_LDAB;
+        for (int k = 0; k < CHEB_LDAB; k++)
+            ab[k] = 0.0;
+        int first = col - FD_LOWER < 0 ? 0 : col - FD_LOWER;
+        int last = col + FD_LOWER > neq - 1 ? neq - 1 : col + FD_LOWER;
+        for (int row = first; row <= last; row++)
+            ab[2 * FD_LOWER + row - col] = (row == col) - gamma * p->jb[col * FD_BAND + row - col + FD_LOWER];
+    }
+    dgbtrf_(&neq, &neq, &kl, &kl, p->P, &ldab, p->pivots, &info);
+    return info == 0 ? 0 : 1;
+}
+
+/* z = (I - gamma J_lo)^-1 r: the blocks (phi, u, w) interleaved, solved, and back */
+static int band_solve(Native *p, const double *r, double *z)
+{
+    int n = p->n, neq = 3 * n, kl = FD_LOWER, ldab = CHEB_LDAB, one = 1, info = 0;
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            p->x[3 * i + k] = r[k * n + i];
+    dgbtrs_("N", &neq, &kl, &kl, &one, p->P, &ldab, p->pivots, p->x, &neq, &info);
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            z[k * n + i] = p->x[3 * i + k];
+    return info == 0 ? 0 : -1;
+}
+
 /* the preconditioner I - gamma J_p, factored (LAPACK); J_p re-evaluated unless CVODE says it may be kept */
 static int prec_setup(sunrealtype t, N_Vector y, N_Vector fy, int jok, int *jcur, sunrealtype gamma,
                       void *user_data)
@@ -149,6 +198,8 @@ static int prec_setup(sunrealtype t, N_Vector y, N_Vector fy, int jok, int *jcur
     Native *p = (Native *)user_data;
     int neq = 3 * p->n, info = 0;
     size_t size = (size_t)neq * neq;
+    if (p->band)
+        return band_setup(p, N_VGetArrayPointer(y), jok, jcur, gamma);
     if (!jok) {
         problem_jacobian(p, N_VGetArrayPointer(y), p->Jp);
         p->n_jac++;
@@ -167,6 +218,8 @@ static int prec_solve(sunrealtype t, N_Vector y, N_Vector fy, N_Vector r, N_Vect
 {
     Native *p = (Native *)user_data;
     int neq = 3 * p->n, one = 1, info = 0;
+    if (p->band)
+        return band_solve(p, N_VGetArrayPointer(r), N_VGetArrayPointer(z));
     memcpy(N_VGetArrayPointer(z), N_VGetArrayPointer(r), sizeof(double) * neq);
     dgetrs_("N", &neq, &one, p->P, &neq, p->pivots, N_VGetArrayPointer(z), &neq, &info);
     return info == 0 ? 0 : -1;
@@ -257,16 +310,28 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     return p;
 }
 
-/* cheb: Newton-Krylov instead of the dense LU (see the file's docstring); returns 0 where the build
-   has no SPGMR or no LAPACK (the dense LU stays) */
-EXPORT int icidr_cheb_krylov(Native *p, int max_krylov, double eps_lin, long setup_steps, long jac_steps)
+/* cheb: Newton-Krylov instead of the dense LU (see the file's docstring), preconditioned by the
+   lagged dense LU or (band, z the points) the low-order band; returns 0 where the build has no SPGMR
+   or no LAPACK (the dense LU stays), -1 where memory runs out */
+EXPORT int icidr_cheb_krylov(Native *p, int max_krylov, double eps_lin, long setup_steps, long jac_steps, int band,
+                             const double *z)
 {
 #ifdef ICIDR_KRYLOV
-    size_t size = (size_t)9 * p->n * p->n;
-    p->Jp = malloc(sizeof(double) * size);
-    p->P = malloc(sizeof(double) * size);
-    p->pivots = malloc(sizeof(int) * 3 * (size_t)p->n);
-    if (!p->Jp || !p->P || !p->pivots)
+    size_t n3 = 3 * (size_t)p->n;
+    p->band = band;
+    if (band) {
+        p->z = malloc(sizeof(double) * p->n);
+        p->x = malloc(sizeof(double) * n3);
+        p->jb = malloc(sizeof(double) * FD_BAND * n3);
+        p->P = malloc(sizeof(double) * CHEB_LDAB * n3);
+        if (p->z)
+            memcpy(p->z, z, sizeof(double) * p->n);
+    } else {
+        p->Jp = malloc(sizeof(double) * n3 * n3);
+        p->P = malloc(sizeof(double) * n3 * n3);
+    }
+    p->pivots = malloc(sizeof(int) * n3);
+    if (!p->P || !p->pivots || (band ? !p->z || !p->x || !p->jb : !p->Jp))
         return -1;
     p->krylov = 1;
     p->max_krylov = max_krylov;
@@ -288,6 +353,16 @@ EXPORT void icidr_rates(Native *p, const double *y, double *out)
 EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
 {
     problem_jacobian(p, y, J);
+}
+
+/* cheb: the band preconditioner's J_lo at y on the points z, compact band (FD_BAND_AT) */
+EXPORT void icidr_cheb_low_order_jacobian(Native *p, const double *y, const double *z, double *jb)
+{
+#ifdef ICIDR_KRYLOV
+    int neq = 3 * p->n;
+    cheb_low_order_jacobian((double *)y, 3, p->n, p->D, p->n, p->n, (double *)z, p->n, p->params, p->n_params, jb,
+                            neq, neq);
+#endif
 }
 
 EXPORT void icidr_fd_jacobian(Native *p, const double *y, double *jb)
@@ -561,6 +636,6 @@ EXPORT void icidr_free(Native *p)
     if (p->ctx)
         SUNContext_Free(&p->ctx);
     free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D);
-    free(p->Jp); free(p->P); free(p->pivots);
+    free(p->Jp); free(p->P); free(p->pivots); free(p->z); free(p->x);
     free(p);
 }
