@@ -1,9 +1,9 @@
 """The native engine's Chebyshev collocation: problem and case without py-pde.
 
 :class:`ChebProblem` is the compiled Chebyshev problem (the C printed from the numba
-template ``discretizations/templates/cheb.py``: rates and dense Jacobian) with CVODE's dense linear
-solver; :class:`ChebCase` is what :func:`icidr_pde.case.build_case` builds for
-``discretization="cheb"`` (the same checks, points, walls and initial state), from the
+template ``discretizations/templates/cheb.py``: rates, dense Jacobian and the low-order band
+preconditioner) with CVODE's Newton-Krylov solver (GMRES) or its dense LU; :class:`ChebCase`
+is what :func:`icidr_pde.case.build_case` builds for ``discretization="cheb"`` (the same checks, points, walls and initial state), from the
 numpy operators of :mod:`icidr_pde.chebyshev`. The state is the py-pde path's vector
 (phi, u, w) in blocks, so CVODE integrates the same numbers in the same order.
 """
@@ -33,17 +33,19 @@ BLAS_THREADS = 1
 #: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
 DENSE_SOLVER = "lapack"
 #: Newton's linear solves: "dense" (the dense LU of I - gamma J, :data:`DENSE_SOLVER`) or "krylov"
-#: (GMRES preconditioned by a lagged dense LU; cvode_driver.c, docs/chebyshev.md)
+#: (GMRES, preconditioned as :data:`KRYLOV` says; cvode_driver.c, docs/chebyshev.md)
 LINEAR_SOLVERS = ("dense", "krylov")
-#: the one a run takes
-LINEAR_SOLVER = "dense"
+#: the one a run takes: GMRES with the band preconditioner, faster than the dense LU at equal
+#: accuracy of t* (docs/chebyshev.md); the dense LU where the build has no SPGMR or LAPACK
+LINEAR_SOLVER = "krylov"
 PRECONDITIONERS = ("dense", "band")
 #: the Krylov path's settings: the preconditioner ("dense": the LU of I - gamma J, J of an earlier
 #: step; "band": the band LU of I - gamma J_lo, J_lo the same law's Jacobian with D replaced by
-#: low-order differences on the same points), subspace dimension, GMRES tolerance factor (CVODE's eplifac, its
-#: default 0.05), steps between preconditioner set-ups (msbp), steps after which the
-#: preconditioner's Jacobian is stale (msbj), gamma change that refactors it (dgmax_lsetup)
-KRYLOV = {"preconditioner": "dense", "max_krylov": 5, "eps_lin": 0.05, "setup_steps": 20, "jac_steps": 51, "delta_gamma": 0.3}
+#: low-order differences on the same points), subspace dimension, GMRES tolerance factor
+#: (CVODE's eplifac, its default 0.05), steps between preconditioner set-ups (msbp), steps after
+#: which the preconditioner's Jacobian is stale (msbj), gamma change that refactors it (dgmax_lsetup)
+KRYLOV = {"preconditioner": "band", "max_krylov": 5, "eps_lin": 0.05, "setup_steps": 20, "jac_steps": 51,
+          "delta_gamma": 0.3}
 
 
 class ChebProblem(NativeProblem):
@@ -51,8 +53,8 @@ class ChebProblem(NativeProblem):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
     `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
-    "krylov" (default :data:`LINEAR_SOLVER`), GMRES preconditioned by a lagged dense LU, its settings
-    `krylov` over :data:`KRYLOV`)."""
+    "krylov" (default :data:`LINEAR_SOLVER`; the dense LU where the build cannot), GMRES with the
+    low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`)."""
 
     kernel_repeats = 20
 
@@ -60,7 +62,7 @@ class ChebProblem(NativeProblem):
                  delta_gamma: float | None = None, linear_solver: str | None = None, krylov: dict | None = None):
         if solver not in DENSE_SOLVERS:
             raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
-        linear_solver = LINEAR_SOLVER if linear_solver is None else linear_solver
+        default, linear_solver = linear_solver is None, LINEAR_SOLVER if linear_solver is None else linear_solver
         if linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"`linear_solver` must be one of {LINEAR_SOLVERS}; got {linear_solver!r}")
         settings = {**KRYLOV, **(krylov or {})}
@@ -68,9 +70,14 @@ class ChebProblem(NativeProblem):
             raise ValueError(f"`krylov` takes the keys {sorted(KRYLOV)}; got {sorted(krylov)}")
         if settings["preconditioner"] not in PRECONDITIONERS:
             raise ValueError(f"the preconditioner must be one of {PRECONDITIONERS}; got {settings['preconditioner']!r}")
+        params, lo, hi = self._open(rheology, bounds)
+        if linear_solver == "krylov" and not self.lib.icidr_has_krylov():
+            if not default:
+                raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
+                                        "not both shipped with this scikit-sundae")
+            linear_solver = "dense"
         if delta_gamma is None:
             delta_gamma = settings["delta_gamma"] if linear_solver == "krylov" else DENSE_LU_DELTA_GAMMA
-        params, lo, hi = self._open(rheology, bounds)
         if not any(os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")):
             self.lib.icidr_blas_threads(BLAS_THREADS)
         self.D = np.ascontiguousarray(D, dtype=float)
@@ -85,9 +92,6 @@ class ChebProblem(NativeProblem):
                                                 int(settings["preconditioner"] == "band"), _pointer(self.nodes()))
             if status < 0:
                 raise MemoryError(f"Krylov preconditioner of N = {self.N} not allocated")
-            if status == 0:
-                raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
-                                        "not both shipped with this scikit-sundae")
 
     def nodes(self) -> np.ndarray:
         """The points of D: Trefethen's CGL points mapped to [0, H], H from D's corner entry

@@ -310,6 +310,16 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     return p;
 }
 
+/* 1 where the build has SPGMR and LAPACK (icidr_cheb_krylov can be used), else 0 */
+EXPORT int icidr_has_krylov(void)
+{
+#ifdef ICIDR_KRYLOV
+    return 1;
+#else
+    return 0;
+#endif
+}
+
 /* cheb: Newton-Krylov instead of the dense LU (see the file's docstring), preconditioned by the
    lagged dense LU or (band, z the points) the low-order band; returns 0 where the build has no SPGMR
    or no LAPACK (the dense LU stays), -1 where memory runs out */
