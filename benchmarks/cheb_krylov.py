@@ -20,9 +20,9 @@ on the CGL points) and ``lagged`` (SPGMR preconditioned by the dense LU of an ea
   processes, interleaved with end_to_end.py's scipy baseline (BDF, dense analytic Jacobian,
   numpy right-hand side) in the same run; in-process solve times beside them.
 * ``large``: time, steps and peak memory (ru_maxrss of the child) at N = 401, 801.
-* ``roofline``: the Krylov path's counts times the measured cost of each operation (a right-hand
-  side, the dense J, the low-order band J_lo, its band LU and solve, a dense LU): what it is
-  limited by now.
+* ``roofline``: each path's counts times the measured cost of each operation (a right-hand
+  side and the dense J timed in C, best of 20; the low-order band J_lo, the band LU and solve,
+  a dense LU and solve timed in CPU seconds), against the run's CPU time: what it is limited by.
 
 A project run is one process ``python benchmarks/cheb_krylov.py --one SOLVER CASE N`` importing
 ``icidr_pde.native`` only (the run path of ``icidr-pde run`` for these cases, without the
@@ -89,7 +89,8 @@ def one(solver: str, case: str, N: int, rtol=None, atol=None) -> dict:
             times = [0.0] + [t for t in TIMES if t <= spec["t_end"]]
             r = run_native(spec["rheology"], spec["scene"], n, spec["t_end"], times=times, discretization="cheb",
                            method="CVODE", rtol=rtol or spec["rtol"], atol=atol or spec["atol"])
-            rows.append(dict(N=n, t_star=r.t_star, wall_s=r.wall_s, compile_s=r.compile_s, reason=r.reason,
+            rows.append(dict(N=n, t_star=r.t_star, wall_s=r.wall_s, cpu_s=r.cpu_s, compile_s=r.compile_s,
+                             reason=r.reason, mass_drift=r.mass_drift,
                              max_w={f"{t:g}": float(abs(r.w[k]).max()) for k, t in enumerate(r.times)},
                              **dict(counts)))
     finally:
@@ -204,7 +205,7 @@ def large(Ns, solvers) -> list[dict]:
                 continue
             data = json.loads(out.strip().splitlines()[-1])
             r = data["runs"][0]
-            rows.append(dict(N=N, solver=solver, whole_s=wall, peak_mib=usage.ru_maxrss / 1024, **r))
+            rows.append(dict(r, solver=solver, whole_s=wall, peak_mib=usage.ru_maxrss / 1024))
             print(f"N {N:4d} {solver:28s} whole {wall:7.2f} s  solve {r['wall_s']:7.2f} s  peak {usage.ru_maxrss / 1024:7.0f}"
                   f" MiB  t* {r['t_star']!r}  steps {r['steps']}  lu {r['lu']}  krylov {r.get('krylov_iterations', 0)}",
                   flush=True)
@@ -212,11 +213,12 @@ def large(Ns, solvers) -> list[dict]:
 
 
 def best(call, repeats=20) -> float:
+    """Best CPU seconds of `call` (one BLAS thread: on a loaded machine wall time counts the waits)."""
     times = []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = time.process_time()
         call()
-        times.append(time.perf_counter() - start)
+        times.append(time.process_time() - start)
     return min(times)
 
 
@@ -255,8 +257,9 @@ def roofline(N: int) -> dict:
                          jacobian_low_order=r["jac"] * t_jlo, band_lu=r["lu"] * t_band,
                          band_solves=r["preconditioner_solves"] * t_band_solve)
         limit = sum(parts.values())
-        out[solver] = dict(counts=r, parts=parts, limit_s=limit, solve_s=r["wall_s"])
-        print(f"N {N} {solver}: solve {r['wall_s']:.3f} s, limit {limit:.3f} s (measured/limit {r['wall_s'] / limit:.2f}); "
+        out[solver] = dict(counts=r, parts=parts, limit_s=limit, solve_s=r["wall_s"], solve_cpu_s=r["cpu_s"])
+        print(f"N {N} {solver}: solve {r['wall_s']:.3f} s (CPU {r['cpu_s']:.3f} s), limit {limit:.3f} s "
+              f"(measured CPU/limit {r['cpu_s'] / limit:.2f}); "
               + ", ".join(f"{k} {v:.3f} s ({100 * v / limit:.0f} %)" for k, v in parts.items()), flush=True)
     print("costs: " + ", ".join(f"{k} {1e3 * v:.3f} ms" for k, v in costs.items()))
     return out
