@@ -53,11 +53,13 @@ def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: 
 
 
 @njit(cache=True, error_model="numpy")
-def law_partials(data: "float64[:, :]", uz: "float64[:]", wz: "float64[:]", params: "float64[:]",
-                 flux: "float64[:, :]", dflux: "float64[:, :]"):
-    """The fluxes flux = (F_u, F_w) = (tau_xz, tau_zz - p) at the points and their partials
-    dflux = (dF_u/d(phi, u_z, w_z), dF_w/d(phi, u_z, w_z)), from the law's kernels."""
+def law_partials(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", uz: "float64[:]",
+                 wz: "float64[:]", flux: "float64[:, :]", dflux: "float64[:, :]"):
+    """The rates uz = D u, wz = D w, the fluxes flux = (F_u, F_w) = (tau_xz, tau_zz - p) at the
+    points and their partials dflux = (dF_u/d(phi, u_z, w_z), dF_w/d(phi, u_z, w_z)), from the
+    law's kernels."""
     n = data.shape[1]
+    gradients(data, D, uz, wz)
     phi = data[0]
     for j in range(n):
         p, txz, tzz = law.stress(phi[j], uz[j], wz[j], params)
@@ -77,10 +79,9 @@ def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J:
     n = data.shape[1]
     uz = numpy.empty(n)
     wz = numpy.empty(n)
-    gradients(data, D, uz, wz)
     flux = numpy.empty((2, n))
     dflux = numpy.empty((6, n))
-    law_partials(data, uz, wz, params, flux, dflux)
+    law_partials(data, D, params, uz, wz, flux, dflux)
     products = numpy.empty((4, n, n))
     scaled = numpy.empty((n, n))
     for block in range(4):  # (F_u, F_w) by (u_z, w_z)
@@ -156,10 +157,9 @@ def low_order_jacobian(data: "float64[:, :]", D: "float64[:, :]", z: "float64[:]
     n = data.shape[1]
     uz = numpy.empty(n)
     wz = numpy.empty(n)
-    gradients(data, D, uz, wz)
     flux = numpy.empty((2, n))
     dflux = numpy.empty((6, n))
-    law_partials(data, uz, wz, params, flux, dflux)
+    law_partials(data, D, params, uz, wz, flux, dflux)
     phi = data[0]
     w = data[2]
     flux_u = flux[0]
