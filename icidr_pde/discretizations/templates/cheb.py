@@ -155,10 +155,10 @@ def low_order_jacobian(data: "float64[:, :]", D: "float64[:, :]", z: "float64[:]
     a_{i+1/2} = (a_i + a_{i+1})/2. Into `B` (3n, 3n) in the interleaved ordering (phi_0, u_0,
     w_0, phi_1, ...), a band (5, 5): only entries within the band are written."""
     n = data.shape[1]
+    flux = numpy.empty((2, n))  # the fluxes and the law's partials at the points, as in jacobian
+    dflux = numpy.empty((6, n))
     uz = numpy.empty(n)
     wz = numpy.empty(n)
-    flux = numpy.empty((2, n))
-    dflux = numpy.empty((6, n))
     law_partials(data, D, params, uz, wz, flux, dflux)
     phi = data[0]
     w = data[2]
