@@ -77,7 +77,7 @@ def test_tstar_is_the_converged_one_and_the_dense_lus(krylov):
     BDF rtol 1e-10; the dense LU's error 2e-6, the Krylov path's measured 7.5e-5 (band) and
     5.8e-5 (lagged dense): docs/chebyshev.md); the same reason of failure; mass to 1e-12 (Clenshaw-
     Curtis: round-off and the mass of GMRES's residuals, tests/test_native_cheb.py)."""
-    from icidr_pde.reference import reference_tstar
+    from icidr_pde.studies.references import reference_tstar
 
     converged = reference_tstar("cheb")["t_star"]
     result = run_native("mui", "shear", 201, 1.0, ["0", "0.01"], discretization="cheb", method="CVODE",
