@@ -3,14 +3,18 @@
 For each grid N^2 (default 32, 64; 128 and 256 with the fast path only) runs, as separate whole
 processes of the command line (imports, kernel loading or compilation included),
 
-* the fast path: ``--method CVODE`` (SUNDIALS BDF, matrix-free GMRES Krylov solver);
+* the fast path: ``--method CVODE`` (SUNDIALS BDF, matrix-free GMRES Krylov solver) with the
+  2-D default advection (central, second order);
+* the same with ``--advection upwind`` (first order, the default before issue 23);
 * the baseline: ``--method BDF --jacobian colored-fd`` (scipy's BDF with a sparse
   finite-difference Jacobian, colored, well-scaled increments, SuperLU);
 
 and a reference on the same grid (CVODE, rtol 1e-8, atol 1e-11; 1e-7, 1e-10 on the
 --fast-only grids) for the accuracy figure
 beside each timing: the largest error of max_w, max_phi_dev and l2_velocity at
-t = 0.5, 1, 2, 5, 10 relative to the reference value. Wall time of the process and of
+t = 0.5, 1, 2, 5, 10 relative to the reference value (the time-integration error), and the
+grid error: the largest relative error of max_w at those times against the Richardson
+extrapolation of data/sim2d/richardson.json (benchmarks/richardson2d.py, central scheme). Wall time of the process and of
 the solve (JSON ``wall_s``), peak resident memory of the process (wait4's ru_maxrss).
 Prints a table and the ratio baseline/fast measured in this run; writes
 data/benchmarks/sim2d_speed.json.
@@ -31,10 +35,14 @@ TIMES = ["0.5", "1", "2", "5", "10"]
 QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 CONFIGS = {
     "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8"],
+    "fast-upwind": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--advection", "upwind"],
     "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
     "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11"],
     "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10"],  # cheaper, for 256^2
 }
+LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind",
+          "baseline": "scipy BDF, colored sparse FD J"}
+RICHARDSON = pathlib.Path("data") / "sim2d" / "richardson.json"
 
 
 def whole_process(n: int, config: str) -> dict:
@@ -63,6 +71,16 @@ def error(run: dict, ref: dict) -> float:
     return max(abs(run[q][t] - ref[q][t]) / abs(ref[q][t]) for q in QUANTITIES for t in TIMES)
 
 
+def grid_error(run: dict) -> float | None:
+    """Largest relative error of max_w at the times against the Richardson limit (None: no limit)."""
+    if not RICHARDSON.exists():
+        return None
+    rows = json.loads(RICHARDSON.read_text())["schemes"]["central"]["max_w"]
+    errors = [abs(run["max_w"][t] - rows[t]["q_inf"]) / abs(rows[t]["q_inf"]) for t in TIMES
+              if rows[t]["q_inf"] is not None]
+    return max(errors) if errors else None
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64])
@@ -74,24 +92,29 @@ def main():
     for n in args.sizes + args.fast_only:
         ref = whole_process(n, "reference" if n not in args.fast_only else "reference-fast-only")
         row = {"N": n, "reference": ref}
-        for config in ("fast",) if n in args.fast_only else ("fast", "baseline"):
+        configs = ("fast", "fast-upwind") if n in args.fast_only else ("fast", "fast-upwind", "baseline")
+        for config in configs:
             row[config] = whole_process(n, config)
-            row[config]["error"] = error(row[config], ref)
+            row[config]["error"] = error(row[config], ref) if config != "fast-upwind" else None
+            row[config]["grid_error"] = grid_error(row[config])
             print(f"{n}^2 {config}: {row[config]['process_s']:.1f} s process, {row[config]['solve_s']:.2f} s solve, "
-                  f"{row[config]['max_rss_mb']:.0f} MB, error {row[config]['error']:.1e}", flush=True)
+                  f"{row[config]['max_rss_mb']:.0f} MB, error {row[config]['error'] or 0:.1e}, "
+                  f"grid error {row[config]['grid_error'] or 0:.1e}", flush=True)
         rows.append(row)
     print("\niCIDR bump2d to t = 10 (error: largest relative error of max_w, max_phi_dev, l2_velocity at "
           "t = 0.5 ... 10 against CVODE rtol 1e-8 on the same grid)")
-    print(f"{'grid':>6s} {'method':38s} {'process [s]':>11s} {'solve [s]':>10s} {'RSS [MB]':>9s} "
-          f"{'error':>8s} {'ratio (solve)':>13s}")
+    print("| grid | method | process [s] | solve [s] | peak RSS [MB] | error | grid error max_w | solve ratio |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for row in rows:
-        for config, label in (("fast", "CVODE, GMRES (matrix-free)"), ("baseline", "scipy BDF, colored sparse FD J")):
+        for config, label in LABELS.items():
             if config not in row:
                 continue
             r = row[config]
             ratio = r["solve_s"] / row["fast"]["solve_s"]
-            print(f"{row['N']:>4d}^2 {label:38s} {r['process_s']:11.1f} {r['solve_s']:10.2f} "
-                  f"{r['max_rss_mb']:9.0f} {r['error']:8.1e} {ratio:13.1f}")
+            err = "–" if r["error"] is None else f"{r['error']:.1e}"
+            gerr = "–" if r["grid_error"] is None else f"{r['grid_error']:.1%}"
+            print(f"| {row['N']}² | {label} | {r['process_s']:.1f} | {r['solve_s']:.2f} | {r['max_rss_mb']:.0f} | "
+                  f"{err} | {gerr} | {ratio:.1f} |")
     path = pathlib.Path(args.json)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")

@@ -625,6 +625,8 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
     counts = problem.counts()
+    if engine is not None:  # the linear solver the compiled problem set up
+        choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
     return assemble(rheology=case.rheology.name, scene=case.scene, discretization=case.discretization, N=case.N,
                     z=case.z, mass=case.mass, material=case.rheology.material.to_dict(), t_end=t_end,
                     rtol=settings["rtol"], atol=settings["atol"], method="CVODE", choice=choice, accuracy=accuracy,

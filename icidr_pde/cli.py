@@ -217,9 +217,9 @@ def add_run_parser(subparsers):
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="Jacobian of the implicit solves (default: the method's best: analytic for "
                         "BDF/Radau/CVODE, banded-fd for LSODA)")
-    for key, (schemes, valid) in DISCRETIZATION_OPTIONS.items():
+    for key, (defaults, valid) in DISCRETIZATION_OPTIONS.items():
         p.add_argument(f"--{key}", choices=valid, default=None,
-                       help=f"option of {', '.join(schemes)} (default {valid[0]})")
+                       help="option of " + ", ".join(f"{name} (default {value})" for name, value in defaults.items()))
     for name, help_text in scene_parameters().items():
         p.add_argument(f"--{name}", type=number, default=None,
                        help=f"scene parameter: {help_text} (default: the scene's)")

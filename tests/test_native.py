@@ -43,8 +43,8 @@ def test_catalog_is_what_the_registries_hold():
 
     assert catalog.DISCRETIZATIONS == tuple(DISCRETIZATIONS)
     assert {k: v[1] for k, v in catalog.DISCRETIZATION_OPTIONS.items()} == discretization_options()
-    for key, (schemes, _) in catalog.DISCRETIZATION_OPTIONS.items():
-        assert schemes == tuple(n for n, c in DISCRETIZATIONS.items() if key in c.options)
+    for key, (defaults, _) in catalog.DISCRETIZATION_OPTIONS.items():
+        assert defaults == {n: c.options[key][0] for n, c in DISCRETIZATIONS.items() if key in c.options}
     assert (catalog.METHODS, catalog.JACOBIAN_MODES) == (METHODS, JACOBIAN_MODES)
 
 

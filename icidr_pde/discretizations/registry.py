@@ -15,11 +15,14 @@ from dataclasses import dataclass, field
 
 from .grid_size import CHEB, FD, FV2D, GridLimit
 
-__all__ = ["Scheme", "SCHEMES", "DISCRETIZATIONS", "ADVECTION_SCHEMES", "get_discretization",
+__all__ = ["Scheme", "SCHEMES", "DISCRETIZATIONS", "ADVECTION_SCHEMES", "ADVECTION_SCHEMES_2D", "get_discretization",
            "get_scheme", "option_choices"]
 
-#: advection of w d_z: first-order upwind (the default, as the paper's differences) or central
+#: advection in 1-D: first-order upwind (the default, as the paper's differences) or central
 ADVECTION_SCHEMES = ("upwind", "central")
+#: advection in 2-D: central by default (second order; no figure of the paper binds the 2-D cell,
+#: docs/sim2d.md), upwind kept
+ADVECTION_SCHEMES_2D = ("central", "upwind")
 
 
 def _load(path: str):
@@ -53,7 +56,7 @@ class Scheme:
 
 SCHEMES: dict[str, Scheme] = {s.name: s for s in (
     Scheme("fv2d", "finite volumes, 2-D", 2, 64, FV2D, ".cartesian2d:ShearCell2DPDE",
-           options={"advection": ADVECTION_SCHEMES}),
+           options={"advection": ADVECTION_SCHEMES_2D}),
     Scheme("cheb", "Chebyshev", 1, 65, CHEB, ".cheb:ChebyshevShearCellPDE", ".cheb_core:Collocation"),
     Scheme("fd", "finite volumes", 1, 201, FD, ".fd:ShearCellPDE", ".fd_core:FiniteVolumes",
            options={"advection": ADVECTION_SCHEMES}),
@@ -95,13 +98,13 @@ def get_discretization(name) -> type:
     return get_scheme(name).adapter_class()
 
 
-def option_choices() -> dict[str, tuple[tuple[str, ...], tuple]]:
-    """option -> (the schemes that have it, its valid values with the default first)."""
+def option_choices() -> dict[str, tuple[dict[str, str], tuple]]:
+    """option -> ({scheme that has it: its default}, the valid values of all of them)."""
     out: dict[str, tuple] = {}
     for scheme in SCHEMES.values():
         for key, valid in scheme.options.items():
-            names, values = out.get(key, ((), ()))
-            out[key] = (names + (scheme.name,), tuple(dict.fromkeys(values + tuple(valid))))
+            defaults, values = out.get(key, ({}, ()))
+            out[key] = ({**defaults, scheme.name: valid[0]}, tuple(dict.fromkeys(values + tuple(valid))))
     return out
 
 

@@ -43,8 +43,9 @@ class JacobianStructure:
                    sparse=sparsity is not None, line=hasattr(pde, "line_pattern"))
 
 
-#: schemes the native engine integrates (their C problem in icidr_pde.native) and its linear solver there
-NATIVE_SCHEMES = {"fd": "band LU", "cheb": "dense LU (LAPACK)"}
+#: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
+#: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
+NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner"}
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),

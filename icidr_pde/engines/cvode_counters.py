@@ -82,6 +82,15 @@ class CvodeCounters:
                 raise ValueError(f"{name}({value}) refused by CVODE")
 
 
+    def set_eps_lin(self, eps_lin: float) -> None:
+        """The Krylov solver's tolerance factor (``CVodeSetEpsLin``, SUNDIALS' default 0.05): the
+        iterative linear solves stop at a residual below eps_lin times the Newton tolerance."""
+        function = self.lib.CVodeSetEpsLin
+        function.argtypes = [ctypes.c_void_p, ctypes.c_double]
+        if function(self.mem, ctypes.c_double(eps_lin)) != 0:
+            raise ValueError(f"CVodeSetEpsLin({eps_lin}) refused by CVODE")
+
+
 def attach(solver, nfev: int) -> CvodeCounters | None:
     """Counters of scikit-sundae's `solver` (a ``sksundae.cvode.CVODE`` after ``init_step``)
     whose right-hand-side count is `nfev` now; None where the checks of the module

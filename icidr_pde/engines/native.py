@@ -24,6 +24,11 @@ class NativeEngine(Engine):
     methods = ("CVODE",)
 
     def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver=""):
+        kind = getattr(problem, "linear_solver", None)  # what the compiled problem set up (Chebyshev)
+        if kind == "krylov":
+            linear_solver = f"GMRES + {problem.preconditioner} preconditioner"
+        elif kind == "dense":
+            linear_solver = "dense LU (LAPACK)" if problem.solver == "lapack" else "dense LU"
         self.problem, self.check, self.linear_solver = problem, check, linear_solver
         problem.start(y0, rtol=rtol, atol=atol, t0=t0)
 

@@ -7,7 +7,8 @@ finite-volume and Chebyshev kernels printed from their numba templates
 (``$CC``) into the kernel cache (:mod:`icidr_pde.kernel_cache`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
 found from the package's location without importing it; its LAPACK dense solver where
-present, for Chebyshev), then loaded with ctypes.
+present, for Chebyshev, and its GMRES, SPGMR, for Chebyshev's Newton-Krylov option), then loaded
+with ctypes.
 
 A library's name is a hash of everything its text is generated from (the inputs of the
 law's numba kernels, this package's sources, the template, the SUNDIALS library files and
@@ -69,7 +70,7 @@ def _scheme_kernels() -> str:
 
     fd, cheb = _scheme_templates()
     return "\n".join([_text("kernel_support.c"), translate(fd, "fd_", {"J": "FD_BAND_AT"}),
-                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT"})])
+                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"})])
 
 
 def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
@@ -79,9 +80,15 @@ def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
     return [pathlib.Path(f[0]) for f in found] if all(len(f) == 1 for f in found) else []
 
 
+def _spgmr(libs: pathlib.Path) -> list[pathlib.Path]:
+    """[libsundials_sunlinsolspgmr] where scikit-sundae ships it, else []."""
+    found = sorted(glob.glob(str(libs / "libsundials_sunlinsolspgmr-*.so*")))
+    return [pathlib.Path(found[0])] if len(found) == 1 else []
+
+
 def sundials() -> tuple[pathlib.Path, list[pathlib.Path], str]:
-    """(directory, [libsundials_cvode, libsundials_core(, libsundials_sunlinsollapackdense, libopenblas)], index type)
-    of scikit-sundae's SUNDIALS."""
+    """(directory, [libsundials_cvode, libsundials_core(, libsundials_sunlinsollapackdense, libopenblas)
+    (, libsundials_sunlinsolspgmr)], index type) of scikit-sundae's SUNDIALS."""
     spec = importlib.util.find_spec("sksundae")  # locates the package without importing it
     if spec is None or spec.origin is None:
         raise NativeUnavailable("scikit-sundae is not installed (its SUNDIALS libraries are needed)")
@@ -99,7 +106,7 @@ def sundials() -> tuple[pathlib.Path, list[pathlib.Path], str]:
                 index = " ".join(words[1:-1])
     if index not in ("int", "long", "long int", "int64_t", "long long"):
         raise NativeUnavailable(f"SUNDIALS index type {index!r} not supported")
-    return libs, [pathlib.Path(f[0]) for f in found] + _lapack_dense(libs), index
+    return libs, [pathlib.Path(f[0]) for f in found] + _lapack_dense(libs) + _spgmr(libs), index
 
 
 def _compiler() -> str:
@@ -125,8 +132,10 @@ def _source(rheology, kinematics, index, libs=()) -> str:
     from ..rheology.ccode import c_law_source
 
     lapack = any("lapackdense" in pathlib.Path(lib).name for lib in libs)
+    spgmr = any("sunlinsolspgmr" in pathlib.Path(lib).name for lib in libs)
     return "\n".join([f"#define SUNINDEXTYPE {index}",
                       "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
+                      "#define ICIDR_SPGMR" if spgmr else "",
                       _text("sundials_api.h"),
                       c_law_source(rheology, kinematics), _scheme_kernels(), _text("cvode_driver.c")])
 
@@ -216,6 +225,10 @@ def _declare(lib) -> None:
         "icidr_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
         "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
+        "icidr_cheb_krylov": (I, [P, I, D, L, L, I, ptr(D)]),
+        "icidr_krylov_counts": (None, [P, ptr(L)]),
+        "icidr_has_krylov": (I, []),
+        "icidr_cheb_low_order_jacobian": (None, [P, ptr(D), ptr(D), ptr(D)]),
         "icidr_blas_threads": (I, [I]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),

@@ -13,6 +13,15 @@
    (cheb_jacobian) and the dense LU, LAPACK's (SUNLinSol_LapackDense, OpenBLAS) where the
    build found it, else SUNDIALS' own; the factored Newton matrix kept until gamma changed
    by delta_gamma (integrator.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
+   Or (icidr_cheb_krylov, where the build found SPGMR and LAPACK): Newton-Krylov, SUNDIALS'
+   GMRES (SPGMR, left preconditioning) with CVODE's difference-quotient products J v (one
+   right-hand side each, O(N^2)), preconditioned by the LU of I - gamma J_p, J_p the analytic
+   dense Jacobian of an earlier step: a preconditioner may be stale where a direct solve's
+   matrix may not, so it is refactored only every `setup_steps` steps or when gamma changed
+   by delta_gamma, and J_p re-evaluated only when CVODE says it is stale (jok = 0).
+   Or (band = 1) preconditioned by I - gamma J_lo, J_lo the Jacobian of the same law with D
+   replaced by low-order differences on the same points (cheb_low_order_jacobian), a band
+   (5, 5) in the interleaved ordering factored by LAPACK's band LU: O(N) a set-up.
    Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
    printed from the numba templates discretizations/templates/fd.py and cheb.py
    (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
@@ -40,6 +49,17 @@ typedef struct {
     double *D;            /* cheb: differentiation matrix, row-major */
     int lapack;           /* cheb: LAPACK's dense LU (else SUNDIALS' own) */
     double delta_gamma;   /* cheb: refactor when gamma changed by more than this (0: SUNDIALS' 0.3) */
+    int krylov;           /* cheb: GMRES preconditioned by a lagged dense LU (icidr_cheb_krylov) */
+    int max_krylov;       /* cheb, krylov: Krylov subspace dimension */
+    double eps_lin;       /* cheb, krylov: GMRES tolerance factor (CVODE's eplifac) */
+    long setup_steps;     /* cheb, krylov: steps between preconditioner set-ups (CVODE's msbp) */
+    long jac_steps;       /* cheb, krylov: steps after which J_p is stale (CVODE's msbj) */
+    long n_jac;           /* cheb, krylov: analytic Jacobians evaluated for the preconditioner */
+    double *Jp, *P;       /* cheb, krylov: J_p and the LU of I - gamma J_p, column-major */
+    int *pivots;
+    int band;             /* cheb, krylov: the low-order band preconditioner instead of J_p */
+    double *z;            /* cheb, band: the collocation points */
+    double *x;            /* cheb, band: a vector in the interleaved ordering */
     double t_good;
     void *cvode;
     SUNContext ctx;
@@ -121,6 +141,90 @@ static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *use
     }
     return 0;
 }
+
+#if defined(ICIDR_SPGMR) && defined(ICIDR_BLAS)
+#define ICIDR_KRYLOV
+void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda, const int *ipiv,
+             double *b, const int *ldb, int *info);
+
+void dgbtrf_(const int *m, const int *n, const int *kl, const int *ku, double *ab, const int *ldab, int *ipiv,
+             int *info);
+void dgbtrs_(const char *trans, const int *n, const int *kl, const int *ku, const int *nrhs, const double *ab,
+             const int *ldab, const int *ipiv, double *b, const int *ldb, int *info);
+#define CHEB_LDAB (3 * FD_LOWER + 1)  /* LAPACK's band storage with room for the LU's fill */
+
+/* the band preconditioner I - gamma J_lo in LAPACK's band storage, factored; J_lo at y unless kept */
+static int band_setup(Native *p, const double *y, int jok, int *jcur, double gamma)
+{
+    int neq = 3 * p->n, kl = FD_LOWER, ldab = CHEB_LDAB, info = 0;
+    if (!jok) {
+        cheb_low_order_jacobian((double *)y, 3, p->n, p->D, p->n, p->n, p->z, p->n, p->params, p->n_params, p->jb,
+                                neq, neq);
+        p->n_jac++;
+    }
+    *jcur = !jok;
+    for (int col = 0; col < neq; col++) {
+        double *ab = p->P + (size_t)col * CHEB_LDAB;
+        for (int k = 0; k < CHEB_LDAB; k++)
+            ab[k] = 0.0;
+        int first = col - FD_LOWER < 0 ? 0 : col - FD_LOWER;
+        int last = col + FD_LOWER > neq - 1 ? neq - 1 : col + FD_LOWER;
+        for (int row = first; row <= last; row++)
+            ab[2 * FD_LOWER + row - col] = (row == col) - gamma * p->jb[col * FD_BAND + row - col + FD_LOWER];
+    }
+    dgbtrf_(&neq, &neq, &kl, &kl, p->P, &ldab, p->pivots, &info);
+    return info == 0 ? 0 : 1;
+}
+
+/* z = (I - gamma J_lo)^-1 r: the blocks (phi, u, w) interleaved, solved, and back */
+static int band_solve(Native *p, const double *r, double *z)
+{
+    int n = p->n, neq = 3 * n, kl = FD_LOWER, ldab = CHEB_LDAB, one = 1, info = 0;
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            p->x[3 * i + k] = r[k * n + i];
+    dgbtrs_("N", &neq, &kl, &kl, &one, p->P, &ldab, p->pivots, p->x, &neq, &info);
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            z[k * n + i] = p->x[3 * i + k];
+    return info == 0 ? 0 : -1;
+}
+
+/* the preconditioner I - gamma J_p, factored (LAPACK); J_p re-evaluated unless CVODE says it may be kept */
+static int prec_setup(sunrealtype t, N_Vector y, N_Vector fy, int jok, int *jcur, sunrealtype gamma,
+                      void *user_data)
+{
+    Native *p = (Native *)user_data;
+    int neq = 3 * p->n, info = 0;
+    size_t size = (size_t)neq * neq;
+    if (p->band)
+        return band_setup(p, N_VGetArrayPointer(y), jok, jcur, gamma);
+    if (!jok) {
+        problem_jacobian(p, N_VGetArrayPointer(y), p->Jp);
+        p->n_jac++;
+    }
+    *jcur = !jok;
+    for (size_t k = 0; k < size; k++)
+        p->P[k] = -gamma * p->Jp[k];
+    for (int i = 0; i < neq; i++)
+        p->P[(size_t)i * neq + i] += 1.0;
+    dgetrf_(&neq, &neq, p->P, &neq, p->pivots, &info);
+    return info == 0 ? 0 : 1;  /* > 0: recoverable, CVODE retries with a fresh J_p or a smaller step */
+}
+
+static int prec_solve(sunrealtype t, N_Vector y, N_Vector fy, N_Vector r, N_Vector z, sunrealtype gamma,
+                      sunrealtype delta, int lr, void *user_data)
+{
+    Native *p = (Native *)user_data;
+    int neq = 3 * p->n, one = 1, info = 0;
+    if (p->band)
+        return band_solve(p, N_VGetArrayPointer(r), N_VGetArrayPointer(z));
+    memcpy(N_VGetArrayPointer(z), N_VGetArrayPointer(r), sizeof(double) * neq);
+    dgetrs_("N", &neq, &one, p->P, &neq, p->pivots, N_VGetArrayPointer(z), &neq, &info);
+    return info == 0 ? 0 : -1;
+}
+#endif
 
 static int root_fn(sunrealtype t, N_Vector y, sunrealtype *gout, void *user_data)
 {
@@ -206,6 +310,50 @@ EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, 
     return p;
 }
 
+/* 1 where the build has SPGMR and LAPACK (icidr_cheb_krylov can be used), else 0 */
+EXPORT int icidr_has_krylov(void)
+{
+#ifdef ICIDR_KRYLOV
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+/* cheb: Newton-Krylov instead of the dense LU (see the file's docstring), preconditioned by the
+   lagged dense LU or (band, z the points) the low-order band; returns 0 where the build has no SPGMR
+   or no LAPACK (the dense LU stays), -1 where memory runs out */
+EXPORT int icidr_cheb_krylov(Native *p, int max_krylov, double eps_lin, long setup_steps, long jac_steps, int band,
+                             const double *z)
+{
+#ifdef ICIDR_KRYLOV
+    size_t n3 = 3 * (size_t)p->n;
+    p->band = band;
+    if (band) {
+        p->z = malloc(sizeof(double) * p->n);
+        p->x = malloc(sizeof(double) * n3);
+        p->jb = malloc(sizeof(double) * FD_BAND * n3);
+        p->P = malloc(sizeof(double) * CHEB_LDAB * n3);
+        if (p->z)
+            memcpy(p->z, z, sizeof(double) * p->n);
+    } else {
+        p->Jp = malloc(sizeof(double) * n3 * n3);
+        p->P = malloc(sizeof(double) * n3 * n3);
+    }
+    p->pivots = malloc(sizeof(int) * n3);
+    if (!p->P || !p->pivots || (band ? !p->z || !p->x || !p->jb : !p->Jp))
+        return -1;
+    p->krylov = 1;
+    p->max_krylov = max_krylov;
+    p->eps_lin = eps_lin;
+    p->setup_steps = setup_steps;
+    p->jac_steps = jac_steps;
+    return 1;
+#else
+    return 0;
+#endif
+}
+
 EXPORT void icidr_rates(Native *p, const double *y, double *out)
 {
     problem_rates(p, y, out);
@@ -215,6 +363,16 @@ EXPORT void icidr_rates(Native *p, const double *y, double *out)
 EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
 {
     problem_jacobian(p, y, J);
+}
+
+/* cheb: the band preconditioner's J_lo at y on the points z, compact band (FD_BAND_AT) */
+EXPORT void icidr_cheb_low_order_jacobian(Native *p, const double *y, const double *z, double *jb)
+{
+#ifdef ICIDR_KRYLOV
+    int neq = 3 * p->n;
+    cheb_low_order_jacobian((double *)y, 3, p->n, p->D, p->n, p->n, (double *)z, p->n, p->params, p->n_params, jb,
+                            neq, neq);
+#endif
 }
 
 EXPORT void icidr_fd_jacobian(Native *p, const double *y, double *jb)
@@ -305,7 +463,21 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetUserData(p->cvode, p));
     CHECK(CVodeInit(p->cvode, rhs_fn, t0, p->y));
     CHECK(CVodeSStolerances(p->cvode, rtol, atol));
-    if (p->kind == KIND_CHEB) {
+    if (p->kind == KIND_CHEB && p->krylov) {
+#ifdef ICIDR_KRYLOV
+        p->LS = SUNLinSol_SPGMR(p->y, SUN_PREC_LEFT, p->max_krylov, p->ctx);
+        if (!p->LS) {
+            snprintf(error, error_len, "SPGMR not created");
+            goto fail;
+        }
+        CHECK(SUNLinSol_SPGMRSetGSType(p->LS, SUN_CLASSICAL_GS));
+        CHECK(CVodeSetLinearSolver(p->cvode, p->LS, NULL));
+        CHECK(CVodeSetPreconditioner(p->cvode, prec_setup, prec_solve));
+        CHECK(CVodeSetEpsLin(p->cvode, p->eps_lin));
+        CHECK(CVodeSetLSetupFrequency(p->cvode, p->setup_steps));
+        CHECK(CVodeSetJacEvalFrequency(p->cvode, p->jac_steps));
+#endif
+    } else if (p->kind == KIND_CHEB) {
         p->A = SUNDenseMatrix(neq, neq, p->ctx);
 #ifdef ICIDR_LAPACK_DENSE
         p->LS = p->A ? (p->lapack ? SUNLinSol_LapackDense(p->y, p->A, p->ctx) : SUNLinSol_Dense(p->y, p->A, p->ctx))
@@ -317,12 +489,14 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
         p->A = SUNBandMatrix(neq, FD_LOWER, FD_LOWER, p->ctx);
         p->LS = p->A ? SUNLinSol_Band(p->y, p->A, p->ctx) : NULL;
     }
-    if (!p->A || !p->LS) {
-        snprintf(error, error_len, "matrix or linear solver not created");
-        goto fail;
+    if (!p->krylov) {
+        if (!p->A || !p->LS) {
+            snprintf(error, error_len, "matrix or linear solver not created");
+            goto fail;
+        }
+        CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
+        CHECK(CVodeSetJacFn(p->cvode, jac_fn));
     }
-    CHECK(CVodeSetLinearSolver(p->cvode, p->LS, p->A));
-    CHECK(CVodeSetJacFn(p->cvode, jac_fn));
     if (p->kind == KIND_CHEB && p->delta_gamma > 0)
         CHECK(CVodeSetDeltaGammaMaxLSetup(p->cvode, p->delta_gamma));
     CHECK(CVodeSetMaxNonlinIters(p->cvode, 3));
@@ -437,6 +611,24 @@ EXPORT void icidr_cvode_counts(Native *p, long *out)
     CVodeGetNumErrTestFails(p->cvode, &v); out[4] = v;
     CVodeGetNumNonlinSolvIters(p->cvode, &v); out[5] = v;
     CVodeGetNumNonlinSolvConvFails(p->cvode, &v); out[6] = v;
+    if (p->krylov)
+        out[2] = p->n_jac;
+}
+
+/* cheb, krylov: GMRES iterations, their convergence failures, preconditioner set-ups (LUs) and
+   solves, products J v, right-hand sides of those products (not in icidr_cvode_counts' count) */
+EXPORT void icidr_krylov_counts(Native *p, long *out)
+{
+    long v = 0;
+    memset(out, 0, 6 * sizeof(long));
+    if (!p->cvode || !p->krylov)
+        return;
+    CVodeGetNumLinIters(p->cvode, &v); out[0] = v;
+    CVodeGetNumLinConvFails(p->cvode, &v); out[1] = v;
+    CVodeGetNumPrecEvals(p->cvode, &v); out[2] = v;
+    CVodeGetNumPrecSolves(p->cvode, &v); out[3] = v;
+    CVodeGetNumJtimesEvals(p->cvode, &v); out[4] = v;
+    CVodeGetNumLinRhsEvals(p->cvode, &v); out[5] = v;
 }
 
 EXPORT void icidr_free(Native *p)
@@ -454,5 +646,6 @@ EXPORT void icidr_free(Native *p)
     if (p->ctx)
         SUNContext_Free(&p->ctx);
     free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D);
+    free(p->Jp); free(p->P); free(p->pivots); free(p->z); free(p->x);
     free(p);
 }

@@ -53,17 +53,14 @@ def rates(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", out: 
 
 
 @njit(cache=True, error_model="numpy")
-def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J: "float64[:, :]"):
-    """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks (phi, u, w):
-    the law's fluxes and exact partials at the points and the products D diag(dF/du_z) D,
-    then :func:`assemble_jacobian`."""
+def law_partials(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", uz: "float64[:]",
+                 wz: "float64[:]", flux: "float64[:, :]", dflux: "float64[:, :]"):
+    """The rates uz = D u, wz = D w, the fluxes flux = (F_u, F_w) = (tau_xz, tau_zz - p) at the
+    points and their partials dflux = (dF_u/d(phi, u_z, w_z), dF_w/d(phi, u_z, w_z)), from the
+    law's kernels."""
     n = data.shape[1]
-    uz = numpy.empty(n)
-    wz = numpy.empty(n)
     gradients(data, D, uz, wz)
     phi = data[0]
-    flux = numpy.empty((2, n))
-    dflux = numpy.empty((6, n))
     for j in range(n):
         p, txz, tzz = law.stress(phi[j], uz[j], wz[j], params)
         d = law.stress_jacobian(phi[j], uz[j], wz[j], params)
@@ -72,6 +69,19 @@ def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J:
         for a in range(3):
             dflux[a, j] = d[3 + a]
             dflux[3 + a, j] = d[6 + a] - d[a]
+
+
+@njit(cache=True, error_model="numpy")
+def jacobian(data: "float64[:, :]", D: "float64[:, :]", params: "float64[:]", J: "float64[:, :]"):
+    """Analytic dense Jacobian (3n, 3n) of :func:`rates` into `J`, the state in blocks (phi, u, w):
+    the law's fluxes and exact partials at the points and the products D diag(dF/du_z) D,
+    then :func:`assemble_jacobian`."""
+    n = data.shape[1]
+    uz = numpy.empty(n)
+    wz = numpy.empty(n)
+    flux = numpy.empty((2, n))
+    dflux = numpy.empty((6, n))
+    law_partials(data, D, params, uz, wz, flux, dflux)
     products = numpy.empty((4, n, n))
     scaled = numpy.empty((n, n))
     for block in range(4):  # (F_u, F_w) by (u_z, w_z)
@@ -132,3 +142,75 @@ def assemble_jacobian(data: "float64[:, :]", D: "float64[:, :]", uz: "float64[:]
     for i in range(n):
         J[n + i, 2 * n + i] -= interior[i] * uz[i]
         J[2 * n + i, 2 * n + i] -= interior[i] * wz[i]
+
+
+@njit(cache=True, error_model="numpy")
+def low_order_jacobian(data: "float64[:, :]", D: "float64[:, :]", z: "float64[:]", params: "float64[:]",
+                       B: "float64[:, :]"):
+    """The Jacobian of :func:`rates` with D replaced by low-order differences on the same points
+    z (the preconditioner of the Newton-Krylov path; Orszag 1980, Canuto et al. 1988 sec. 5.2):
+    the law's partials at the points as in :func:`jacobian`, d/dz by the three-point difference
+    (one-sided two-point at the walls) and D diag(a) D by the compact three-point operator
+    (a_{i+1/2} (x_{i+1} - x_i)/h_i - a_{i-1/2} (x_i - x_{i-1})/h_{i-1}) / ((h_i + h_{i-1})/2),
+    a_{i+1/2} = (a_i + a_{i+1})/2. Into `B` (3n, 3n) in the interleaved ordering (phi_0, u_0,
+    w_0, phi_1, ...), a band (5, 5): only entries within the band are written."""
+    n = data.shape[1]
+    flux = numpy.empty((2, n))  # the fluxes and the law's partials at the points, as in jacobian
+    dflux = numpy.empty((6, n))
+    uz = numpy.empty(n)
+    wz = numpy.empty(n)
+    law_partials(data, D, params, uz, wz, flux, dflux)
+    phi = data[0]
+    w = data[2]
+    flux_u = flux[0]
+    flux_w = flux[1]
+    div_u = numpy.dot(D, flux_u)
+    div_w = numpy.dot(D, flux_w)
+    for c in range(3 * n):
+        for r in range(max(c - 5, 0), min(c + 6, 3 * n)):
+            B[r, c] = 0.0
+    g = numpy.empty(3)
+    for i in range(n):
+        if i == 0:
+            g[0] = 0.0
+            g[1] = -1.0 / (z[1] - z[0])
+            g[2] = 1.0 / (z[1] - z[0])
+        elif i == n - 1:
+            g[0] = -1.0 / (z[i] - z[i - 1])
+            g[1] = 1.0 / (z[i] - z[i - 1])
+            g[2] = 0.0
+        else:
+            hm = z[i] - z[i - 1]
+            hp = z[i + 1] - z[i]
+            g[0] = -hp / (hm * (hm + hp))
+            g[1] = (hp - hm) / (hm * hp)
+            g[2] = hm / (hp * (hm + hp))
+        for q in range(3):  # the mass rows, at the walls too
+            m = i - 1 + q
+            if m < 0 or m > n - 1:
+                continue
+            B[3 * i, 3 * m] += -g[q] * w[m]
+            B[3 * i, 3 * m + 2] += -g[q] * phi[m]
+        if i == 0 or i == n - 1:
+            continue  # Dirichlet rows of u and w (3.9)
+        inv_phi = 1.0 / phi[i]
+        for q in range(3):
+            m = i - 1 + q
+            B[3 * i + 1, 3 * m] += inv_phi * g[q] * dflux[0, m]
+            B[3 * i + 2, 3 * m] += inv_phi * g[q] * dflux[3, m]
+            B[3 * i + 1, 3 * m + 1] -= w[i] * g[q]
+            B[3 * i + 2, 3 * m + 2] -= w[i] * g[q]
+        B[3 * i + 1, 3 * i] -= div_u[i] / (phi[i] * phi[i])
+        B[3 * i + 2, 3 * i] -= div_w[i] / (phi[i] * phi[i])
+        B[3 * i + 1, 3 * i + 2] -= uz[i]
+        B[3 * i + 2, 3 * i + 2] -= wz[i]
+        scale = 2.0 * inv_phi / ((z[i + 1] - z[i]) + (z[i] - z[i - 1]))
+        for block in range(4):  # rows of u (F_u), w (F_w) by columns of u (d/du_z), w (d/dw_z)
+            row = 3 * i + 1 + block // 2
+            col = 1 + block % 2
+            k = 3 * (block // 2) + 1 + block % 2
+            up = scale * 0.5 * (dflux[k, i] + dflux[k, i + 1]) / (z[i + 1] - z[i])
+            down = scale * 0.5 * (dflux[k, i] + dflux[k, i - 1]) / (z[i] - z[i - 1])
+            B[row, 3 * (i + 1) + col] += up
+            B[row, 3 * i + col] -= up + down
+            B[row, 3 * (i - 1) + col] += down

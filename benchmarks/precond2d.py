@@ -1,0 +1,103 @@
+"""Preconditioners of CVODE's Newton matrix M = I - gamma J for the 2-D cell, against N.
+
+J is the analytic sparse Jacobian (:meth:`ShearCell2DPDE.make_jacobian`) of iCIDR bump2d at
+t = 0 on N^2 cells, gamma a typical BDF step coefficient (``--gamma``, default 0.05: the
+steps of bump2d to t = 10 are 0.01-0.2). For each preconditioner: the set-up time (one
+factorisation, CPU time of this process: wall times on a loaded machine mean little), its fill (nnz of the factors over nnz(M)), and GMRES(20) (scipy) on
+M x = b (b random, fixed seed) to a relative residual 1e-6: iterations and solve time.
+
+* SuperLU (scipy ``splu``) with the COLAMD and the minimum-degree (A^T + A) orderings;
+* ILU (scipy ``spilu``, drop_tol 1e-4, fill_factor 10);
+* the z-line block preconditioner: M restricted to the couplings within each x column
+  (:meth:`ShearCell2DPDE.line_pattern` with the thin-cell threshold lifted), factored by
+  SuperLU (Nx independent banded systems after the ordering).
+
+Not wired into the integrator: a measurement for issue 23, item 2.
+
+    nice -n 5 python benchmarks/precond2d.py [--sizes 64 128 256]
+"""
+
+import argparse
+import json
+import pathlib
+import time
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import linalg
+
+import icidr_pde.discretizations.cartesian2d as cartesian2d
+from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+from icidr_pde.scenes2d import Bump2DScene
+
+
+def newton_matrix(n: int, gamma: float):
+    pde = ShearCell2DPDE("icidr")
+    grid = pde.make_grid((n, n), 30.0)
+    scene = Bump2DScene()
+    state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    J = pde.make_jacobian(state)(0.0, state.data.ravel())
+    M = sparse.csc_matrix(sparse.identity(J.shape[0]) - gamma * J)
+    cartesian2d.THIN_CELL = 0.0
+    line = pde.line_pattern(state)
+    cartesian2d.THIN_CELL = 10.0
+    M_line = sparse.csc_matrix(M.multiply(line))
+    return M, M_line
+
+
+def gmres_with(M, apply, b):
+    count = [0]
+
+    def callback(_):
+        count[0] += 1
+
+    P = linalg.LinearOperator(M.shape, matvec=apply)
+    start = time.process_time()
+    x, info = linalg.gmres(M, b, M=P, rtol=1e-6, restart=20, maxiter=200, callback=callback,
+                           callback_type="pr_norm")
+    return {"iterations": count[0], "converged": info == 0, "solve_s": time.process_time() - start,
+            "residual": float(np.linalg.norm(M @ x - b) / np.linalg.norm(b))}
+
+
+def measure(n: int, gamma: float) -> list[dict]:
+    M, M_line = newton_matrix(n, gamma)
+    b = np.random.default_rng(1).standard_normal(M.shape[0])
+    rows = [{"N": n, "preconditioner": "none", "setup_s": 0.0, "fill": 1.0, **gmres_with(M, lambda v: v, b)}]
+    for name, factor in (("SuperLU COLAMD", lambda: linalg.splu(M, permc_spec="COLAMD")),
+                         ("SuperLU MMD(A^T+A)", lambda: linalg.splu(M, permc_spec="MMD_AT_PLUS_A")),
+                         ("ILU 1e-4", lambda: linalg.spilu(M, drop_tol=1e-4, fill_factor=10)),
+                         ("z-line SuperLU", lambda: linalg.splu(M_line, permc_spec="COLAMD"))):
+        start = time.process_time()
+        lu = factor()
+        setup = time.process_time() - start
+        rows.append({"N": n, "preconditioner": name, "setup_s": setup, "fill": (lu.L.nnz + lu.U.nnz) / M.nnz,
+                     **gmres_with(M, lu.solve, b)})
+    return rows
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256])
+    parser.add_argument("--gamma", type=float, default=0.05)
+    parser.add_argument("--json", default="data/benchmarks/precond2d.json")
+    args = parser.parse_args()
+    rows = []
+    print("| grid | preconditioner | set-up [s] | fill | GMRES(20) iterations | solve [s] |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for n in args.sizes:
+        for r in measure(n, args.gamma):
+            rows.append(r)
+            iters = f"{r['iterations']}" + ("" if r["converged"] else " (not converged)")
+            print(f"| {n}² | {r['preconditioner']} | {r['setup_s']:.3f} | {r['fill']:.1f} | {iters} | {r['solve_s']:.3f} |",
+                  flush=True)
+    path = pathlib.Path(args.json)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps({"gamma": args.gamma, "rows": rows,
+                               "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"},
+                              indent=1))
+    tmp.replace(path)
+
+
+if __name__ == "__main__":
+    main()
