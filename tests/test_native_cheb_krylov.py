@@ -120,11 +120,11 @@ def test_counts_and_bad_settings():
     assert counts["lu"] >= counts["jac"] > 0
     rheology = case.rheology
     with pytest.raises(ValueError, match="`linear_solver`"):
-        ChebProblem(rheology, case.D, linear_solver="qr")
+        ChebProblem(rheology, case.scheme.D, linear_solver="qr")
     with pytest.raises(ValueError, match="preconditioner"):
-        ChebProblem(rheology, case.D, linear_solver="krylov", krylov={"preconditioner": "ilu"})
+        ChebProblem(rheology, case.scheme.D, linear_solver="krylov", krylov={"preconditioner": "ilu"})
     with pytest.raises(ValueError, match="`krylov` takes the keys"):
-        ChebProblem(rheology, case.D, linear_solver="krylov", krylov={"restarts": 3})
+        ChebProblem(rheology, case.scheme.D, linear_solver="krylov", krylov={"restarts": 3})
 
 
 def test_low_order_c_is_the_numba_template():
@@ -137,6 +137,6 @@ def test_low_order_c_is_the_numba_template():
     y, _ = smooth_state(case)
     z, D = c.pde.operators(c.grid)[:2]
     B = np.zeros((3 * N, 3 * N))
-    c.pde._loops().low_order_jacobian(y.reshape(3, N), D, z, c.pde.material.params, B)
+    case.scheme.loops().low_order_jacobian(y.reshape(3, N), D, z, c.pde.material.params, B)
     mine = case.problem().jacobian_low_order(y)
     assert np.max(np.abs(mine - B)) <= 1e-13 * np.max(np.abs(B))
