@@ -66,7 +66,8 @@ def parse_solver(text: str) -> tuple[str, dict]:
 
 def one(solver: str, case: str, N: int, rtol=None, atol=None) -> dict:
     """One project run (in this process): t*, max|w| at the snapshot times, counts, times."""
-    from icidr_pde.native import cheb, run_native
+    from icidr_pde.api import run
+    from icidr_pde.native import cheb
 
     linear_solver, options = parse_solver(solver)
     cheb.LINEAR_SOLVER = linear_solver
@@ -87,8 +88,8 @@ def one(solver: str, case: str, N: int, rtol=None, atol=None) -> dict:
         for n in Ns:
             counts.clear()
             times = [0.0] + [t for t in TIMES if t <= spec["t_end"]]
-            r = run_native(spec["rheology"], spec["scene"], n, spec["t_end"], times=times, discretization="cheb",
-                           method="CVODE", rtol=rtol or spec["rtol"], atol=atol or spec["atol"])
+            r = run(spec["rheology"], spec["scene"], n, spec["t_end"], times=times, discretization="cheb",
+                    method="CVODE", rtol=rtol or spec["rtol"], atol=atol or spec["atol"], engine="native")
             rows.append(dict(N=n, t_star=r.t_star, wall_s=r.wall_s, cpu_s=r.cpu_s, compile_s=r.compile_s,
                              reason=r.reason, mass_drift=r.mass_drift,
                              max_w={f"{t:g}": float(abs(r.w[k]).max()) for k, t in enumerate(r.times)},

@@ -4,10 +4,10 @@ preconditioner and time integrator (issue 23, the 128^2 question).
 Each case is one ``icidr_pde.api.run`` of mu(I) on bump2d (N^2 cells, t_end 0.4, the studies'
 rtol 1e-7, atol 1e-10 unless the case says otherwise). eps_lin is CVODE's Krylov tolerance
 factor (``CVodeSetEpsLin``; GMRES stops at ||r|| < eps_lin * (Newton tolerance)), set by the
-integrator to :data:`icidr_pde.integrator.KRYLOV_EPS_LIN` (5e-5 since this study; the case
+integrator to :data:`icidr_pde.engines.sundae.KRYLOV_EPS_LIN` (5e-5 since this study; the case
 'gmres' is SUNDIALS' default 0.05). ``CVodeSetNonlinConvCoef`` (the Newton convergence test,
 default 0.1) is set through SUNDIALS' own C setter on the run's CVODE memory
-(:mod:`icidr_pde.cvode_counters` finds it). ``krylov_dim`` is
+(:mod:`icidr_pde.engines.cvode_counters` finds it). ``krylov_dim`` is
 scikit-sundae's option (the integrator's 20). 'line' forces the z-line preconditioner of
 thin cells (:meth:`ShearCell2DPDE.line_pattern`) on the square cell.
 
@@ -23,9 +23,9 @@ import pathlib
 import sys
 import time
 
-import icidr_pde.cvode_counters as cvode_counters
+import icidr_pde.engines.cvode_counters as cvode_counters
 import icidr_pde.discretizations.cartesian2d as cartesian2d
-import icidr_pde.integrator as integrator
+import icidr_pde.engines.sundae as integrator
 import sksundae.cvode
 
 #: name: (run keywords, CVODE extras)

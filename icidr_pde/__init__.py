@@ -18,7 +18,7 @@ _EXPORTS = {
     "build_case": "case", "make_pde": "case",
     "DISCRETIZATIONS": "discretizations", "ChebyshevShearCellPDE": "discretizations",
     "ShearCellPDE": "discretizations",
-    "SimulationFailed": "integrator", "StiffSolver": "integrator",
+    "SimulationFailed": "engines.base", "StiffSolver": "engines.stiff",
     "Result": "result",
     "ICIDR": "rheology", "RHEOLOGIES": "rheology", "Material": "rheology", "MuIPhiI": "rheology",
     "define_rheology": "rheology", "get_rheology": "rheology",

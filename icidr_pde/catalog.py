@@ -3,11 +3,12 @@
 ``icidr-pde run --help`` and a ``run`` on the native engine import neither py-pde (the
 discretizations' py-pde classes) nor scipy (the integrators): the run parser takes its
 choices from here. The discretizations come from their registry
-(:mod:`icidr_pde.discretizations.registry`, which imports neither); tests/test_native.py
-checks that the integrator's names are what :mod:`icidr_pde.integrator` holds.
+(:mod:`icidr_pde.discretizations.registry`, which imports neither); the methods and Jacobian
+modes are the engines' registry's (:mod:`icidr_pde.engines`, light).
 """
 
 from .discretizations.registry import SCHEMES, option_choices
+from .engines import JACOBIAN_MODES, METHODS
 
 __all__ = ["DISCRETIZATIONS", "DISCRETIZATION_OPTIONS", "METHODS", "JACOBIAN_MODES"]
 
@@ -15,5 +16,3 @@ __all__ = ["DISCRETIZATIONS", "DISCRETIZATION_OPTIONS", "METHODS", "JACOBIAN_MOD
 DISCRETIZATIONS = tuple(SCHEMES)
 #: option -> (the discretizations that have it, its valid values with the default first)
 DISCRETIZATION_OPTIONS = option_choices()
-METHODS = ("BDF", "Radau", "LSODA", "CVODE")
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "sparse", "none")

@@ -179,7 +179,7 @@ def write_outputs(writers) -> int:
 def add_run_parser(subparsers):
     # names from the catalog: building this parser imports neither py-pde nor scipy
     from .catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
-    from .native import ENGINES
+    from .engines.choose import REQUESTS
     from .presets import PRESETS
     from .rheology import RHEOLOGIES
     from .scenes import SCENES, scene_parameters
@@ -231,7 +231,7 @@ def add_run_parser(subparsers):
                    help="simulated time between movie frames, independent of --times "
                         "(default: 40 log-spaced frames up to t_end/200, then every t_end/200)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--engine", choices=ENGINES, default="auto",
+    p.add_argument("--engine", choices=REQUESTS, default="auto",
                    help="auto: the native engine (C kernels and CVODE compiled once per installation, no "
                         "Python in the loop, no py-pde import) where it applies: fd or cheb, CVODE, analytic Jacobian, "
                         "no --save/--movie; else the py-pde path. native: the same, saying why when it falls "
@@ -266,18 +266,12 @@ def cmd_run(args) -> int:
             options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
                            progress=not args.no_progress, save=args.save, movie=args.movie, **scene_params)
-            from .native import try_native
+            from .api import run
 
-            result = try_native(args.engine, args.rheology, args.scene, N, args.t_end, args.times, **options)
-            if result is None:
-                from .api import run
-
-                with warnings.catch_warnings():  # an output not written: said below, once
-                    warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
-                    result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
-                                 engine="pde", on_result=write_results, **options)
-            else:
-                write_results(result)
+            with warnings.catch_warnings():  # an output not written: said below, once
+                warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
+                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                             engine=args.engine, on_result=write_results, **options)
         except KeyboardInterrupt:
             if "result" not in written:  # before the integration started: nothing computed
                 print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)

@@ -4,7 +4,7 @@
 the stepper is built, "integrating" (with the build time), then "done", "FAILED at t* = ..."
 or "interrupted at t = ...", the bar left at the time reached. The py-pde path drives it
 from :class:`icidr_pde.trackers.ProgressBarTracker`, the native engine from its output
-loop (:func:`icidr_pde.native.run_native`). tqdm only: importing this module imports
+loop (:func:`icidr_pde.api.run`). tqdm only: importing this module imports
 neither py-pde nor IPython.
 """
 

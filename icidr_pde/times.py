@@ -10,7 +10,8 @@ import numpy as np
 
 from .validation import ParameterError, real, shown
 
-__all__ = ["dense_times", "time_labels", "time_tolerance", "controller_dt", "check_t_end", "MAX_T_END"]
+__all__ = ["dense_times", "time_labels", "time_tolerance", "controller_dt", "check_t_end", "MAX_T_END", "chi_times",
+           "merged_output_times"]
 
 #: the largest t_end: beyond it the round-off of the rates at the steady state, integrated over
 #: t, drifts the conserved mass of phi (measured, native engine, iCIDR shear and sine, fd N = 201:
@@ -77,3 +78,30 @@ def time_labels(times, t_end):
         values.append(value)
     order = np.argsort(values, kind="stable")
     return [labels[i] for i in order], np.array(values)[order]
+
+
+def chi_times(t_end: float) -> np.ndarray:
+    """When chi of (A18) is sampled: 0 and 20 log-spaced times up to t_end (a diagnostic)."""
+    return np.unique(np.concatenate(([0.0], np.geomspace(min(1e-3, t_end / 10), t_end, 20))))
+
+
+def merged_output_times(t_end, lists):
+    """Merged output times (> 0, increasing; times within :func:`time_tolerance` are one
+    output, as the stiff solver's recorders) and, per list, the output index of each of its
+    times (-1: at t = 0)."""
+    every = np.sort(np.concatenate([np.asarray(t, float) for t in lists] + [[t_end]]))
+    merged = []
+    for t in every:
+        if t < time_tolerance(0.0):
+            continue
+        if not merged or t >= merged[-1] + time_tolerance(merged[-1]):
+            merged.append(float(t))
+    merged = np.array(merged)
+    where = []
+    for times in lists:
+        times = np.asarray(times, float)
+        tolerance = np.array([time_tolerance(t) for t in times])
+        index = np.searchsorted(merged, times - tolerance, side="left")
+        index[times < time_tolerance(0.0)] = -1
+        where.append(index)
+    return merged, where

@@ -30,7 +30,7 @@ class MaxWTracker(TrackerBase):
     """Record max|w|(t), the maximum over the nodes, at the interrupts.
 
     Given a list of times, the tracker can instead be recorded by the stiff solver inside
-    its stepping loop (:meth:`icidr_pde.integrator.StiffSolver.record` with `times` and
+    its stepping loop (:meth:`icidr_pde.engines.stiff.StiffSolver.record` with `times` and
     :meth:`record`, as :func:`icidr_pde.api.integrate` does): the same numbers at the same
     times, without one py-pde interrupt per time.
 

@@ -18,7 +18,8 @@ import os
 
 from .argtypes import positive_int
 from .discretizations import DISCRETIZATIONS
-from .integrator import JACOBIAN_MODES, METHODS, check_tolerances
+from .engines import JACOBIAN_MODES, METHODS
+from .engines.base import check_tolerances
 from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES

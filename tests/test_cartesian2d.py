@@ -11,7 +11,7 @@
 import numpy as np
 import pytest
 
-from icidr_pde.colored_fd import colored_fd_jacobian
+from icidr_pde.engines.colored_fd import colored_fd_jacobian
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.discretizations.fd import ShearCellPDE
 from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
@@ -75,7 +75,7 @@ def test_x_independent_rates_are_the_1d_rates(rheology, advection):
 def test_x_independent_run_reproduces_the_1d_run(advection):
     from pde.solvers import Controller
 
-    from icidr_pde.integrator import StiffSolver
+    from icidr_pde.engines.stiff import StiffSolver
 
     fd = ShearCellPDE("icidr", advection=advection)
     g1 = fd.make_grid(16, H)
@@ -97,7 +97,7 @@ def test_x_independent_run_reproduces_the_1d_run(advection):
 def test_mass_rate_sums_to_zero_and_run_conserves_mass(advection):
     from pde.solvers import Controller
 
-    from icidr_pde.integrator import StiffSolver
+    from icidr_pde.engines.stiff import StiffSolver
 
     pde = ShearCell2DPDE("icidr", advection=advection)
     grid = pde.make_grid((12, 10), H, L=L)
@@ -289,7 +289,8 @@ def test_upwind_reproduces_the_first_order_study(monkeypatch):
     import json
     import pathlib
 
-    from icidr_pde import integrator, run
+    from icidr_pde import run
+    from icidr_pde.engines import sundae as integrator
 
     monkeypatch.setattr(integrator, "KRYLOV_EPS_LIN", 0.05)
 
@@ -307,7 +308,8 @@ def test_upwind_reproduces_the_first_order_study(monkeypatch):
 def test_krylov_solves_of_2d_runs_use_the_tight_tolerance(monkeypatch):
     """CVODE's GMRES runs at eps_lin = KRYLOV_EPS_LIN (5e-5), not SUNDIALS' 0.05: the tighter
     linear solves need more Jacobian-vector products (difference quotients, one RHS call each)."""
-    from icidr_pde import integrator, run
+    from icidr_pde import run
+    from icidr_pde.engines import sundae as integrator
 
     def n_rhs():
         return run("mui", "bump2d", (16, 16), 0.5, ["0", "0.5"], series_times=[], method="CVODE",

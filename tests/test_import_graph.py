@@ -125,7 +125,7 @@ def is_scheme(module):
 
 
 def is_run_path(module):
-    return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.integrator", "icidr_pde.engines",
+    return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines",
                  "icidr_pde.native", "icidr_pde.trackers", "icidr_pde.result", "icidr_pde.validation")
 
 

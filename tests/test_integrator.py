@@ -5,7 +5,7 @@ import pytest
 from pde.solvers import Controller
 
 from icidr_pde import ShearCellPDE, StiffSolver, run
-from icidr_pde.integrator import SimulationFailed
+from icidr_pde.engines.base import SimulationFailed
 from icidr_pde.scenes import get_scene
 
 H = 30.0

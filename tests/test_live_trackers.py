@@ -133,9 +133,9 @@ def test_run_with_progress_and_movie_ends_at_t_star(tmp_path, capsys):
 
 def test_native_progress_ends_at_the_failure_time(capsys):
     """The native engine's bar (the same TimeBar): a failed run ends at t* with the reason."""
-    from icidr_pde.native import run_native
+    from icidr_pde.api import run
 
-    res = run_native("mui", "shear", 201, 10.0, [0], progress=True)
+    res = run("mui", "shear", 201, 10.0, [0], progress=True, engine="native")
     assert res.blew_up
     last = capsys.readouterr().err.rsplit("\r", 1)[-1]
     assert last.startswith(f"FAILED at t* = {res.t_star:.5g} (") and ": :" not in last
@@ -143,9 +143,9 @@ def test_native_progress_ends_at_the_failure_time(capsys):
 
 
 def test_native_progress_of_a_run_that_ends_says_done(capsys):
-    from icidr_pde.native import run_native
+    from icidr_pde.api import run
 
-    res = run_native("icidr", "shear", 21, 0.5, progress=True)
+    res = run("icidr", "shear", 21, 0.5, progress=True, engine="native")
     assert not res.blew_up
     err = capsys.readouterr().err
     assert "integrating (native, ready in" in err

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from icidr_pde import catalog
-from icidr_pde.native import FdCase, FdProblem, NativeUnavailable, run_native
+from icidr_pde.native import FdCase, FdProblem, NativeUnavailable
 
 try:
     FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)
@@ -27,10 +27,19 @@ except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
 
 
+def run_native(*args, **kwargs):
+    """A run that must take the native engine (api.run with engine 'native')."""
+    from icidr_pde.api import run
+
+    result = run(*args, engine="native", **kwargs)
+    assert result.settings["engine"] == "native"
+    return result
+
+
 def test_catalog_is_what_the_registries_hold():
     from icidr_pde.cli import discretization_options
     from icidr_pde.discretizations import DISCRETIZATIONS
-    from icidr_pde.integrator import JACOBIAN_MODES, METHODS
+    from icidr_pde.engines import JACOBIAN_MODES, METHODS
 
     assert catalog.DISCRETIZATIONS == tuple(DISCRETIZATIONS)
     assert {k: v[1] for k, v in catalog.DISCRETIZATION_OPTIONS.items()} == discretization_options()
@@ -178,10 +187,13 @@ def test_law_without_a_c_form_falls_back():
     """The scalar flow-rule solve (icidr-blended-quarter) has no C form here: the py-pde path runs it."""
     from icidr_pde.api import run
 
+    from icidr_pde.rheology import get_rheology
+    from icidr_pde.native.build import library
+
     with pytest.raises(NativeUnavailable, match="scalar flow-rule solve"):
-        run_native("icidr-blended-quarter", "shear", 11, 0.05)
+        library(get_rheology("icidr-blended-quarter"), __import__("icidr_pde.rheology").rheology.SHEAR_CELL)
     result = run("icidr-blended-quarter", "shear", 11, 0.05, engine="auto")
-    assert result.settings.get("engine") is None and result.t_final == 0.05
+    assert result.settings["engine"] == "sundae" and result.t_final == 0.05
 
 
 def test_bad_input_is_named_before_any_work():
@@ -193,8 +205,10 @@ def test_bad_input_is_named_before_any_work():
         run_native("icidr", "shear", 11, 1.0, advection="sideways")
     with pytest.raises(ValueError, match="`t_end`"):
         run_native("icidr", "shear", 11, -1.0)
-    with pytest.raises(NativeUnavailable, match="method 'BDF'"):
-        run_native("icidr", "shear", 11, 1.0, method="BDF")
+    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+
+    choice = choose(method="BDF", discretization="fd", structure=SCHEME_STRUCTURES["fd"], request="native")
+    assert choice.engine == "scipy" and "method 'BDF'" in choice.reason
 
 
 @pytest.mark.parametrize("sig, status", [(__import__("signal").SIGINT, 130), (__import__("signal").SIGTERM, 143)])
@@ -229,7 +243,7 @@ def test_without_a_compiler_the_run_falls_back_saying_why(tmp_path):
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if "native engine" in line]
     assert len(lines) == 1 and "no C compiler" in lines[0] and "py-pde path" in lines[0]
-    assert json.loads((tmp_path / "r.json").read_text())["settings"].get("engine") is None
+    assert json.loads((tmp_path / "r.json").read_text())["settings"]["engine"] == "sundae"
 
 
 def test_interrupt_keeps_the_state_at_the_time_reached(monkeypatch):

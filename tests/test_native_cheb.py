@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from icidr_pde.native import NativeUnavailable, run_native
+from icidr_pde.native import NativeUnavailable
 from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebCase, ChebProblem
 
 try:
@@ -23,6 +23,15 @@ except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde 
     pytest.skip(f"native engine unavailable: {err}", allow_module_level=True)
 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
+
+
+def run_native(*args, **kwargs):
+    """A run that must take the native engine (api.run with engine 'native')."""
+    from icidr_pde.api import run
+
+    result = run(*args, engine="native", **kwargs)
+    assert result.settings["engine"] == "native"
+    return result
 
 
 def perturbed(case, seed, amplitude=0.05):
@@ -35,15 +44,19 @@ def perturbed(case, seed, amplitude=0.05):
 
 
 def test_settings_are_the_py_pde_paths():
-    from icidr_pde import native
     from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE
-    from icidr_pde.integrator import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
+    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+    from icidr_pde.engines.sundae import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
     from icidr_pde.native import cheb
 
     assert DENSE_LU_DELTA_GAMMA == pde_delta_gamma
     assert cheb.MAX_N == ChebyshevShearCellPDE.max_N
     assert cheb.memory_estimate(201) == ChebyshevShearCellPDE.memory_estimate(201)
-    assert native.unavailable(discretization="cheb", method="CVODE") is None
+    choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"])
+    assert (choice.engine, choice.linear_solver) == ("native", f"GMRES + {cheb.KRYLOV['preconditioner']} preconditioner")
+    assert cheb.LINEAR_SOLVER == "krylov"
+    pde_choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"], request="pde")
+    assert (pde_choice.jacobian, pde_choice.linear_solver) == ("analytic", "dense LU (LAPACK)")
 
 
 def test_native_jacobian_is_the_derivative_of_the_native_rates():
@@ -171,7 +184,7 @@ def test_cli_auto_runs_cheb_natively_and_a_failed_run_exits_3(tmp_path):
     pde_path = tmp_path / "p.json"
     assert cli.main(argv + ["--json", str(pde_path), "--engine", "pde"]) == 3
     pde_data = json.loads(pde_path.read_text())
-    assert "engine" not in pde_data["settings"] and set(pde_data) == set(data)
+    assert pde_data["settings"]["engine"] == "sundae" and set(pde_data) == set(data)
     # the default Krylov path against the py-pde path's dense LU: to the t* spread of the standard
     # tolerance, rtol 1e-5 (6e-4 measured; the dense LUs of the two paths agree to 1e-4)
     assert data["t_star"] == pytest.approx(pde_data["t_star"], rel=2e-3)

@@ -11,9 +11,11 @@ tests/test_native_cheb.py. No timings.
 import numpy as np
 import pytest
 
-from icidr_pde.native import NativeUnavailable, run_native
+from icidr_pde.native import NativeUnavailable
 from icidr_pde.native import cheb
 from icidr_pde.native.cheb import ChebCase, ChebProblem
+
+from .test_native_cheb import run_native
 
 try:
     ChebCase("mui", "shear", 9).problem(linear_solver="krylov")

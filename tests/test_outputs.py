@@ -343,10 +343,12 @@ def test_signal_while_the_plot_renders_exits_with_its_status(tmp_path, sig, stat
 def test_native_interrupt_keeps_the_outputs_cvode_returned(monkeypatch):
     """Ctrl-C is seen once CVODE returns, before Python counted that call's outputs: the run
     reported 'interrupted at t = 0' and dropped the states the driver had written."""
-    from icidr_pde import native
-    from icidr_pde.native import NativeProblem
+    from icidr_pde.api import run
+    from icidr_pde.native import FdCase, NativeProblem, NativeUnavailable
 
-    if native.unavailable(discretization="fd", method="CVODE", jacobian=None, N=21):
+    try:
+        FdCase("icidr", "shear", 9).problem()
+    except NativeUnavailable:
         pytest.skip("no native engine here")
     original = NativeProblem.advance
 
@@ -355,7 +357,8 @@ def test_native_interrupt_keeps_the_outputs_cvode_returned(monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(NativeProblem, "advance", interrupted_on_return)
-    res = native.try_native("native", "icidr", "shear", 21, 10.0, ["0", "10"])
+    res = run("icidr", "shear", 21, 10.0, ["0", "10"], engine="native")
+    assert res.settings["engine"] == "native"
     assert res.reason.startswith("interrupted") and res.t_final > 0
     assert res.max_w_t.size > 0 and res.max_w_t[-1] == pytest.approx(res.t_final, rel=1e-12)
     assert np.all(np.isfinite(res.max_w)) and res.n_steps > 0

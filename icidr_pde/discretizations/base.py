@@ -51,7 +51,7 @@ import numpy as np
 from pde import CartesianGrid, FieldCollection, ScalarField
 from pde.pdes.base import PDEBase
 
-from .. import integrator  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
+from ..engines import stiff  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
 from ..validation import real
 from .core import PhiRange

@@ -65,7 +65,7 @@ FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5
 #: estimate, by (method, Jacobian mode): measured for 'analytic-band' (module docstring), the
 #: others counted from the arrays the solvers allocate; 'analytic-band' is the analytic Jacobian in CVODE's
 #: band matrix (the mass-conserving difference quotients of 'banded-fd' are handed over densely
-#: too, but only up to 256 MiB: :class:`icidr_pde.integrator.CvodeEngine`)
+#: too, but only up to 256 MiB: :class:`icidr_pde.engines.sundae.CvodeEngine`)
 DENSE_ARRAYS = {
     ("CVODE", "analytic-band"): (1, "scikit-sundae's dense hand-over array of the band Jacobian"),
     ("CVODE", "none"): (2, "CVODE's dense matrix and its saved Jacobian"),

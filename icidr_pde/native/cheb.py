@@ -23,7 +23,7 @@ __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate
-DENSE_LU_DELTA_GAMMA = 1.0  # integrator.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
+DENSE_LU_DELTA_GAMMA = 1.0  # engines.sundae.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
 #: OpenBLAS threads of a run where neither OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set: one.
@@ -53,7 +53,7 @@ class ChebProblem(NativeProblem):
     """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
-    `delta_gamma`, default :data:`icidr_pde.integrator.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
+    `delta_gamma`, default :data:`icidr_pde.engines.sundae.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
     "krylov" (default :data:`LINEAR_SOLVER`; the dense LU where the build cannot), GMRES with the
     low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`)."""
 
@@ -87,6 +87,7 @@ class ChebProblem(NativeProblem):
         self._attach(self.lib.icidr_cheb_problem(self.N, _pointer(self.D), _pointer(params), params.size, lo, hi,
                                                  int(solver == "lapack"), float(delta_gamma)))
         self.linear_solver = linear_solver
+        self.preconditioner = settings["preconditioner"]
         if linear_solver == "krylov":
             status = self.lib.icidr_cheb_krylov(self.handle, int(settings["max_krylov"]), float(settings["eps_lin"]),
                                                 int(settings["setup_steps"]), int(settings["jac_steps"]),

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..discretizations.cheb import interpolate
-from ..integrator import METHODS
+from ..engines import METHODS
 from ..scenes import get_scene
 from .failure_time import failure_time
 from .parallel import run_cases

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..api import collect, integrate, make_trackers
 from ..case import build_case
-from ..integrator import StiffSolver
+from ..engines.stiff import StiffSolver
 from ..times import check_t_end
 from .parallel import run_cases
 

@@ -1,0 +1,147 @@
+"""One choice of engine, Jacobian and linear solver for a run.
+
+:func:`choose` is the only place that decides, from the resolved settings (method, the
+Jacobian asked for, what the scheme's Jacobian offers, the outputs asked, the engine asked
+for), which engine integrates, with which Jacobian and linear solver, and, where 'native' was
+asked for and not taken, why (one line). Light: numpy is not even needed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..validation import ParameterError, choice as checked_choice
+from . import ENGINES, METHODS
+
+__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES"]
+
+#: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
+#: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme
+REQUESTS = ("auto", "native", "pde")
+
+#: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
+DENSE_HANDOVER_BYTES = 2**28
+
+
+@dataclass(frozen=True)
+class JacobianStructure:
+    """What a scheme's Jacobian offers: a banded ordering (`banded`) and the analytic Jacobian
+    in it (`band_jac`), a sparse pattern (`sparse`; else dense), a line preconditioner pattern
+    where the cell is thin (`line`, 2-D cells)."""
+
+    banded: bool = False
+    band_jac: bool = False
+    sparse: bool = False
+    line: bool = False
+
+    @classmethod
+    def of(cls, pde, state) -> "JacobianStructure":
+        """The structure a py-pde scheme offers on `state` (any PDE: what it has)."""
+        ordering = getattr(pde, "interleaving", lambda state: None)(state)
+        sparsity = getattr(pde, "jacobian_sparsity", lambda state: None)(state)
+        return cls(banded=ordering is not None, band_jac=ordering is not None and hasattr(pde, "make_band_jacobian"),
+                   sparse=sparsity is not None, line=hasattr(pde, "line_pattern"))
+
+
+#: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
+#: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
+NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner"}
+#: the Jacobian structure of the registered schemes, known without importing them
+SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
+                     "cheb": JacobianStructure(),
+                     "fv2d": JacobianStructure(sparse=True, line=True)}
+
+
+@dataclass(frozen=True)
+class Choice:
+    """engine (a key of :data:`~icidr_pde.engines.ENGINES`), jacobian (a Jacobian mode),
+    linear_solver (of the Newton systems), reason (why 'native' was not taken, else '')."""
+
+    engine: str
+    jacobian: str
+    linear_solver: str
+    reason: str = ""
+
+    @property
+    def memory_mode(self) -> str:
+        """The Jacobian as :func:`icidr_pde.discretizations.grid_size.check_path` names it."""
+        return "analytic-band" if (self.jacobian, self.linear_solver) == ("analytic", "band LU") else self.jacobian
+
+
+def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
+           discretization: str | None = None, request: str = "auto", outputs=(), backend: str = "numba",
+           dim: int = 1, native_unavailable: str | None = None) -> Choice:
+    """The engine, Jacobian and linear solver of a run.
+
+    Args:
+        method: 'BDF', 'Radau', 'LSODA' or 'CVODE'
+        jacobian: the mode asked for, None: the method's best on this structure
+        structure: what the scheme's Jacobian offers (:class:`JacobianStructure`)
+        discretization: the scheme's registry name (the native engine has 'fd' and 'cheb')
+        request: one of :data:`REQUESTS`
+        outputs: names of the outputs asked that only the py-pde run path writes (--save, ...)
+        backend: 'numba' or 'numpy' (the native engine is compiled)
+        dim: 1 or 2
+        native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
+    """
+    checked_choice("engine", request, REQUESTS)
+    checked_choice("method", method, METHODS)
+    reason = ""
+    if request != "pde":
+        reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
+        if not reason:
+            return Choice("native", "analytic", NATIVE_SCHEMES[discretization])
+    engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
+    mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure)
+    return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
+
+
+def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
+    """Why these settings cannot take the native engine (one line), or ''."""
+    if discretization not in NATIVE_SCHEMES:
+        return f"discretization {discretization!r} (the native engine is the 1-D cell: fd or cheb)"
+    if method != "CVODE":
+        return f"method {method!r} (the native engine is CVODE)"
+    if jacobian not in (None, "analytic"):
+        return f"jacobian {jacobian!r} (the native engine uses the analytic Jacobian)"
+    if backend != "numba":
+        return f"backend {backend!r}"
+    if dim != 1:
+        return "a 2-D grid"
+    if outputs:
+        return f"{outputs[0]} (written by the py-pde run path)"
+    return ""
+
+
+def _jacobian_mode(valid, method, jacobian, structure) -> str:
+    """The Jacobian mode: the one asked for (checked against the method's and the scheme's),
+    else the method's best on this structure."""
+    if jacobian is not None and jacobian not in valid:
+        raise ParameterError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
+    mode = valid[0] if jacobian is None else jacobian
+    if method == "CVODE" and mode == "analytic" and not structure.band_jac and jacobian is None:
+        mode = "banded-fd"  # no analytic band: difference quotients in the band, or below
+    if mode == "banded-fd" and not structure.banded:
+        if jacobian is not None:
+            raise ParameterError("`jacobian`='banded-fd' needs a discretization with a banded "
+                                 "ordering (finite differences); use 'analytic' or 'none'")
+        # no banded ordering: Krylov where the Jacobian is sparse (2-D), else dense analytic (Chebyshev)
+        mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
+    if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
+        raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
+                             "discretization's is dense: use 'analytic' or 'none'")
+    return mode
+
+
+def _linear_solver(method, mode, structure) -> str:
+    """The solver of the Newton systems that `method` takes with Jacobian `mode`."""
+    if method == "CVODE":
+        if mode == "analytic":
+            return "band LU" if structure.band_jac else "dense LU (LAPACK)"
+        return {"banded-fd": "band LU", "krylov": "GMRES (line preconditioner in thin cells)" if structure.line else "GMRES",
+                "sparse": "SuperLU_MT", "none": "dense LU"}[mode]
+    if method == "LSODA":
+        return "band LU (LSODA)" if mode == "banded-fd" else "dense LU (LSODA)"
+    if mode == "none":
+        return "dense LU (LAPACK)"
+    return "SuperLU" if structure.sparse else "dense LU (LAPACK)"
