@@ -20,7 +20,8 @@ import time
 import numpy as np
 from pde.trackers.base import TrackerBase
 
-from .progress import TimeBar, in_jupyter
+from .live_plot import LivePlot
+from .progress import TimeBar
 from .times import dense_times
 
 __all__ = ["MaxWTracker", "ChiTracker", "ProgressBarTracker", "LivePlotTracker", "dense_times"]
@@ -159,172 +160,24 @@ class ProgressBarTracker(TrackerBase):
         self.time_bar.close(t_final, outcome, "" if outcome == "done" else reason)
 
 
-class LivePlotTracker(TrackerBase):
-    """One figure updated in place while a run evolves: phi, u, w against z, max|w|(t),
-    and chi (A18) where a function for it is given (the mu(I) runs).
-
-    In Jupyter the figure is one rich output, replaced at every redraw
-    (``IPython.display`` with a ``display_id``), so an executed notebook keeps exactly
-    one live figure per run; with an interactive matplotlib backend it is a window; with
-    a non-interactive backend it is drawn only into `output_file` (if given).
-
-    Cost is bounded by wall-clock budget, not by a fixed count: after a redraw that took
-    d seconds the next redraw waits until (1/max_overhead - 1) d seconds have passed,
-    so redrawing costs at most about `max_overhead` of the run's wall time (default
-    10 %) plus a fixed cost per run: creating the figure and drawing the first and the
-    final state (always drawn), ~0.1-0.3 s each on one core. All of it is in `overhead_s`.
-
-    Args:
-        z: positions of the unknowns (the discretization's nodes)
-        t_end: final time (sets the time axis and the default interrupts)
-        interrupts: when to consider a redraw (default: log-spaced plus uniform times)
-        chi: optional function(state_data) -> (z_chi, chi) for the chi panel
-        max_overhead: fraction of wall time redrawing may take
-        title: text before the time in the title
-        output_file: image refreshed at every redraw (e.g. to watch a remote run)
-        show: None: automatic (Jupyter or an interactive backend); False: only files
-    """
+class LivePlotTracker(LivePlot, TrackerBase):
+    """py-pde's tracker of the live figure :class:`~icidr_pde.live_plot.LivePlot` (same arguments)."""
 
     name = "shear_live_plot"
-    fields = ("phi", "u", "w")
 
-    def __init__(self, z, t_end: float, interrupts=None, *, chi=None, max_overhead: float = 0.1,
-                 title: str = "", output_file=None, show: bool | None = None):
-        if not 0 < max_overhead < 1:
-            raise ValueError(f"`max_overhead` must lie in (0, 1); got {max_overhead}")
-        if interrupts is None:
-            interrupts = list(dense_times(t_end, n_log=60, n_lin=200))
-        super().__init__(interrupts=interrupts)
-        self.z = np.asarray(z, dtype=float)
-        self.t_end = float(t_end)
-        self._t_range = (dense_times(self.t_end)[1], self.t_end)  # the first time after 0 to t_end
-        self.chi = chi
-        self.max_overhead = max_overhead
-        self.title = title
-        self.output_file = output_file
-        self.show = show
-        self.times: list[float] = []
-        self.max_w: list[float] = []
-        self.n_draws = 0
-        self.overhead_s = 0.0
-        self.fig = None
-        self._mode = "none"
-        self._handle = None
-        self._next_draw = 0.0
-        self._last = None
+    def __init__(self, z, t_end: float, interrupts=None, **kwargs):
+        LivePlot.__init__(self, z, t_end, interrupts, **kwargs)
+        TrackerBase.__init__(self, interrupts=list(self.output_times) if interrupts is None else interrupts)
 
-    # -- figure ---------------------------------------------------------------------------
-    def _make_figure(self):
-        import matplotlib
-        from matplotlib.ticker import LogFormatter
-
-        interactive = matplotlib.get_backend().lower() not in {
-            "agg", "pdf", "ps", "svg", "cairo", "template", "module://matplotlib_inline.backend_inline"}
-        if self.show is not False and in_jupyter():
-            self._mode = "jupyter"
-        elif self.show is not False and interactive:
-            self._mode = "window"
-        else:
-            self._mode = "none"
-        if self._mode == "window":
-            import matplotlib.pyplot as plt
-
-            fig = plt.figure(figsize=(12, 3.2))
-        else:  # not registered with pyplot: Jupyter shows it only through our display handle
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(12, 3.2), dpi=72)  # each redraw is a PNG: small and quick
-        n = 5 if self.chi is not None else 4
-        axes = fig.subplots(1, n)
-        self._lines = {}
-        for ax, name in zip(axes, self.fields):
-            (self._lines[name],) = ax.plot(self.z, np.zeros_like(self.z), color="k")
-            ax.set_xlabel("z")
-            ax.set_ylabel(name)
-        ax = axes[3]  # log t: a mu(I) blow-up at t ~ 1e-2 of t_end = 10 is visible (t = 0 is not drawn)
-        (self._lines["max_w"],) = ax.loglog([], [], color="tab:red")
-        for axis in (ax.xaxis, ax.yaxis):  # plain "1e-2" labels: narrower and quicker than mathtext
-            axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
-            axis.set_minor_formatter(LogFormatter(labelOnlyBase=True))
-        ax.set_xlabel("t")
-        ax.set_ylabel("max|w|")
-        ax.set_xlim(*self._t_range)
-        if self.chi is not None:
-            ax = axes[4]
-            (self._lines["chi"],) = ax.plot([], [], color="tab:purple")
-            ax.axhline(0, color="gray", lw=0.6)
-            ax.set_xlabel("z")
-            ax.set_ylabel(r"$\chi$ (A18)")
-        self._axes = axes
-        self._suptitle = fig.suptitle(self.title, fontsize=10)
-        # fixed (no re-layout per redraw), wide enough for tick labels of the form -0.0005 and 1e-10
-        fig.subplots_adjust(left=0.06, right=0.99, bottom=0.17, top=0.85, wspace=0.6)
-        return fig
-
-    def _draw(self, data, t: float, status: str = "") -> None:
-        start = time.perf_counter()
-        for k, name in enumerate(self.fields):
-            self._lines[name].set_ydata(data[k])
-        self._lines["max_w"].set_data(self.times, self.max_w)
-        if self.chi is not None:
-            z_chi, chi = self.chi(data)
-            self._lines["chi"].set_data(z_chi, np.clip(chi, -5, 5))  # +inf where u_z = 0 < w_z
-        for ax in self._axes:
-            ax.relim()
-            ax.autoscale_view()
-        self._axes[3].set_xlim(*self._t_range)
-        self._suptitle.set_text(f"{self.title}  t = {t:.5g}{status}")
-        if self._mode == "jupyter":
-            if self._handle is None:
-                from IPython.display import display
-
-                self._handle = display(self.fig, display_id=True)
-            else:
-                self._handle.update(self.fig)
-        elif self._mode == "window":
-            self.fig.canvas.draw_idle()
-            self.fig.canvas.flush_events()
-        if self.output_file:  # whole at every redraw: a watcher never reads half an image
-            from .outputs import save_figure
-
-            save_figure(self.fig, self.output_file)
-        cost = time.perf_counter() - start
-        self.n_draws += 1
-        self.overhead_s += cost
-        self._next_draw = time.perf_counter() + cost * (1 / self.max_overhead - 1)
-
-    # -- tracker protocol -----------------------------------------------------------------
     def initialize(self, field, info=None) -> float:
-        start = time.perf_counter()
-        self.fig = self._make_figure()
-        self.overhead_s += time.perf_counter() - start
-        if self._mode == "window":
-            import matplotlib.pyplot as plt
-
-            plt.show(block=False)
-        return super().initialize(field, info)
+        self.start()
+        return TrackerBase.initialize(self, field, info)
 
     def handle(self, field, t: float) -> None:
-        data = field.data
-        self.times.append(float(t))
-        self.max_w.append(float(np.max(np.abs(data[2]))))
-        self._last = (data.copy(), float(t))
-        if time.perf_counter() >= self._next_draw:
-            self._draw(data, t)
+        self.record(t, field.data)
 
     def finalize(self, info=None) -> None:
-        super().finalize(info)
+        TrackerBase.finalize(self, info)
         controller = (info or {}).get("controller", {})
-        state = controller.get("state_data")
-        t = controller.get("t_final")
-        if state is not None and t is not None:  # a failed run hands over the state at t*
-            self.times.append(float(t))
-            self.max_w.append(float(np.max(np.abs(state[2]))))
-            self._last = (np.asarray(state), float(t))
-        if self._last is None or self.fig is None:
-            return
-        data, t = self._last
-        status = ""
-        if controller.get("successful") is False:
-            status = f": FAILED ({controller.get('stop_reason', 'stopped early')})"
-        self._draw(data, t, status)
+        failed = controller.get("stop_reason", "stopped early") if controller.get("successful") is False else None
+        self.finish(controller.get("t_final"), controller.get("state_data"), failed)

@@ -137,8 +137,8 @@ RULES = {
     "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
     "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
 }
-#: the one edge left: ``run(movie=...)`` adds the py-pde tracker that renders the movie at the end
-KNOWN = {("icidr_pde.api", "icidr_pde.movies.tracker")}
+#: the one edge left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end
+KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames")}
 
 
 def layer_violations(graph, known=frozenset()):

@@ -107,7 +107,7 @@ class StiffSolver(SolverBase):
         during the call. Times before the start are given the initial state."""
         self._records.append((np.asarray(times, dtype=float), callback))
 
-    def _rates(self, state):
+    def rates(self, state):
         """The right-hand side: the discretization's cached kernels, else py-pde's backend."""
         if getattr(self._backend, "name", self._backend) == "numba" and hasattr(self.pde, "make_rates"):
             self.info["backend"] = "compiled kernels (icidr_pde.rheology.codegen)"
@@ -119,7 +119,7 @@ class StiffSolver(SolverBase):
     def make_stepper(self, state, dt: float | None = None):
         """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
         start, cpu_start = time.perf_counter(), time.process_time()
-        rhs = self._rates(state)
+        rhs = self.rates(state)
         rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
         choice = self._choose(state)
         spec, perm = jacobian_spec(self.pde, state, choice)  # a compiled Jacobian is loaded here
