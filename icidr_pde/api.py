@@ -21,7 +21,7 @@ from functools import partial
 
 import numpy as np
 
-from .engines.base import SimulationFailed, check_tolerances
+from .engines.base import check_tolerances
 from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
 from .presets import resolve
 from .result import Result

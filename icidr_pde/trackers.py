@@ -1,11 +1,9 @@
-"""py-pde trackers for shear-cell runs.
-
-Snapshots use py-pde's ``MemoryStorage``/``FileStorage`` trackers. The trackers here
-record the derived quantities the paper plots, max|w|(t) (figs 4a, 6b, 7e) and chi of
-(A18) (figs 2d, 7d), and show a run while it evolves: a tqdm.auto progress bar with a
-compiling phase and an honest end (:class:`ProgressBarTracker`), and one live figure
-updated in place at a bounded cost (:class:`LivePlotTracker`). Movies:
-:mod:`icidr_pde.movies`.
+"""py-pde trackers that show a shear-cell run of ``eq.solve(state, tracker=...)`` while it
+evolves: a tqdm.auto progress bar with a compiling phase and an honest end
+(:class:`ProgressBarTracker`), and one live figure updated in place at a bounded cost
+(:class:`LivePlotTracker`, over :class:`icidr_pde.live_plot.LivePlot`). Movies:
+:class:`icidr_pde.movies.tracker.MovieTracker`. ``icidr_pde.run`` takes none of them: its
+recorders are called by its own loop (:func:`icidr_pde.api.make_recorders`).
 
 All follow py-pde's tracker conventions (``initialize(field, info)``, ``handle(field,
 t)``, ``finalize(info)`` with ``info["controller"]``); a failed run reaches
@@ -17,70 +15,13 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from pde.trackers.base import TrackerBase
 
 from .live_plot import LivePlot
 from .progress import TimeBar
 from .times import dense_times
 
-__all__ = ["MaxWTracker", "ChiTracker", "ProgressBarTracker", "LivePlotTracker", "dense_times"]
-
-
-class MaxWTracker(TrackerBase):
-    """Record max|w|(t), the maximum over the nodes, at the interrupts.
-
-    Given a list of times, the tracker can instead be recorded by the stiff solver inside
-    its stepping loop (:meth:`icidr_pde.engines.stiff.StiffSolver.record` with `times` and
-    :meth:`record`, as :func:`icidr_pde.api.integrate` does): the same numbers at the same
-    times, without one py-pde interrupt per time.
-
-    Args:
-        interrupts: when to record (py-pde interrupt data, e.g. a list of times)
-    """
-
-    name = "max_w"
-
-    def __init__(self, interrupts=1):
-        super().__init__(interrupts=interrupts)
-        self.times: list[float] = []
-        self.values: list[float] = []
-        listed = np.iterable(interrupts) and not isinstance(interrupts, str)
-        #: the times as a sorted array where they were given as a list, else None
-        self.series_times = np.sort(np.asarray(interrupts, dtype=float)) if listed else None
-
-    def handle(self, field, t: float) -> None:
-        self.record(t, field.data)
-
-    def record(self, t: float, data: np.ndarray) -> None:
-        """Record max|w| of the state `data` (fields first) at time t."""
-        self.times.append(float(t))
-        self.values.append(float(np.max(np.abs(data[2]))))
-
-
-class ChiTracker(TrackerBase):
-    """Record chi of (A18) where the stresses are evaluated (chi > 0: mu(I) ill-posed).
-
-    Args:
-        pde: the shear-cell PDE (supplies the strain rates of its discretization)
-        interrupts: when to record
-    """
-
-    name = "chi"
-
-    def __init__(self, pde, interrupts=1):
-        super().__init__(interrupts=interrupts)
-        self.pde = pde
-        self.times: list[float] = []
-        self.z: np.ndarray | None = None
-        self.values: list[np.ndarray] = []
-
-    def handle(self, field, t: float) -> None:
-        with np.errstate(all="ignore"):  # a state overflowing the strain rates has chi = inf or nan
-            z, phi, uz, wz = self.pde.strain_rates(field.data, field.grid)
-            self.values.append(self.pde.rheology.chi(phi, uz, wz))
-        self.z = z
-        self.times.append(float(t))
+__all__ = ["ProgressBarTracker", "LivePlotTracker"]
 
 
 class ProgressBarTracker(TrackerBase):
