@@ -14,5 +14,5 @@ __all__ = ["DISCRETIZATIONS", "DISCRETIZATION_OPTIONS", "METHODS", "JACOBIAN_MOD
 
 #: discretization names, in registry order
 DISCRETIZATIONS = tuple(SCHEMES)
-#: option -> (the discretizations that have it, its valid values with the default first)
+#: option -> ({discretization that has it: its default}, the valid values of all of them)
 DISCRETIZATION_OPTIONS = option_choices()

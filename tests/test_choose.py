@@ -63,3 +63,25 @@ def test_every_result_names_engine_linear_solver_and_jacobian():
     for kwargs in (dict(method="BDF"), dict(method="CVODE", engine="pde"), dict(method="CVODE")):
         settings = run("icidr", "shear", 9, 0.05, **kwargs).settings
         assert {"engine", "linear_solver", "jacobian"} <= set(settings), kwargs
+
+
+@pytest.mark.parametrize("kwargs", [dict(method="CVODE"), dict(method="BDF"), dict(method="CVODE", engine="pde"),
+                                    dict(method="CVODE", discretization="cheb", N=21)])
+def test_rtol_is_validated_once_on_the_way_to_the_engine(monkeypatch, kwargs):
+    """A tolerance given to run() is checked once, on every engine's path (issue 22): the
+    check is engines.base.check_tolerances, which names rtol to validation.real."""
+    from icidr_pde.api import run
+    from icidr_pde.engines import base
+
+    seen = []
+    real = base.real
+
+    def counting(name, *args, **kw):
+        if name == "rtol":
+            seen.append(args[0])
+        return real(name, *args, **kw)
+
+    monkeypatch.setattr(base, "real", counting)
+    result = run("icidr", "shear", t_end=0.1, rtol=1e-5, series_times=[], **{"N": 21, **kwargs})
+    assert result.reason == "reached t_end"
+    assert seen == [1e-5]

@@ -129,7 +129,19 @@ def is_run_path(module):
                  "icidr_pde.native", "icidr_pde.trackers", "icidr_pde.result", "icidr_pde.validation")
 
 
+def is_engine(module):
+    return under(module, "icidr_pde.engines")
+
+
+def is_screen_or_case(module):
+    """What an engine must not know: schemes, cases, scenes, results, screens."""
+    return (is_scheme(module) or is_study(module) or is_interface(module)
+            or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
+                     "icidr_pde.trackers", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
+
+
 RULES = {
+    "an engine imports a scheme, a case, a scene or a screen": (is_engine, is_screen_or_case),
     # the DEM has a command of its own (dem.cli, dem.__main__); studies/ holds none
     "a study or DEM module imports a command line": (
         lambda m: is_study(m) or (under(m, "icidr_pde.dem") and not is_cli(m)), is_cli),
@@ -137,8 +149,10 @@ RULES = {
     "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
     "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
 }
-#: the one edge left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end
-KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames")}
+#: the edges left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end;
+#: py-pde's solver adapter refuses a grid too large for memory by the schemes' size model
+KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames"),
+         ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size")}
 
 
 def layer_violations(graph, known=frozenset()):
@@ -170,8 +184,11 @@ def test_a_study_importing_the_command_line_is_found():
     graph = {"icidr_pde.studies.sim2d": {"icidr_pde.cli"}, "icidr_pde.dem.fit": {"icidr_pde.argtypes"},
              "icidr_pde.studies.__main__": {"icidr_pde.cli"},
              "icidr_pde.dem.cli": {"icidr_pde.argtypes"}, "icidr_pde.discretizations.fd": {"icidr_pde.studies"},
-             "icidr_pde.api": {"icidr_pde.plotting", "icidr_pde.scenes"}}
+             "icidr_pde.api": {"icidr_pde.plotting", "icidr_pde.scenes"},
+             "icidr_pde.engines.scipy": {"icidr_pde.validation", "icidr_pde.discretizations.fd"}}
     assert layer_violations(graph) == {
+        "an engine imports a scheme, a case, a scene or a screen": [("icidr_pde.engines.scipy",
+                                                                     "icidr_pde.discretizations.fd")],
         "a study or DEM module imports a command line": [("icidr_pde.dem.fit", "icidr_pde.argtypes"),
                                                           ("icidr_pde.studies.__main__", "icidr_pde.cli"),
                                                           ("icidr_pde.studies.sim2d", "icidr_pde.cli")],

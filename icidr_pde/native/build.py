@@ -228,6 +228,7 @@ def _declare(lib) -> None:
         "icidr_cheb_krylov": (I, [P, I, D, L, L, I, ptr(D)]),
         "icidr_krylov_counts": (None, [P, ptr(L)]),
         "icidr_has_krylov": (I, []),
+        "icidr_cheb_conserve": (I, [P, ptr(D)]),
         "icidr_cheb_low_order_jacobian": (None, [P, ptr(D), ptr(D), ptr(D)]),
         "icidr_blas_threads": (I, [I]),
         "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ctypes.c_char_p, I]),

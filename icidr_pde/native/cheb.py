@@ -55,12 +55,15 @@ class ChebProblem(NativeProblem):
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
     `delta_gamma`, default :data:`icidr_pde.engines.sundae.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
     "krylov" (default :data:`LINEAR_SOLVER`; the dense LU where the build cannot), GMRES with the
-    low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`)."""
+    low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`;
+    given `weights`, the quadrature weights of phi, the Krylov path projects every step onto the
+    initial mass, which the direct solves keep by themselves)."""
 
     kernel_repeats = 20
 
     def __init__(self, rheology, D, *, bounds=None, solver: str = "lapack",
-                 delta_gamma: float | None = None, linear_solver: str | None = None, krylov: dict | None = None):
+                 delta_gamma: float | None = None, linear_solver: str | None = None, krylov: dict | None = None,
+                 weights=None):
         if solver not in DENSE_SOLVERS:
             raise ValueError(f"`solver` must be one of {DENSE_SOLVERS}; got {solver!r}")
         default, linear_solver = linear_solver is None, LINEAR_SOLVER if linear_solver is None else linear_solver
@@ -94,6 +97,9 @@ class ChebProblem(NativeProblem):
                                                 int(settings["preconditioner"] == "band"), _pointer(self.nodes()))
             if status < 0:
                 raise MemoryError(f"Krylov preconditioner of N = {self.N} not allocated")
+            if weights is not None and self.lib.icidr_cheb_conserve(
+                    self.handle, _pointer(np.ascontiguousarray(weights, dtype=float))) < 0:
+                raise MemoryError(f"mass weights of N = {self.N} not allocated")
 
     def nodes(self) -> np.ndarray:
         """The points of D: Trefethen's CGL points mapped to [0, H], H from D's corner entry
@@ -141,4 +147,5 @@ class ChebCase(NativeCase):
     discretization = "cheb"
 
     def problem(self, **options) -> ChebProblem:
-        return ChebProblem(self.rheology, self.scheme.D, **{"solver": DENSE_SOLVER, **options})
+        return ChebProblem(self.rheology, self.scheme.D, **{"solver": DENSE_SOLVER, "weights": self.scheme.weights,
+                                                           **options})

@@ -22,6 +22,11 @@
    Or (band = 1) preconditioned by I - gamma J_lo, J_lo the Jacobian of the same law with D
    replaced by low-order differences on the same points (cheb_low_order_jacobian), a band
    (5, 5) in the interleaved ordering factored by LAPACK's band LU: O(N) a set-up.
+   GMRES leaves a residual, and its mass enters every Newton update (the exact solve of
+   (I - gamma J) x = r keeps c . x = c . r, c the Clenshaw-Curtis weights of phi, since c . J = 0):
+   so the Krylov path projects each step onto the initial mass (CVODE's projection, CVodeSetProjFn:
+   the correction along c and the error estimate onto c's complement), conserving it to round-off
+   as the direct solves do.
    Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
    printed from the numba templates discretizations/templates/fd.py and cheb.py
    (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
@@ -60,6 +65,8 @@ typedef struct {
     int band;             /* cheb, krylov: the low-order band preconditioner instead of J_p */
     double *z;            /* cheb, band: the collocation points */
     double *x;            /* cheb, band: a vector in the interleaved ordering */
+    double *mass_w;       /* cheb, krylov: the quadrature weights of phi (the conserved c . y), or NULL */
+    double mass0, mass_ww; /* cheb, krylov: c . y0 and c . c */
     double t_good;
     void *cvode;
     SUNContext ctx;
@@ -435,6 +442,44 @@ EXPORT void icidr_law_M(Native *p, int m, const double *phi, double *out)
 #define CHECK(call) do { if ((call) < 0) { snprintf(error, error_len, "%s failed", #call); goto fail; } } while (0)
 
 /* Start CVODE at (t0, y0) on the problem `p`; 0 on success, else -1 with `error` set. */
+/* cheb, krylov: the least correction along c that restores c . y = c . y0, and the error estimate
+   without its component along c (CVODE's projection interface) */
+static int project_mass(sunrealtype t, N_Vector ycur, N_Vector corr, sunrealtype eps, N_Vector err, void *data)
+{
+    Native *p = data;
+    const double *y = N_VGetArrayPointer(ycur);
+    double *c = N_VGetArrayPointer(corr), defect = p->mass0;
+    int n = p->n;
+    for (int i = 0; i < n; i++)
+        defect -= p->mass_w[i] * y[i];
+    memset(c, 0, sizeof(double) * 3 * (size_t)n);
+    for (int i = 0; i < n; i++)
+        c[i] = defect * p->mass_w[i] / p->mass_ww;
+    if (err) {
+        double *e = N_VGetArrayPointer(err), along = 0.0;
+        for (int i = 0; i < n; i++)
+            along += p->mass_w[i] * e[i];
+        for (int i = 0; i < n; i++)
+            e[i] -= along * p->mass_w[i] / p->mass_ww;
+    }
+    return 0;
+}
+
+/* cheb, krylov: conserve c . y, c = (w, 0, 0) with the quadrature weights w of phi (n of them),
+   by projecting every step (see the file's docstring); returns -1 where memory runs out */
+EXPORT int icidr_cheb_conserve(Native *p, const double *w)
+{
+    free(p->mass_w);
+    p->mass_w = malloc(sizeof(double) * p->n);
+    if (!p->mass_w)
+        return -1;
+    memcpy(p->mass_w, w, sizeof(double) * p->n);
+    p->mass_ww = 0.0;
+    for (int i = 0; i < p->n; i++)
+        p->mass_ww += w[i] * w[i];
+    return 0;
+}
+
 EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol, double atol,
                              double min_step, double max_step, long max_num_steps, double first_step,
                              char *error, int error_len)
@@ -476,6 +521,12 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
         CHECK(CVodeSetEpsLin(p->cvode, p->eps_lin));
         CHECK(CVodeSetLSetupFrequency(p->cvode, p->setup_steps));
         CHECK(CVodeSetJacEvalFrequency(p->cvode, p->jac_steps));
+        if (p->mass_w) {
+            p->mass0 = 0.0;
+            for (int i = 0; i < p->n; i++)
+                p->mass0 += p->mass_w[i] * y0[i];
+            CHECK(CVodeSetProjFn(p->cvode, project_mass));
+        }
 #endif
     } else if (p->kind == KIND_CHEB) {
         p->A = SUNDenseMatrix(neq, neq, p->ctx);
@@ -646,6 +697,6 @@ EXPORT void icidr_free(Native *p)
     if (p->ctx)
         SUNContext_Free(&p->ctx);
     free(p->params); free(p->work); free(p->jb); free(p->y_good); free(p->D);
-    free(p->Jp); free(p->P); free(p->pivots); free(p->z); free(p->x);
+    free(p->Jp); free(p->P); free(p->pivots); free(p->z); free(p->x); free(p->mass_w);
     free(p);
 }

@@ -30,6 +30,8 @@ typedef int (*CVLsPrecSetupFn)(sunrealtype t, N_Vector y, N_Vector fy, int jok, 
                                void *user_data);
 typedef int (*CVLsPrecSolveFn)(sunrealtype t, N_Vector y, N_Vector fy, N_Vector r, N_Vector z, sunrealtype gamma,
                                sunrealtype delta, int lr, void *user_data);
+typedef int (*CVProjFn)(sunrealtype t, N_Vector ycur, N_Vector corr, sunrealtype epsProj, N_Vector err,
+                        void *user_data);
 typedef void (*SUNErrHandlerFn)(int line, const char *func, const char *file, const char *msg,
                                 SUNErrCode err_code, void *err_user_data, SUNContext sunctx);
 
@@ -71,6 +73,7 @@ int CVodeSetJacFn(void *cvode_mem, CVLsJacFn jac);
 int CVodeSetDeltaGammaMaxLSetup(void *cvode_mem, sunrealtype dgmax_lsetup);
 int CVodeSetPreconditioner(void *cvode_mem, CVLsPrecSetupFn pset, CVLsPrecSolveFn psolve);
 int CVodeSetEpsLin(void *cvode_mem, sunrealtype eplifac);
+int CVodeSetProjFn(void *cvode_mem, CVProjFn pfun);
 int CVodeSetLSetupFrequency(void *cvode_mem, long int msbp);
 int CVodeSetJacEvalFrequency(void *cvode_mem, long int msbj);
 int CVodeSetMaxNonlinIters(void *cvode_mem, int maxcor);
