@@ -239,9 +239,9 @@ def run(
         jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's default)
         material: laws and parameters (default Table 1)
         advection: 'upwind' or 'central' (an option of 'fd'; None: the scheme's default)
-        progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.trackers.ProgressBarTracker`)
+        progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.progress.TimeBar`)
         live_plot: one figure of the fields updated in place while they evolve, redrawn within
-            ~10 % of the wall time (:class:`~icidr_pde.trackers.LivePlotTracker`), Jupyter or a window
+            ~10 % of the wall time (:class:`~icidr_pde.live_plot.LivePlot`), Jupyter or a window
         save: optional HDF5 file for the snapshots (py-pde FileStorage layout plus the node
             positions `z`; read it with :func:`icidr_pde.snapshots.read_snapshots`)
         movie: optional .mp4 (or .gif) file: a movie of the run (:mod:`icidr_pde.movies`)

@@ -1,8 +1,7 @@
 """One live figure of a 1-D run, updated in place at a bounded cost: py-pde-free.
 
 :class:`LivePlot` is a recorder of the run path (:func:`icidr_pde.api.run` with
-``live_plot=True`` calls it at its output times) and the figure behind py-pde's
-:class:`icidr_pde.trackers.LivePlotTracker`.
+``live_plot=True`` calls it at its output times).
 """
 
 from __future__ import annotations

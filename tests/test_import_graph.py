@@ -126,7 +126,7 @@ def is_scheme(module):
 
 def is_run_path(module):
     return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines",
-                 "icidr_pde.native", "icidr_pde.trackers", "icidr_pde.result", "icidr_pde.validation")
+                 "icidr_pde.native", "icidr_pde.live_plot", "icidr_pde.result", "icidr_pde.validation")
 
 
 def is_engine(module):
@@ -137,7 +137,7 @@ def is_screen_or_case(module):
     """What an engine must not know: schemes, cases, scenes, results, screens."""
     return (is_scheme(module) or is_study(module) or is_interface(module)
             or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
-                     "icidr_pde.trackers", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
+                     "icidr_pde.live_plot", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
 
 
 RULES = {

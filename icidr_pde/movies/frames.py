@@ -1,8 +1,7 @@
 """The frames of a movie, collected during a run and rendered at the end: py-pde-free.
 
 :class:`MovieFrames` is a recorder of the run path (:func:`icidr_pde.api.run` with
-``movie=...`` calls it at the frame times) and the frame collection behind py-pde's
-:class:`~icidr_pde.movies.tracker.MovieTracker`.
+``movie=...`` calls it at the frame times).
 """
 
 from __future__ import annotations
