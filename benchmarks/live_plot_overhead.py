@@ -5,10 +5,10 @@
 Executes a generated notebook with nbclient (a real ipykernel, the inline backend): for each
 case one warm-up run (numba compilation), then `repeats` runs without and with the live
 figure; prints the median wall time of the solve (``Result.wall_s``, which includes the
-trackers) of each and the difference. The live figure redraws under a budget of 10 % of the
+recorders) of each and the difference. The live figure redraws under a budget of 10 % of the
 run's wall time plus a fixed cost per run (creating the figure, first and final frame), so
 the relative overhead is large for runs far below a second and approaches 10 % for long ones.
-Accuracy beside the timings: max|w| at t_end of both runs must agree exactly (the trackers
+Accuracy beside the timings: max|w| at t_end of both runs must agree exactly (the recorders
 do not change the integrator's steps); the table prints their difference.
 """
 

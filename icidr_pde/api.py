@@ -5,9 +5,9 @@
 builds the case (the native engine's py-pde-free one, or the py-pde scheme's), advances the
 engine through the merged output times of :func:`schedule` (:func:`_drive`, the same for every
 engine: the native one many outputs per call into C) and builds the Result by :func:`assemble`.
-Only a run that asks for what py-pde's trackers write (a snapshot file, a movie, a live plot,
-a wall-clock limit) takes py-pde's Controller with :func:`make_trackers`, :func:`integrate` and
-:func:`collect` (also the failure-time study's functions). Light: a run on the native engine
+What a run writes or shows besides the Result (a snapshot file, movie frames, a live plot) and
+a wall-clock limit are recorders (:func:`make_recorders`) that :func:`_drive` calls at their
+output times, merged into the schedule. Light: a run on the native engine
 imports neither py-pde, numba, scipy, sympy nor scikit-sundae.
 """
 
@@ -17,10 +17,11 @@ import sys
 import time as _time
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
-from .engines.base import SimulationFailed, check_tolerances
+from .engines.base import check_tolerances
 from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
 from .presets import resolve
 from .result import Result
@@ -29,8 +30,8 @@ from .scenes import SCENES, Scene
 from .times import (check_t_end, chi_times, dense_times, merged_output_times, time_labels as _time_labels)
 from .validation import check_atol, nonfinite_rates, output_path, real
 
-__all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_trackers", "integrate", "collect", "Recorders",
-           "Outcome", "Schedule", "schedule"]
+__all__ = ["run", "make_pde", "DISCRETIZATIONS", "make_recorders", "StopRun", "WallClock", "Outcome", "Schedule",
+           "schedule"]
 
 
 def __getattr__(name):  # py-pde is imported only by the runs that take it
@@ -68,99 +69,6 @@ def schedule(scene, t_end: float, times=None, *, series_times=None, chi: bool | 
 
 
 @dataclass
-class Recorders:
-    """The trackers of a run and what they record."""
-
-    labels: list
-    snapshot_times: np.ndarray
-    storage: object  # py-pde's MemoryStorage
-    max_w: object  # MaxWTracker or None
-    chi: object  # ChiTracker or None
-    trackers: list = field(default_factory=list)
-    movie: object = None  # MovieTracker or None
-
-
-def make_trackers(case, t_end: float, times=None, *, series_times=None, chi: bool | None = None,
-                  save: str | None = None, progress: bool = False, live_plot: bool = False,
-                  max_wall: float | None = None, movie: str | None = None,
-                  frame_dt: float | None = None) -> Recorders:
-    """Snapshots at `times` (default: the scene's), max|w| at `series_times` (default dense;
-    empty: none), chi of (A18) if the scene asks for it (or `chi`), optional HDF5 file,
-    progress bar, live plot, movie frames every `frame_dt` and a wall-clock limit `max_wall`
-    (seconds)."""
-    from pde import MemoryStorage
-
-    from .trackers import ChiTracker, MaxWTracker
-
-    sched = schedule(case.scene, t_end, times, series_times=series_times, chi=chi)
-    labels, snap_times = sched.labels, sched.snap_times
-    storage = MemoryStorage()
-    trackers = [storage.tracker(interrupts=list(snap_times))]
-    max_w = MaxWTracker(interrupts=list(sched.series)) if sched.series.size else None
-    if max_w is not None:
-        trackers.append(max_w)
-    chi_tracker = None
-    if sched.chi_times.size:
-        chi_tracker = ChiTracker(case.pde, interrupts=list(sched.chi_times))  # a few samples: a diagnostic
-        trackers.append(chi_tracker)
-    view = _view_trackers(case, t_end, progress, live_plot, movie, frame_dt)
-    if save:  # last: a temporary file, created once nothing else can fail here
-        from .snapshots import SnapshotFile
-
-        snapshot_file = SnapshotFile(save, case.nodes(), list(snap_times))  # never half-written
-        trackers.append(snapshot_file.tracker())
-    trackers += view
-    if max_wall is not None:
-        trackers.append(_wall_clock_limit(max_wall, t_end))
-    movie_tracker = next((t for t in view if type(t).__name__ == "MovieTracker"), None)
-    return Recorders(labels, snap_times, storage, max_w, chi_tracker, trackers, movie_tracker)
-
-
-def _view_trackers(case, t_end, progress, live_plot, movie, frame_dt) -> list:
-    """Trackers that show a run: progress bar, live figure (with chi for mu(I)), movie frames."""
-    from .trackers import LivePlotTracker, ProgressBarTracker
-
-    title = f"{case.pde.rheology.name} {case.scene.name} {case.pde.name} N={case.N}"
-    trackers = []
-    if progress:
-        trackers.append(ProgressBarTracker(t_end=t_end))
-    if (live_plot or movie) and case.state.data.ndim > 2:
-        raise ValueError("`live_plot` and `movie` draw 1-D scenes (fields against z); "
-                         f"got the 2-D scene {case.scene.name!r}")
-    if live_plot:
-        chi = None
-        if case.pde.rheology.name == "mui":  # chi (A18) is the ill-posedness test of mu(I)
-            def chi(data):
-                z_s, phi, uz, wz = case.pde.strain_rates(data, case.grid)
-                return z_s, case.pde.rheology.chi(phi, uz, wz)
-        trackers.append(LivePlotTracker(case.nodes(), t_end, chi=chi, title=title))
-    if movie:  # rendered by run() after the timing
-        from .movies.tracker import MovieTracker
-
-        trackers.append(MovieTracker(movie, case.nodes(), t_end, frame_dt, title=title, write_on_finalize=False,
-                                     progress=progress))
-    return trackers
-
-
-def _wall_clock_limit(max_wall: float, t_end: float):
-    """A tracker that ends the run once it has taken `max_wall` seconds (checked at 200 times)."""
-    from pde.trackers.base import FinishedSimulation
-    from pde.trackers.trackers import CallbackTracker
-
-    class _Timeout(FinishedSimulation):
-        pass
-
-    start = _time.perf_counter()
-
-    def check(state, t):
-        if _time.perf_counter() - start > max_wall:
-            raise _Timeout(f"timeout after {max_wall} s wall at t = {t:.6g}")
-
-    windows = np.geomspace(min(1e-4, t_end / 10), t_end, 200)
-    return CallbackTracker(check, interrupts=list(windows))
-
-
-@dataclass
 class Outcome:
     """How an integration ended."""
 
@@ -174,45 +82,57 @@ class Outcome:
     cpu_s: float | None = None  # CPU time of the solve (this process), set-up excluded
 
 
-def integrate(case, solver, t_end: float, trackers: list) -> Outcome:
-    """Integrate `case` to `t_end` with `solver`, calling `trackers` at their interrupts.
+class StopRun(Exception):
+    """Raised by a recorder to end a run early (a wall-clock limit): the run ends at the
+    output being recorded, with this reason, not as a failure."""
 
-    A failure is not an exception: the Outcome says blew_up, t* (last accepted time) and why,
-    with the state at t*. wall_s excludes the kernels' set-up time (compile_s). A max|w|
-    series with listed times is recorded by the solver inside its loop, not at interrupts.
-    """
-    from pde.solvers import Controller
 
-    from .trackers import MaxWTracker
+class WallClock:
+    """A recorder that ends the run once it has taken `max_wall` seconds (checked at 200 times)."""
 
-    check_atol(solver.atol, case.state.data)
-    solver.check_memory(case.state)  # before the solver allocates its matrices
-    in_loop = [t for t in trackers if isinstance(t, MaxWTracker) and t.series_times is not None]
-    for tracker in in_loop:
-        solver.record(tracker.series_times, tracker.record)
-    controller = Controller(solver, t_range=(0.0, t_end), tracker=[t for t in trackers if t not in in_loop])
-    start, cpu_start = _time.perf_counter(), _time.process_time()
-    try:
-        final = controller.run(case.state).data.copy()  # run() works on a copy of the state
-        blew_up, t_star, t_final = False, None, t_end
-        reason = "reached t_end"
-        stop = controller.info.get("stop_reason", "Reached final time")
-        if solver.interrupted is not None and stop == "Reached final time":  # in the last call's loop
-            stop, controller.info["t_final"] = "User interrupted simulation", solver.interrupted
-        if stop != "Reached final time":  # a tracker ended the run (e.g. the wall-clock limit)
-            reason, t_final = stop, float(controller.info.get("t_final", t_end))
-        if stop == "User interrupted simulation":  # py-pde's Controller swallows KeyboardInterrupt
-            reason = f"interrupted at t = {t_final:.6g}"
-    except SimulationFailed as failure:
-        blew_up, t_star, reason, t_final = True, failure.t_star, failure.reason, failure.t_star
-        final = failure.state_data
-        info = {"controller": {"successful": False, "t_final": t_star, "stop_reason": reason, "state_data": final}}
-        for tracker in trackers:  # close files and progress bars; the bar and a movie end at t*
-            tracker.finalize(info=info)
-    compile_s = solver.info.get("compile_s", 0.0)
-    wall = _time.perf_counter() - start - compile_s
-    cpu = _time.process_time() - cpu_start - solver.info.get("compile_cpu_s", 0.0)
-    return Outcome(final, blew_up, t_star, reason, float(t_final), wall, compile_s, cpu)
+    def __init__(self, max_wall: float, t_end: float):
+        self.max_wall = max_wall
+        self.output_times = np.geomspace(min(1e-4, t_end / 10), t_end, 200)
+        self.start = _time.perf_counter()
+
+    def record(self, t: float, data) -> None:
+        if _time.perf_counter() - self.start > self.max_wall:
+            raise StopRun(f"timeout after {self.max_wall} s wall at t = {t:.6g}")
+
+    def close(self, outcome) -> None:
+        pass
+
+    def abandon(self) -> None:
+        pass
+
+
+def make_recorders(case, t_end: float, *, snap_times, save=None, live_plot=False, movie=None, frame_dt=None,
+                   progress=False, max_wall=None) -> list:
+    """The recorders of a run, called by :func:`_drive` at their `output_times` with the state
+    (fields first), then closed with the Outcome: the live figure (with chi (A18) for mu(I)),
+    the movie frames, the snapshot file (last: a temporary file, created once nothing else
+    can fail) and the wall-clock limit (last at each time: what the others recorded stays)."""
+    recorders = []
+    title = f"{case.pde.rheology.name} {case.scene.name} {case.pde.name} N={case.N}"
+    if (live_plot or movie) and case.state.data.ndim > 2:
+        raise ValueError("`live_plot` and `movie` draw 1-D scenes (fields against z); "
+                         f"got the 2-D scene {case.scene.name!r}")
+    if live_plot:
+        from .live_plot import LivePlot
+
+        chi = partial(_scheme_chi, case) if case.pde.rheology.name == "mui" else None  # (A18): mu(I) ill-posed
+        recorders.append(LivePlot(case.nodes(), t_end, chi=chi, title=title))
+    if movie:  # rendered by run() after the timing
+        from .movies.frames import MovieFrames
+
+        recorders.append(MovieFrames(movie, case.nodes(), t_end, frame_dt, title=title, progress=progress))
+    if save:
+        from .snapshots import SnapshotFile
+
+        recorders.append(SnapshotFile(save, case.nodes(), snap_times, case.state))  # never half-written
+    if max_wall is not None:
+        recorders.append(WallClock(max_wall, t_end))
+    return recorders
 
 
 def _plane_kwargs(case, data) -> dict:
@@ -272,34 +192,6 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
     )
 
 
-def collect(case, settings: dict, solver, recorders: Recorders, outcome: Outcome,
-            accuracy: str | None = None) -> Result:
-    """The Result of a run on a py-pde case from what the trackers recorded and how it ended
-    (`settings`: t_end; the solver's choice of engine, Jacobian and linear solver)."""
-    storage = recorders.storage
-    data = np.array(storage.data) if len(storage) else np.empty((0, *case.state.data.shape))
-    n_snap = data.shape[0]
-    recorded = Recorded(np.array(storage.times[:n_snap]), data, [], [])
-    if recorders.max_w is None:  # no series: none appended at t* either
-        recorded.max_w_t = recorded.max_w = None
-    else:
-        recorded.max_w_t, recorded.max_w = list(recorders.max_w.times), list(recorders.max_w.values)
-    if recorders.chi is not None and recorders.chi.values:
-        recorded.chi_t, recorded.chi_z = np.array(recorders.chi.times), recorders.chi.z
-        recorded.chi = np.array(recorders.chi.values)
-    choice = solver.choice
-    if solver.info.get("linear_solver"):  # the engine's own name (a preconditioner it attached)
-        choice = Choice(choice.engine, choice.jacobian, solver.info["linear_solver"], choice.reason)
-    stats = solver.stats
-    return assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,
-                    z=case.nodes(), mass=lambda data: case.mass(data), material=case.pde.material.to_dict(),
-                    t_end=settings["t_end"], rtol=solver.rtol, atol=solver.atol, method=solver.method,
-                    choice=choice, accuracy=accuracy, options=case.pde.option_values(), labels=recorders.labels,
-                    recorded=recorded, outcome=outcome,
-                    counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu), y0_data=case.state.data,
-                    plane=_plane_kwargs(case, data))
-
-
 def run(
     rheology: str = "icidr",
     scene: str = "shear",
@@ -347,9 +239,9 @@ def run(
         jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's default)
         material: laws and parameters (default Table 1)
         advection: 'upwind' or 'central' (an option of 'fd'; None: the scheme's default)
-        progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.trackers.ProgressBarTracker`)
+        progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.progress.TimeBar`)
         live_plot: one figure of the fields updated in place while they evolve, redrawn within
-            ~10 % of the wall time (:class:`~icidr_pde.trackers.LivePlotTracker`), Jupyter or a window
+            ~10 % of the wall time (:class:`~icidr_pde.live_plot.LivePlot`), Jupyter or a window
         save: optional HDF5 file for the snapshots (py-pde FileStorage layout plus the node
             positions `z`; read it with :func:`icidr_pde.snapshots.read_snapshots`)
         movie: optional .mp4 (or .gif) file: a movie of the run (:mod:`icidr_pde.movies`)
@@ -420,8 +312,6 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
     """A run on the py-pde scheme with a Python engine (scipy, scikit-sundae) of `choice`."""
     from .case import build_case
     from .discretizations import get_discretization
-    from .engines.stiff import StiffSolver
-
     options = {}
     if advection is not None:
         if "advection" not in get_discretization(settings["discretization"]).options:
@@ -429,34 +319,22 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
         options["advection"] = advection
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
                       options=options, scene_params=scene_params)
-    if not (save or movie or live_plot or max_wall):  # nothing for py-pde's trackers: the run path drives
-        result = _run_scheme(case, settings, t_end, times, choice, accuracy=accuracy, progress=progress,
-                             series_times=series_times, backend=backend)
-        if on_result is not None:
-            on_result(result)
-        return result
-    solver = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
-                         jacobian=choice.jacobian, backend=backend, choice=choice)
-    recorders = make_trackers(case, t_end, times, series_times=series_times, save=save, progress=progress,
-                              live_plot=live_plot, max_wall=max_wall, movie=movie, frame_dt=frame_dt)
-    snapshot_file = next((t.snapshot_file for t in recorders.trackers if hasattr(t, "snapshot_file")), None)
-    try:
-        outcome = integrate(case, solver, t_end, recorders.trackers)
-    finally:  # a run that raised leaves an existing snapshot file as it was
-        if snapshot_file is not None:
-            snapshot_file.discard()
-    result = collect(case, dict(settings, t_end=t_end), solver, recorders, outcome, accuracy)
-    if snapshot_file is not None and snapshot_file.error is not None:
-        _not_written(result, "save", save, snapshot_file.error)
+    outputs = dict(save=save, live_plot=live_plot, movie=movie, frame_dt=frame_dt, max_wall=max_wall)
+    result, recorders = _run_scheme(case, settings, t_end, times, choice, accuracy=accuracy, progress=progress,
+                                    series_times=series_times, backend=backend, outputs=outputs)
+    for recorder in recorders:
+        if getattr(recorder, "error", None) is not None:  # the snapshot file
+            _not_written(result, "save", save, recorder.error)
     if on_result is not None:
         on_result(result)
-    if recorders.movie is not None:  # after the timing: wall_s is the solve and the trackers
-        try:
-            recorders.movie.write()
-        except KeyboardInterrupt:  # the run's results stay; the movie is left as it was
-            _not_written(result, "movie", movie, "interrupted")
-        except OSError as err:
-            _not_written(result, "movie", movie, err.strerror or str(err))
+    for recorder in recorders:
+        if hasattr(recorder, "write"):  # the movie, after the timing: wall_s is the solve and the recorders
+            try:
+                recorder.write()
+            except KeyboardInterrupt:  # the run's results stay; the movie is left as it was
+                _not_written(result, "movie", movie, "interrupted")
+            except OSError as err:
+                _not_written(result, "movie", movie, err.strerror or str(err))
     return result
 
 
@@ -477,8 +355,10 @@ def _native_case(rheology, scene, settings, *, material, advection, scene_params
 
 @dataclass
 class _Outputs:
-    """The schedule of a native run as output indices: merged times, where each list's times
-    are, which outputs keep their state (store[k] >= 0) and the arrays CVODE writes."""
+    """The schedule of a run as output indices: merged times, where each list's times are
+    (`at_recorders`: one array per recorder), which outputs keep their state (store[k] >= 0:
+    the snapshots, chi samples and the last for the whole run, a recorder's only until it has
+    been called, in a ring of slots) and the arrays the engine writes."""
 
     times: np.ndarray
     at_series: np.ndarray
@@ -487,38 +367,81 @@ class _Outputs:
     store: np.ndarray
     states: np.ndarray
     max_w: np.ndarray
+    at_recorders: list = field(default_factory=list)
 
     @classmethod
-    def of(cls, sched: Schedule, t_end: float, n: int) -> "_Outputs":
-        times, (at_series, at_snap, at_chi) = merged_output_times(t_end, [sched.series, sched.snap_times,
-                                                                          sched.chi_times])
-        stored = np.unique(np.concatenate([at_snap, at_chi, [times.size - 1]]).astype(int))
-        stored = stored[stored >= 0]
+    def of(cls, sched: Schedule, t_end: float, n: int, recorders=()) -> "_Outputs":
+        lists = [sched.series, sched.snap_times, sched.chi_times] + [r.output_times for r in recorders]
+        times, (at_series, at_snap, at_chi, *at_recorders) = merged_output_times(t_end, lists)
+        kept = np.unique(np.concatenate([at_snap, at_chi, [times.size - 1]]).astype(int))
+        kept = kept[kept >= 0]
         store = np.full(times.size, -1, dtype=np.intc)
-        store[stored] = np.arange(stored.size)
-        return cls(times, at_series, at_snap, at_chi, store, np.empty((max(stored.size, 1), n)),
-                   np.full(times.size, np.nan))
+        store[kept] = np.arange(kept.size)
+        passing = np.unique(np.concatenate([np.asarray(at, int) for at in at_recorders] or [np.empty(0, int)]))
+        passing = np.setdiff1d(passing[passing >= 0], kept)
+        ring = min(_CHUNK[2], passing.size)  # a chunk holds at most _CHUNK[2] consecutive outputs
+        if ring:
+            store[passing] = kept.size + np.arange(passing.size) % ring
+        return cls(times, at_series, at_snap, at_chi, store, np.empty((max(kept.size + ring, 1), n)),
+                   np.full(times.size, np.nan), at_recorders)
 
 
-def _advance(engine, out: _Outputs, bar, measure):
+class _Recording:
+    """Calls the recorders at their outputs in time order (at one output, in the order given),
+    with the fields of the state there; a recorder's StopRun ends the run at that output."""
+
+    def __init__(self, recorders, out: _Outputs, view):
+        self.recorders, self.out, self.view = list(recorders), out, view
+        events = sorted((int(i), order) for order, at in enumerate(out.at_recorders) for i in np.unique(at))
+        self.events, self.next = events, 0
+        self.stop: tuple[int, str, float] | None = None  # (output index, reason, time)
+
+    def through(self, n_done: int) -> int:
+        """Record every output before `n_done`; returns the outputs the run keeps (fewer on a stop)."""
+        out, fields = self.out, self.view.fields
+        while self.next < len(self.events) and self.events[self.next][0] < n_done and self.stop is None:
+            index, order = self.events[self.next]
+            self.next += 1  # first: a Ctrl-C inside a recorder does not call it twice
+            y = self.view.y0 if index < 0 else out.states[out.store[index]]
+            t = 0.0 if index < 0 else float(out.times[index])
+            try:
+                self.recorders[order].record(t, fields(y))
+            except StopRun as stop:
+                self.stop = (index, str(stop), t)
+        return n_done if self.stop is None else self.stop[0] + 1
+
+    def close(self, outcome) -> None:
+        for recorder in self.recorders:
+            recorder.close(outcome)
+
+    def abandon(self) -> None:
+        for recorder in self.recorders:
+            recorder.abandon()
+
+
+def _advance(engine, out: _Outputs, bar, measure, recording: _Recording):
     """Advance the engine through every output, chunk by chunk (the native engine: no Python
-    per step). Returns (outputs done, failure or None); a KeyboardInterrupt ends it where the
-    engine stopped."""
+    per step), calling the recorders after each chunk. Returns (outputs done, failure or None);
+    a KeyboardInterrupt ends it where the engine stopped, a recorder's StopRun at its output."""
     n_done, n_out, failure = 0, out.times.size, None
     size, smallest, largest = _CHUNK
     try:
-        while n_done < n_out and failure is None:
+        while n_done < n_out and failure is None and recording.stop is None:
             chunk = slice(n_done, min(n_done + size, n_out))
             call = _time.perf_counter()
             done, failure = engine.advance_outputs(out.times[chunk], out.store[chunk], out.max_w[n_done:], out.states,
                                                    measure)
             call = _time.perf_counter() - call
             size = min(2 * size, largest) if call < 0.02 else max(size // 2, smallest) if call > 0.1 else size
-            n_done += done
+            n_done = recording.through(n_done + done)
             if bar is not None and n_done:
                 bar.advance(out.times[n_done - 1])
     except KeyboardInterrupt:
         n_done = _outputs_reached(engine, out, n_done)
+        try:
+            n_done = recording.through(n_done)
+        except KeyboardInterrupt:  # a second Ctrl-C: the recorders keep what they have
+            pass
     return n_done, failure
 
 
@@ -552,6 +475,12 @@ class _NativeView:
         return z_f, chi_of_M(self.problem.M(phi_f), uz, wz)
 
 
+def _scheme_chi(case, data):
+    """(positions, chi of (A18)) of the state `data` of a py-pde case."""
+    z, phi, uz, wz = case.pde.strain_rates(data, case.grid)
+    return z, case.pde.rheology.chi(phi, uz, wz)
+
+
 class _SchemeView:
     """The run path's view of a py-pde case on a Python engine, in the engine's ordering."""
 
@@ -568,31 +497,38 @@ class _SchemeView:
             return nonfinite_rates(self.ordering.rhs(self.fields(self.y0), 0.0), 0.0)
 
     def chi(self, data):
-        pde = self.case.pde
-        z, phi, uz, wz = pde.strain_rates(data, self.case.grid)
-        return z, pde.rheology.chi(phi, uz, wz)
+        return _scheme_chi(self.case, data)
 
     def max_abs_w(self, y) -> float:
         return float(np.max(np.abs(self.fields(y)[2])))
 
 
-def _drive(view, make_engine, sched: Schedule, t_end: float, bar):
-    """Integrate from the view's y0 through the schedule: (outputs, outputs done, failure, engine)."""
-    out, y0 = _Outputs.of(sched, t_end, view.y0.size), view.y0
+def _drive(view, make_engine, sched: Schedule, t_end: float, bar, recorders=()):
+    """Integrate from the view's y0 through the schedule and the recorders' output times,
+    calling the recorders there: (outputs, outputs done, failure, engine, recording), where
+    recording.stop is None or (output index, reason, time) of a recorder that ended the run. The recorders are
+    abandoned if this raises (a snapshot file leaves the target as it was); the caller closes
+    them with the Outcome."""
+    out, y0 = _Outputs.of(sched, t_end, view.y0.size, recorders), view.y0
+    recording = _Recording(recorders, out, view)
     engine, n_done, failure = None, 0, None
     try:
+        recording.through(0)  # the recorders' times at t = 0
         reason0 = view.initial_reason()
         if reason0:
             failure = (0.0, y0.copy(), reason0)
         else:
             engine = make_engine()
-            n_done, failure = _advance(engine, out, bar, getattr(view, "max_abs_w", None))
+            n_done, failure = _advance(engine, out, bar, getattr(view, "max_abs_w", None), recording)
     except KeyboardInterrupt:  # before the engine started: nothing computed past t = 0
         engine = None
+    except BaseException:
+        recording.abandon()
+        raise
     finally:
         if bar is not None:
-            _close_bar(bar, failure, n_done < out.times.size, engine, t_end)
-    return out, n_done, failure, engine
+            _close_bar(bar, failure, n_done < out.times.size, engine, t_end, recording.stop)
+    return out, n_done, failure, engine, recording
 
 
 def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, material, advection, progress,
@@ -621,7 +557,7 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
         return NativeEngine("CVODE", problem, 0.0, case.y0, rtol=settings["rtol"], atol=settings["atol"],
                             check=case.check_state, linear_solver=choice.linear_solver)
 
-    out, n_done, failure, engine = _drive(view, make_engine, sched, t_end, bar)
+    out, n_done, failure, engine, _ = _drive(view, make_engine, sched, t_end, bar)
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
     counts = problem.counts()
@@ -636,9 +572,11 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
                     y0_data=case.fields(case.y0))
 
 
-def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend) -> Result:
+def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend,
+                outputs=None):
     """A run of a py-pde case on a Python engine (scipy, scikit-sundae) driven by the run path:
-    the engine advanced to each output time of the schedule, no py-pde Controller or tracker."""
+    the engine advanced to each output time of the schedule and of the recorders of `outputs`
+    (:func:`make_recorders`), no py-pde Controller or tracker. Returns (Result, recorders)."""
     from .engines import engine_class
     from .engines.base import StepStatistics
     from .engines.stiff import StiffSolver, check_memory, scheme_problem
@@ -646,6 +584,7 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
     check_atol(settings["atol"], case.state.data)
     check_memory(case.pde, case.state, settings["method"], choice)  # before anything is allocated
     sched = schedule(case.scene, t_end, times, series_times=series_times)
+    recorders = make_recorders(case, t_end, snap_times=sched.snap_times, progress=progress, **(outputs or {}))
     bar = None
     if progress:
         from .progress import TimeBar
@@ -653,10 +592,15 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
         bar = TimeBar(t_end, "compiling", log_interval=0.1)
     start, cpu_start = _time.perf_counter(), _time.process_time()
     stats = StepStatistics()
-    rhs = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
-                      backend=backend, choice=choice)._rates(case.state)
-    rhs(np.array(case.state.data), 0.0)  # compile or load now, so that it counts as set-up time
-    problem, ordering = scheme_problem(case.pde, case.state, choice, rhs, stats)
+    try:
+        rhs = StiffSolver(case.pde, method=settings["method"], rtol=settings["rtol"], atol=settings["atol"],
+                          backend=backend, choice=choice).rates(case.state)
+        rhs(np.array(case.state.data), 0.0)  # compile or load now, so that it counts as set-up time
+        problem, ordering = scheme_problem(case.pde, case.state, choice, rhs, stats)
+    except BaseException:
+        for recorder in recorders:
+            recorder.abandon()
+        raise
     compile_s, compile_cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     if bar is not None:
         bar.integrating(f"compiled in {compile_s:.1f} s")
@@ -666,35 +610,43 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
         return engine_class(choice.engine)(settings["method"], problem, 0.0, rtol=settings["rtol"],
                                            atol=settings["atol"], linear_solver=choice.linear_solver)
 
-    out, n_done, failure, engine = _drive(view, make_engine, sched, t_end, bar)
+    out, n_done, failure, engine, recording = _drive(view, make_engine, sched, t_end, bar, recorders)
     wall = _time.perf_counter() - start - compile_s
     cpu = _time.process_time() - cpu_start - compile_cpu
-    outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
+    outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu, recording.stop)
+    recording.close(outcome)
     if engine is not None:
         stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
         choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
     recorded = _recorded(view, sched, out, n_done)
-    return assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,
-                    z=view.z, mass=case.mass, material=case.pde.material.to_dict(), t_end=t_end,
-                    rtol=settings["rtol"], atol=settings["atol"], method=settings["method"], choice=choice,
-                    accuracy=accuracy, options=case.pde.option_values(), labels=sched.labels, recorded=recorded,
-                    outcome=outcome, counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu),
-                    y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data))
+    result = assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,
+                      z=view.z, mass=case.mass, material=case.pde.material.to_dict(), t_end=t_end,
+                      rtol=settings["rtol"], atol=settings["atol"], method=settings["method"], choice=choice,
+                      accuracy=accuracy, options=case.pde.option_values(), labels=sched.labels, recorded=recorded,
+                      outcome=outcome, counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu),
+                      y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data))
+    return result, recorders
 
 
-def _close_bar(bar, failure, interrupted, engine, t_end):
+def _close_bar(bar, failure, interrupted, engine, t_end, stop=None):
     if failure is not None:
         bar.close(failure[0], "failed", failure[2])
+    elif stop is not None:  # a recorder ended the run (the wall-clock limit)
+        bar.close(stop[2], "stopped", stop[1])
     elif interrupted:
         bar.close(engine.last_good()[0] if engine is not None else 0.0, "interrupted")
     else:
         bar.close(t_end)
 
 
-def _outcome(view, engine, out: _Outputs, n_done, failure, t_end, wall, compile_s, cpu) -> Outcome:
+def _outcome(view, engine, out: _Outputs, n_done, failure, t_end, wall, compile_s, cpu, stop=None) -> Outcome:
     if failure is not None:
         t_final, final = failure[0], view.fields(failure[1])
         return Outcome(final, True, float(t_final), failure[2], float(t_final), wall, compile_s, cpu)
+    if stop is not None:  # a recorder ended the run at an output (its state is still kept)
+        index, reason, t_final = stop
+        y = view.y0 if index < 0 else out.states[out.store[index]]
+        return Outcome(view.fields(y), False, None, reason, t_final, wall, compile_s, cpu)
     if n_done < out.times.size:  # interrupted: the last output state the engine returned
         t_final, y_last = engine.last_good() if engine is not None else (0.0, view.y0)
         return Outcome(view.fields(y_last), False, None, f"interrupted at t = {t_final:.6g}", float(t_final),

@@ -2,9 +2,8 @@
 
 :class:`TimeBar` is a tqdm bar whose description is the run's phase: "compiling" while
 the stepper is built, "integrating" (with the build time), then "done", "FAILED at t* = ..."
-or "interrupted at t = ...", the bar left at the time reached. The py-pde path drives it
-from :class:`icidr_pde.trackers.ProgressBarTracker`, the native engine from its output
-loop (:func:`icidr_pde.api.run`). tqdm only: importing this module imports
+or "interrupted at t = ...", the bar left at the time reached. The run path's one loop
+drives it for every engine (:func:`icidr_pde.api.run`). tqdm only: importing this module imports
 neither py-pde nor IPython.
 """
 

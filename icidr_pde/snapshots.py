@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 from pde import FileStorage
-from pde.storage.base import StorageTracker
 
 from .outputs import write_atomically
 
@@ -41,19 +40,44 @@ class _FileImage(io.BytesIO):
 
 
 class SnapshotFile:
-    """Snapshots at `interrupts` written to `path`, with the node positions `z`."""
+    """Snapshots at `output_times` written to `path`, with the node positions `z`: a recorder
+    of the run path (:func:`icidr_pde.api.run` with ``save=...``); `state` is the py-pde
+    state whose layout (grid, fields) the file takes."""
 
-    def __init__(self, path, z: np.ndarray, interrupts):
+    def __init__(self, path, z: np.ndarray, output_times, state):
         self.path = Path(path)
         self.z = np.asarray(z, dtype=float)
+        self.output_times = np.asarray(output_times, dtype=float)
         self.error: str | None = None  # why the file could not be written
         self.written = False
         self.storage = FileStorage(os.devnull, write_mode="truncate", keep_opened=True)
         self.storage.filename = self.image = _FileImage()
-        self._tracker = _FinalizingTracker(self, interrupts)
+        self._field = state.copy()
+        self._guarded(self.storage.start_writing, self._field)
 
-    def tracker(self) -> StorageTracker:
-        return self._tracker
+    def _guarded(self, write, *args) -> bool:
+        """write(*args), or give up the file (h5py reports a full disk as OSError or RuntimeError)."""
+        if self.error is not None:
+            return False
+        try:
+            write(*args)
+        except (OSError, RuntimeError) as err:
+            self.fail(err)
+            return False
+        return True
+
+    def record(self, t: float, data) -> None:
+        self._field.data[...] = data
+        self._guarded(lambda: self.storage.append(self._field, time=float(t)))
+
+    def close(self, outcome=None) -> None:
+        """The end of the run, however it ended: the frames so far are written."""
+        if self._guarded(self.storage.end_writing):
+            self.commit()
+
+    def abandon(self) -> None:
+        """A run that raised leaves an existing file as it was."""
+        self.discard()
 
     def commit(self) -> None:
         """Add the node positions and write the file to `path` (idempotent)."""
@@ -94,38 +118,6 @@ def _why(err) -> str:
         return err.strerror
     found = re.search(r"errno = (\d+)", str(err))
     return os.strerror(int(found.group(1))) if found else str(err).splitlines()[0]
-
-
-class _FinalizingTracker(StorageTracker):
-    def __init__(self, snapshot_file: SnapshotFile, interrupts):
-        super().__init__(snapshot_file.storage, interrupts=interrupts)
-        self.snapshot_file = snapshot_file
-
-    def initialize(self, field, info=None) -> float:
-        t_first = super(StorageTracker, self).initialize(field, info)  # the interrupts only
-        try:
-            self.storage.start_writing(self._transform(field, t_first), info)
-        except (OSError, RuntimeError) as err:
-            self.snapshot_file.fail(err)
-        return t_first
-
-    def handle(self, field, t: float) -> None:
-        if self.snapshot_file.error is not None:
-            return
-        try:
-            super().handle(field, t)
-        except (OSError, RuntimeError) as err:  # h5py reports a full disk as either
-            self.snapshot_file.fail(err)
-
-    def finalize(self, info=None) -> None:
-        if self.snapshot_file.error is not None:
-            return
-        try:
-            super().finalize(info)
-        except (OSError, RuntimeError) as err:
-            self.snapshot_file.fail(err)
-            return
-        self.snapshot_file.commit()
 
 
 def read_snapshots(path) -> dict[str, np.ndarray]:

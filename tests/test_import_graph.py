@@ -126,7 +126,7 @@ def is_scheme(module):
 
 def is_run_path(module):
     return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines",
-                 "icidr_pde.native", "icidr_pde.trackers", "icidr_pde.result", "icidr_pde.validation")
+                 "icidr_pde.native", "icidr_pde.live_plot", "icidr_pde.result", "icidr_pde.validation")
 
 
 def is_engine(module):
@@ -137,7 +137,7 @@ def is_screen_or_case(module):
     """What an engine must not know: schemes, cases, scenes, results, screens."""
     return (is_scheme(module) or is_study(module) or is_interface(module)
             or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
-                     "icidr_pde.trackers", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
+                     "icidr_pde.live_plot", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
 
 
 RULES = {
@@ -149,9 +149,9 @@ RULES = {
     "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
     "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
 }
-#: the edges left: ``run(movie=...)`` adds the py-pde tracker that renders the movie at the end;
+#: the edges left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end;
 #: py-pde's solver adapter refuses a grid too large for memory by the schemes' size model
-KNOWN = {("icidr_pde.api", "icidr_pde.movies.tracker"),
+KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames"),
          ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size")}
 
 

@@ -5,7 +5,6 @@ import pytest
 from pde.solvers import Controller
 
 from icidr_pde import ShearCellPDE, StiffSolver, run
-from icidr_pde.engines.base import SimulationFailed
 from icidr_pde.scenes import get_scene
 
 H = 30.0
@@ -37,31 +36,6 @@ def test_interrupts_do_not_change_the_integration():
         outcomes.append((solver.stats.n_steps, final.data.copy()))
     assert outcomes[0][0] == outcomes[1][0]
     np.testing.assert_allclose(outcomes[0][1], outcomes[1][1], rtol=0, atol=1e-13)
-
-
-@pytest.mark.parametrize("method", ["CVODE", "BDF"])
-def test_series_recorded_in_the_loop_equals_the_tracker_series(method):
-    """StiffSolver.record stops the integrator at the same output times as py-pde
-    interrupts would: the max|w| series is the same to the last bit, with or without failure."""
-    from icidr_pde.trackers import MaxWTracker, dense_times
-
-    for rheology, N, t_end in (("icidr", 47, 2.0), ("mui", 201, 0.1)):  # mu(I), N = 201: t* ~ 0.015
-        eq = ShearCellPDE(rheology)
-        series, failed = [], []
-        for in_loop in (False, True):
-            solver = StiffSolver(eq, method=method, rtol=1e-6, atol=1e-9)
-            tracker = MaxWTracker(interrupts=list(dense_times(t_end, 30, 40)))
-            snapshots = _Null([0.0, 0.3, t_end])  # other trackers still interrupt
-            if in_loop:
-                solver.record(tracker.series_times, tracker.record)
-            trackers = [snapshots] if in_loop else [snapshots, tracker]
-            try:
-                Controller(solver, t_range=t_end, tracker=trackers).run(shear_state(eq, N))
-            except SimulationFailed:  # what was recorded up to t* stays
-                failed.append(in_loop)
-            series.append((tracker.times, tracker.values))
-        assert failed == ([False, True] if rheology == "mui" else [])
-        assert len(series[0][0]) > 10 and series[0] == series[1]
 
 
 def test_cvode_reports_its_steps_and_factorizations():

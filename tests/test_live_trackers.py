@@ -1,39 +1,38 @@
 """Progress bar and live plot: phases, an honest end of a failed run, one figure updated in place.
 
-Driven through py-pde's tracker protocol (initialize / handle / finalize with
-info["controller"]); the run path's own use is checked in the notebooks and test_paper.
+Driven as the run path drives them: the bar (:class:`~icidr_pde.progress.TimeBar`) through
+its phases, the live figure (:class:`~icidr_pde.live_plot.LivePlot`) as a recorder
+(record at its output times, then finish with the state at t* of a failed run).
 """
 
 import io
 
 import numpy as np
-import pde
 import pytest
 
-from icidr_pde.trackers import LivePlotTracker, ProgressBarTracker
+from icidr_pde.live_plot import LivePlot
+from icidr_pde.progress import TimeBar
 
 
-def _state(n=40):
-    grid = pde.CartesianGrid([[0, 30]], n)
-    return pde.FieldCollection([pde.ScalarField.from_expression(grid, e) for e in ("0.78", "x/30", "0.01*sin(x)")])
+def _data(n=40):
+    z = np.linspace(0, 30, 2 * n + 1)[1::2]
+    return z, np.array([np.full(n, 0.78), z / 30, 0.01 * np.sin(z)])
 
 
-def _drive(tracker, state, times, final_info):
-    info = {"controller": {"t_start": 0.0, "t_end": 1.0}, "solver": {}}
-    tracker.initialize(state, info=info)
-    phase_after_initialize = tracker.phase if hasattr(tracker, "phase") else None
-    info["solver"]["compile_s"] = 1.25  # what the solver reports once its stepper is built
+def _bar(stream, t_end, times, **kwargs):
+    bar = TimeBar(t_end, "compiling", file=stream, **kwargs)
+    phase_after_start = bar.phase
+    bar.integrating("compiled in 1.2 s")  # what the run path says once the kernels are built
     for t in times:
-        tracker.handle(state, t)
-    tracker.finalize(info=final_info)
-    return phase_after_initialize
+        bar.advance(t)
+    return bar, phase_after_start
 
 
 def test_progress_success_ends_at_t_end():
     stream = io.StringIO()
-    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream)
-    phase = _drive(bar, _state(), [0.0, 0.5, 1.0], {"controller": {"successful": True, "t_final": 1.0}})
-    assert phase == "compiling" and bar.phase == "done" and bar.compile_s == 1.25
+    bar, phase = _bar(stream, 1.0, [0.0, 0.5, 1.0])
+    bar.close(1.0)
+    assert phase == "compiling" and bar.phase == "done"
     assert bar.bar.n == pytest.approx(1.0)
     text = stream.getvalue()
     assert "compiling" not in text.rsplit("\r", 1)[-1] and "done" in text
@@ -41,9 +40,8 @@ def test_progress_success_ends_at_t_end():
 
 def test_progress_failure_stops_at_t_star_and_says_why():
     stream = io.StringIO()
-    bar = ProgressBarTracker(interrupts=0.001, t_end=10.0, file=stream)
-    _drive(bar, _state(), [0.0, 0.005, 0.01], {"controller": {"successful": False, "t_final": 0.01486,
-                                                              "stop_reason": "step size underflow"}})
+    bar, _ = _bar(stream, 10.0, [0.0, 0.005, 0.01])
+    bar.close(0.01486, "failed", "step size underflow")
     assert bar.phase == "failed" and bar.bar.n == pytest.approx(0.01486)
     last = stream.getvalue().rsplit("\r", 1)[-1]
     assert "FAILED at t* = 0.01486 (step size underflow)" in last and "100%" not in last
@@ -53,8 +51,8 @@ def test_progress_failure_stops_at_t_star_and_says_why():
 def test_progress_shows_the_time_without_a_stray_separator():
     """tqdm puts ", " before {postfix}: the time must read "t = 0/1", "t = 0.5/1"."""
     stream = io.StringIO()
-    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream, log_interval=0)
-    _drive(bar, _state(), [0.0, 0.5], {"controller": {"successful": True, "t_final": 1.0}})
+    bar, _ = _bar(stream, 1.0, [0.0, 0.5], log_interval=0)
+    bar.close(1.0)
     lines = [line.strip() for line in stream.getvalue().replace("\n", "\r").split("\r") if line.strip()]
     assert lines[0].startswith("compiling:") and "t = 0/1 [" in lines[0]
     assert any(line.startswith("integrating (compiled in 1.2 s)") and "t = 0.5/1 [" in line for line in lines)
@@ -62,33 +60,30 @@ def test_progress_shows_the_time_without_a_stray_separator():
     assert not any("t = ," in line for line in lines)
 
 
-@pytest.mark.parametrize("stop, outcome", [({"successful": False, "stop_reason": "User interrupted simulation"},
-                                            "interrupted at t = 0.25"),
-                                           ({"successful": True, "stop_reason": "timeout after 1 s wall"},
-                                            "stopped at t = 0.25 (timeout after 1 s wall)")])
-def test_progress_of_a_run_ended_early_says_so(stop, outcome):
+@pytest.mark.parametrize("outcome, reason, said", [("interrupted", "", "interrupted at t = 0.25"),
+                                                   ("stopped", "timeout after 1 s wall",
+                                                    "stopped at t = 0.25 (timeout after 1 s wall)")])
+def test_progress_of_a_run_ended_early_says_so(outcome, reason, said):
     stream = io.StringIO()
-    bar = ProgressBarTracker(interrupts=0.1, t_end=1.0, file=stream)
-    _drive(bar, _state(), [0.0, 0.25], {"controller": {"t_final": 0.25, **stop}})
+    bar, _ = _bar(stream, 1.0, [0.0, 0.25])
+    bar.close(0.25, outcome, reason)
     last = stream.getvalue().rsplit("\r", 1)[-1]
-    assert last.startswith(outcome) and "done" not in last and "t = 0.25/1 [" in last
+    assert last.startswith(said) and "done" not in last and "t = 0.25/1 [" in last
 
 
-def test_progress_needs_t_end_without_interrupts():
-    with pytest.raises(ValueError, match="`t_end` is required"):
-        ProgressBarTracker()
+def _record(live, data, times):
+    for t in times:
+        live.record(t, data)
 
 
 def test_live_plot_draws_the_final_state_into_its_file(tmp_path):
-    state = _state()
-    z = state.grid.axes_coords[0]
+    z, data = _data()
     out = tmp_path / "live.png"
-    live = LivePlotTracker(z, 1.0, interrupts=0.1, show=False, output_file=out,
-                           chi=lambda data: (z, data[2] - 0.005))
+    live = LivePlot(z, 1.0, show=False, output_file=out, chi=lambda data: (z, data[2] - 0.005))
     times = np.linspace(0, 1, 11)
-    for_failure = state.data * 3
-    _drive(live, state, times, {"controller": {"successful": False, "t_final": 1.0, "stop_reason": "x",
-                                               "state_data": for_failure}})
+    for_failure = data * 3
+    _record(live, data, times)
+    live.finish(1.0, for_failure, "x")
     assert out.read_bytes()[:4] == b"\x89PNG" and 1 <= live.n_draws <= len(times) + 1
     np.testing.assert_array_equal(live._lines["w"].get_ydata(), for_failure[2])  # last draw: the state at t*
     assert "FAILED" in live._suptitle.get_text()
@@ -99,15 +94,16 @@ def test_live_plot_draws_the_final_state_into_its_file(tmp_path):
 def test_live_plot_budget_skips_redraws():
     """With a 1 % budget and handles in quick succession, most redraws are skipped (no timing
     is asserted: the budget only decides how many of the requested redraws happen)."""
-    state = _state()
-    live = LivePlotTracker(state.grid.axes_coords[0], 1.0, interrupts=0.01, show=False, max_overhead=0.01)
-    _drive(live, state, np.linspace(0, 1, 101), {"controller": {"successful": True, "t_final": 1.0}})
+    z, data = _data()
+    live = LivePlot(z, 1.0, show=False, max_overhead=0.01)
+    _record(live, data, np.linspace(0, 1, 101))
+    live.finish()
     assert len(live.times) == 101 and live.n_draws < 101
 
 
 def test_live_plot_rejects_bad_budget():
     with pytest.raises(ValueError, match="`max_overhead` must lie in \\(0, 1\\); got 1.5"):
-        LivePlotTracker([0, 1], 1.0, max_overhead=1.5)
+        LivePlot([0, 1], 1.0, max_overhead=1.5)
 
 
 
@@ -159,16 +155,12 @@ def _overlap(a, b) -> bool:
 def test_live_plot_shows_an_early_blow_up_and_labels_clear_of_the_ticks():
     """The max|w| panel spans decades of t (a mu(I) failure at t ~ 1e-2 of t_end = 10 is not squashed
     into the first pixel column), and no y-label overlaps a tick label or the panel to its left."""
-    state = _state()
-    live = LivePlotTracker(state.grid.axes_coords[0], 10.0, interrupts=0.001, show=False,
-                           chi=lambda data: (state.grid.axes_coords[0], data[2]))
-    info = {"controller": {"t_start": 0.0, "t_end": 10.0}, "solver": {}}
-    live.initialize(state, info=info)
+    z, data = _data()
+    live = LivePlot(z, 10.0, show=False, chi=lambda data: (z, data[2]))
     for t in (0.0, 0.001, 0.005, 0.01):
-        state.data[2] *= 10.0
-        live.handle(state, t)
-    live.finalize(info={"controller": {"successful": False, "t_final": 0.0148, "stop_reason": "x",
-                                       "state_data": state.data * 1e6}})
+        data[2] *= 10.0
+        live.record(t, data)
+    live.finish(0.0148, data * 1e6, "x")
     ax = live._axes[3]
     x_fraction = ax.transAxes.inverted().transform(ax.transData.transform((0.0148, 1.0)))[0]  # t* along the t axis
     assert 0.25 < x_fraction < 0.75, x_fraction

@@ -7,7 +7,7 @@ from icidr_pde.movies.registry import MOVIES
 from icidr_pde.movies.render import _FrameFigure, write_movie
 from icidr_pde.movies.schedule import frame_times
 from icidr_pde.movies.sink import ffmpeg_exe
-from icidr_pde.movies.tracker import MovieTracker
+from icidr_pde.movies.frames import MovieFrames
 
 
 def _frames(n=12, nz=61):
@@ -96,23 +96,19 @@ def test_frame_times_are_a_fixed_interval():
     assert set(MOVIES) == {f"movie{k}" for k in range(1, 7)}
 
 
-def test_movie_tracker_frames_and_failure_frame(tmp_path):
-    """Driven through py-pde's tracker protocol: one frame per interrupt, then the state at t*
-    that a failed run hands to finalize (py-pde's info["controller"])."""
-    import pde
-
-    grid = pde.CartesianGrid([[0, 30]], 32)
-    state = pde.FieldCollection([pde.ScalarField.from_expression(grid, e) for e in ("0.78", "x/30", "sin(x/5)")])
-    tracker = MovieTracker(tmp_path / "d.mp4", grid.axes_coords[0], 1.0, 0.25, title="failing")
-    t = tracker.initialize(state, info={"controller": {"t_start": 0.0}})
-    while t <= 0.5:
-        state.data[2] *= 1.5
-        tracker.handle(state, t)
-        t = tracker.interrupt.next(t)
-    tracker.finalize(info={"controller": {"successful": False, "t_final": 0.6, "stop_reason": "blow-up",
-                                          "state_data": state.data * 10}})
-    assert tracker.times == [0.0, 0.25, 0.5, 0.6]
-    assert len(_decode(tracker.written)) == 4
+def test_movie_frames_and_failure_frame(tmp_path):
+    """As the run path records them: one frame per frame time reached, then the state at t*
+    of a failed run, titled with the reason."""
+    z = np.linspace(0, 30, 65)[1::2]
+    data = np.array([np.full(32, 0.78), z / 30, np.sin(z / 5)])
+    frames = MovieFrames(tmp_path / "d.mp4", z, 1.0, 0.25, title="failing")
+    for t in frames.output_times[frames.output_times <= 0.5]:
+        data[2] *= 1.5
+        frames.record(t, data)
+    frames.failed(0.6, data * 10, "blow-up")
+    frames.write()
+    assert frames.times == [0.0, 0.25, 0.5, 0.6] and frames.failed_reason == "blow-up"
+    assert len(_decode(frames.written)) == 4
 
 
 def test_run_movie_shows_a_bar_over_its_frames(tmp_path, capsys):

@@ -283,7 +283,7 @@ def test_plot_on_a_full_disk_leaves_no_partial_png(tmp_path, capsys, monkeypatch
 
 
 def test_interrupt_while_the_movie_renders_keeps_the_json(tmp_path, capsys, monkeypatch):
-    from icidr_pde.movies import tracker as movies
+    from icidr_pde.movies import frames as movies
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -299,7 +299,7 @@ def test_interrupt_while_the_movie_renders_keeps_the_json(tmp_path, capsys, monk
 
 
 def test_json_is_written_before_the_movie_renders(tmp_path, monkeypatch):
-    from icidr_pde.movies import tracker as movies
+    from icidr_pde.movies import frames as movies
 
     seen = []
     original = movies.write_movie

@@ -21,7 +21,7 @@ import time
 import numpy as np
 from pde.solvers.base import SolverBase
 
-from ..times import controller_dt, time_tolerance
+from ..times import controller_dt
 from ..validation import ParameterError, choice as checked_choice, nonfinite_rates, real
 from . import ENGINES, METHODS, engine_class
 from .base import JacobianSpec, Problem, SimulationFailed, StepStatistics, check_tolerances
@@ -79,7 +79,6 @@ class StiffSolver(SolverBase):
         self.max_step = max_step
         self.stats = StepStatistics()
         self.last_good: tuple[float, np.ndarray] | None = None
-        self._records: list = []
         #: the time a KeyboardInterrupt stopped the run at inside a stepper call, else None
         self.interrupted: float | None = None
 
@@ -99,15 +98,7 @@ class StiffSolver(SolverBase):
         scheme and linear algebra need more than half the memory available."""
         check_memory(self.pde, state, self.method, self._choose(state))
 
-    def record(self, times, callback) -> None:
-        """Call `callback(t, data)` with the state data at each of `times` (sorted), from inside
-        the stepping loop: the integrator stops at these output times as it would at py-pde
-        interrupts (the same sequence of output requests, so the same numbers), without the
-        Controller's and trackers' round trip per output time. `data` is valid only
-        during the call. Times before the start are given the initial state."""
-        self._records.append((np.asarray(times, dtype=float), callback))
-
-    def _rates(self, state):
+    def rates(self, state):
         """The right-hand side: the discretization's cached kernels, else py-pde's backend."""
         if getattr(self._backend, "name", self._backend) == "numba" and hasattr(self.pde, "make_rates"):
             self.info["backend"] = "compiled kernels (icidr_pde.rheology.codegen)"
@@ -119,7 +110,7 @@ class StiffSolver(SolverBase):
     def make_stepper(self, state, dt: float | None = None):
         """Return stepper(state, t_start, t_end) advancing one persistent integrator."""
         start, cpu_start = time.perf_counter(), time.process_time()
-        rhs = self._rates(state)
+        rhs = self.rates(state)
         rhs(np.array(state.data), 0.0)  # compile or load now, so that it counts as set-up time
         choice = self._choose(state)
         spec, perm = jacobian_spec(self.pde, state, choice)  # a compiled Jacobian is loaded here
@@ -287,43 +278,13 @@ def make_problem(pde, y0, ordering: Ordering, spec: JacobianSpec, validity) -> P
                    margins=margins, margins_into=margins_into)
 
 
-class _Outputs:
-    """The output times of :meth:`StiffSolver.record` and their callbacks: which are due."""
-
-    def __init__(self, records):
-        self.pending = [[times, callback, 0] for times, callback in records]
-
-    def skip_before(self, t_start):
-        """As py-pde's FixedInterrupts: times before the start are skipped."""
-        for entry in self.pending:
-            entry[2] = int(np.searchsorted(entry[0], t_start, side="left"))
-
-    def next_before(self, t_end):
-        """The next output time before t_end, or None (py-pde fires an interrupt within
-        time_tolerance of the current time: a time that close to t_end is t_end's)."""
-        t = min((entry[0][entry[2]] for entry in self.pending if entry[2] < entry[0].size), default=np.inf)
-        return t if t < t_end - time_tolerance(t_end) else None
-
-    def record_at(self, t, data):
-        close = t + time_tolerance(t)
-        for entry in self.pending:
-            times, callback, k = entry
-            if k < times.size and times[k] < close:
-                callback(t, data)
-                while k < times.size and times[k] < close:
-                    k += 1
-                entry[2] = k
-
-
 class _Stepper:
     """stepper(state, t_start, t_end) of :meth:`StiffSolver.make_stepper`: the engine created
-    at the first call, advanced through the recorded outputs to t_end at each call."""
+    at the first call, advanced to t_end at each call."""
 
     def __init__(self, solver: StiffSolver, ordering: Ordering, spec: JacobianSpec, validity, dt):
         self.solver, self.ordering, self.spec, self.validity, self.dt = solver, ordering, spec, validity, dt
         self.engine = None
-        self.outputs = _Outputs(solver._records)
-        self.reached = [None, None]  # the latest time of the current call with a known state (None: state.data's)
 
     def fail(self, reason: str):
         stats = self.solver.stats
@@ -341,8 +302,6 @@ class _Stepper:
     def start(self, state, t_start):
         """Check the initial state and its rates, then create the engine at t_start."""
         solver = self.solver
-        self.outputs.skip_before(t_start)
-        self.outputs.record_at(t_start, state.data)
         y0 = self.ordering.to_engine(state.data)
         solver.last_good = (t_start, y0.copy())
         problem = make_problem(solver.pde, y0, self.ordering, self.spec, self.validity)
@@ -359,34 +318,20 @@ class _Stepper:
                                                 linear_solver=solver.choice.linear_solver)
         solver.info["linear_solver"] = self.engine.linear_solver
 
-    def run_segment(self, state, t_end):
-        to_native, outputs = self.ordering.to_native, self.outputs
-        while (t := outputs.next_before(t_end)) is not None:
-            self.advance(t)
-            data = to_native(self.engine.value_at(t))
-            self.reached[:] = [t, data]
-            outputs.record_at(t, data)
-        self.advance(t_end)
-        state.data[...] = to_native(self.engine.value_at(t_end))
-        self.reached[:] = [t_end, None]
-        outputs.record_at(t_end, state.data)
-
     def __call__(self, state, t_start: float, t_end: float) -> float:
         solver = self.solver
         if solver.interrupted is not None:  # stopped inside the previous call: py-pde ends here
             raise KeyboardInterrupt
         if self.engine is None:
             self.start(state, t_start)
-        self.reached[:] = [t_start, None]
         try:
-            self.run_segment(state, t_end)
+            self.advance(t_end)
+            state.data[...] = self.ordering.to_native(self.engine.value_at(t_end))
         except KeyboardInterrupt:
-            # Ctrl-C (or a recorder) inside the loop: end this call at the last time whose
-            # state is known, as py-pde would have at that interrupt; raised again next call
-            solver.interrupted = self.reached[0]
-            if self.reached[1] is not None:
-                state.data[...] = self.reached[1]
-            return self.reached[0]
+            # Ctrl-C inside the loop: end this call at its start, whose state is known, as
+            # py-pde would have at that interrupt; raised again next call
+            solver.interrupted = t_start
+            return t_start
         finally:
             stats = solver.stats
             stats.n_steps, stats.n_jac, stats.n_lu = self.engine.counts()

@@ -1,7 +1,7 @@
 """Movies of shear-cell runs, one concept a module.
 
 * :mod:`.schedule` -- the frame times of a run (:func:`~.schedule.frame_times`);
-* :mod:`.tracker` -- :class:`~.tracker.MovieTracker`, the py-pde tracker that collects frames during a run;
+* :mod:`.frames` -- :class:`~.frames.MovieFrames`, the frames collected during a run (a recorder of the run path);
 * :mod:`.render` -- the figures of a movie, frame by frame: phi, u, w against z and max|w|(t) (1-D);
   w and phi - phi0 over the cell for runs side by side (2-D);
 * :mod:`.sink` -- where the frames go: ffmpeg (MP4) or Pillow (GIF), written under a temporary name;

@@ -3,9 +3,8 @@
 For the ill-posed mu(I),Phi(I)-rheology the discrete system blows up once the grid
 resolves the short waves that grow fastest; the stiff integrator then cannot meet its
 tolerances (step-size underflow, the paper's 'non-convergent') and the run stops at
-t*. :func:`failure_time` runs one case through the same path as ``run()``
-(:func:`~icidr_pde.case.build_case`, :func:`~icidr_pde.api.integrate`) without the
-recorders; :func:`sweep` computes t* for a range of N (in parallel, with a progress bar).
+t*. :func:`failure_time` runs one case with :func:`icidr_pde.api.run` on a Python engine
+(the path the paper's t* are pinned on) without the max|w| series; :func:`sweep` computes t* for a range of N (in parallel, with a progress bar).
 
 t* is a property of the discrete system and of the integrator (its tolerances, its
 error control, even the round-off of the linear algebra), not of the PDE: the PDE is
@@ -18,9 +17,7 @@ import warnings
 
 import numpy as np
 
-from ..api import collect, integrate, make_trackers
-from ..case import build_case
-from ..engines.stiff import StiffSolver
+from ..api import run
 from ..times import check_t_end
 from .parallel import run_cases
 
@@ -89,13 +86,11 @@ def failure_time(
     snap = sorted({float(t) for t in times}) if times is not None else []
     if any(not 0 <= t <= t_end for t in snap):
         raise ValueError(f"`times` must lie in [0, t_end]; got {times}")
-    case = build_case(rheology, scene, discretization, N, scene_params=scene_params)
-    recorders = make_trackers(case, t_end, snap or [0.0], series_times=(), chi=False, max_wall=max_wall)
-    solver = StiffSolver(case.pde, method=method, rtol=rtol, atol=atol, jacobian=jacobian, backend=backend)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = collect(case, {"t_end": t_end}, solver, recorders,
-                         integrate(case, solver, t_end, recorders.trackers))
+        result = run(rheology, scene, N, t_end, snap or [0.0], discretization=discretization, method=method,
+                     rtol=rtol, atol=atol, jacobian=jacobian, backend=backend, max_wall=max_wall,
+                     series_times=(), engine="pde", **scene_params)
     out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
            **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
     if return_state:

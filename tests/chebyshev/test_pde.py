@@ -136,7 +136,7 @@ def test_strain_rates_at_collocation_points():
 
 
 def test_run_api_with_chebyshev():
-    # run() end to end (numba right-hand side, trackers, Result) on the N of the test
+    # run() end to end (numba right-hand side, recorders, Result) on the N of the test
     # above, so the compiled kernels are shared
     from icidr_pde import run
 

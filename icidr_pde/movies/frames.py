@@ -1,25 +1,27 @@
-"""The py-pde tracker that collects the frames of a movie during a run and writes it at the end."""
+"""The frames of a movie, collected during a run and rendered at the end: py-pde-free.
+
+:class:`MovieFrames` is a recorder of the run path (:func:`icidr_pde.api.run` with
+``movie=...`` calls it at the frame times).
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-from pde.trackers.base import TrackerBase
 
 from .render import write_movie
 from .schedule import frame_times
 
-__all__ = ["MovieTracker"]
+__all__ = ["MovieFrames"]
 
 
-class MovieTracker(TrackerBase):
-    """Collect frames every `frame_dt` of simulated time and write the movie at the end.
+class MovieFrames:
+    """Frames every `frame_dt` of simulated time, written as a movie by :meth:`write`.
 
     Frames are copies of the state (3 x N floats each), so memory is frames x 24 N bytes;
-    rendering happens once, in :meth:`finalize`, after the run (also after a failure,
-    then with the state at t* as last frame: py-pde's ``info["controller"]`` with
-    ``successful=False``, ``t_final``, ``stop_reason``, ``state_data``).
+    rendering happens once, after the run (also after a failure, then with the state at t*
+    as last frame, titled with the reason).
 
     Args:
         path: .mp4 or .gif file
@@ -30,11 +32,9 @@ class MovieTracker(TrackerBase):
         progress: a bar over the frames while they are written
     """
 
-    name = "shear_movie"
-
     def __init__(self, path, z, t_end: float, frame_dt: float | None = None, *, title: str = "", fps: float = 15,
-                 write_on_finalize: bool = True, progress: bool = False):
-        super().__init__(interrupts=list(frame_times(t_end, frame_dt)))
+                 progress: bool = False):
+        self.output_times = frame_times(t_end, frame_dt)
         path = Path(path)
         if path.suffix.lower() not in (".mp4", ".gif"):
             raise ValueError(f"`movie` must end in .mp4 or .gif; got {path.name!r}")
@@ -42,26 +42,29 @@ class MovieTracker(TrackerBase):
             raise ValueError(f"`movie`: folder {path.parent} does not exist")
         self.path, self.z, self.title, self.fps = path, np.asarray(z), title, fps
         self.frame_dt = frame_dt
-        self.write_on_finalize = write_on_finalize
         self.progress = progress
         self.failed_reason: str | None = None
         self.times: list[float] = []
         self.frames: list[np.ndarray] = []
         self.written: Path | None = None
 
-    def handle(self, field, t: float) -> None:
+    def record(self, t: float, data) -> None:
         self.times.append(float(t))
-        self.frames.append(np.array(field.data, copy=True))
+        self.frames.append(np.array(data, dtype=float, copy=True))
 
-    def finalize(self, info=None) -> None:
-        super().finalize(info)
-        controller = (info or {}).get("controller", {})
-        if controller.get("successful") is False and controller.get("state_data") is not None:
-            self.times.append(float(controller["t_final"]))
-            self.frames.append(np.asarray(controller["state_data"], dtype=float))
-            self.failed_reason = controller.get("stop_reason", "failed")
-        if self.write_on_finalize:
-            self.write()
+    def failed(self, t: float, data, reason: str) -> None:
+        """The last frame of a failed run: the state at t* and why."""
+        self.times.append(float(t))
+        self.frames.append(np.asarray(data, dtype=float))
+        self.failed_reason = reason
+
+    def close(self, outcome) -> None:
+        """The end of a run of :func:`icidr_pde.api.run` (its Outcome); rendered later by :meth:`write`."""
+        if outcome.blew_up:
+            self.failed(outcome.t_final, outcome.final, outcome.reason)
+
+    def abandon(self) -> None:
+        pass
 
     def write(self) -> Path | None:
         """Render the collected frames (``run()`` calls this after timing the solve)."""
