@@ -101,9 +101,10 @@ class PetscEngine(Engine):
         local = P[start:end]
         rows = (np.repeat(np.arange(end - start), np.diff(local.indptr)) + start).astype(self.PETSc.IntType)
         cols = local.indices.astype(self.PETSc.IntType)
-        self.J.setPreallocationCOO(rows, cols)
-        # positions of this rank's pattern entries in the CSR of the full pattern
-        self._keys = np.asarray(rows, dtype=np.int64) * n + cols
+        # this rank's pattern entries as row * n + col, sorted (before PETSc, which may overwrite
+        # the index arrays it is given: MatSetPreallocationCOO on MPIAIJ does)
+        self._keys = rows.astype(np.int64) * n + cols
+        self.J.setPreallocationCOO(rows.copy(), cols.copy())
         self._n = n
 
     def _gathered(self, vec) -> np.ndarray:
