@@ -253,9 +253,21 @@ def cmd_run(args) -> int:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
     written = {}  # "result", then "status" once --json and --plot are written
+    quiet = False  # a rank other than 0 of an MPI run: it computes, rank 0 prints and writes
+    if args.engine == "petsc":
+        from .engines.petsc import rank
+
+        try:
+            quiet = rank() != 0
+        except ImportError as err:
+            print(f"{PREFIX} {err}", file=sys.stderr)
+            return EXIT_BAD_INPUT
 
     def write_results(result):  # the finished outputs, before the movie is rendered
         written["result"] = result
+        if quiet:
+            written["status"] = EXIT_OK
+            return
         print(result)
         print(json.dumps({k: v for k, v in result.to_dict().items()
                           if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
@@ -267,7 +279,7 @@ def cmd_run(args) -> int:
         try:
             options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
-                           progress=not args.no_progress, save=args.save, movie=args.movie, **scene_params)
+                           progress=not (args.no_progress or quiet), save=args.save, movie=args.movie, **scene_params)
             from .api import run
 
             with warnings.catch_warnings():  # an output not written: said below, once

@@ -23,7 +23,7 @@ import numpy as np
 from .base import Engine, Problem
 from .time_scale import MIN_STEP_FRACTION
 
-__all__ = ["PetscEngine", "DEFAULTS", "PETSC_MISSING", "linear_solver_name"]
+__all__ = ["PetscEngine", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank"]
 
 #: the engine's defaults: PETSc's BDF (orders 1-6, adaptive), Newton, GMRES + GAMG.
 #: Measured on iCIDR bump2d (docs/distributed.md): GAMG's iteration counts stay flat from 32^2 to
@@ -44,6 +44,12 @@ def _petsc():
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
     return PETSc
+
+
+def rank() -> int:
+    """This process's rank in PETSc's COMM_WORLD (0 alone prints and writes); ImportError naming
+    the extra where petsc4py is missing."""
+    return _petsc().COMM_WORLD.rank
 
 
 def linear_solver_name(options=None) -> str:
@@ -84,6 +90,8 @@ class PetscEngine(Engine):
         self.linear_solver = "PETSc TS {} + SNES {} + KSP {} + PC {}".format(
             self.ts.getType(), self.ts.getSNES().getType(), self.ts.getSNES().getKSP().getType(),
             self.ts.getSNES().getKSP().getPC().getType())
+        if self.comm.size > 1:
+            self.linear_solver += f" ({self.comm.size} MPI ranks)"
         self.t, self.y = float(t0), np.array(problem.y0, dtype=float)
         self._work = self.x.duplicate()
 
