@@ -236,7 +236,7 @@ def add_run_parser(subparsers):
                         "Python in the loop, no py-pde import) where it applies: fd or cheb, CVODE, analytic Jacobian, "
                         "no --save/--movie; else the py-pde path. native: the same, saying why when it falls "
                         "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy). petsc: PETSc's TS, "
-                        "Newton and GMRES + GAMG on the 2-D cell (the [petsc] extra; PETSC_OPTIONS passes options; "
+                        "Newton and GMRES (block Jacobi/ILU; -pc_type gamg) on the 2-D cell (the [petsc] extra; PETSC_OPTIONS passes options; "
                         "runs under mpiexec)")
     p.set_defaults(func=cmd_run)
 

@@ -32,7 +32,7 @@ def test_choose_takes_petsc_on_request_or_method():
     fv2d = SCHEME_STRUCTURES["fv2d"]
     for method, request in (("CVODE", "petsc"), ("PETSC-BDF", "auto"), ("PETSC-BDF", "pde")):
         choice = choose(method=method, structure=fv2d, discretization="fv2d", request=request, dim=2)
-        assert (choice.engine, choice.jacobian) == ("petsc", "sparse") and "gamg" in choice.linear_solver
+        assert (choice.engine, choice.jacobian) == ("petsc", "sparse") and "gmres" in choice.linear_solver
 
 
 def test_choose_refuses_petsc_without_a_sparse_jacobian():

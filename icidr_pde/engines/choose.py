@@ -102,13 +102,13 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
 
 
 def _petsc_choice(jacobian, structure) -> Choice:
-    """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + GAMG by default)."""
+    """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + block Jacobi/ILU by default)."""
     if not structure.sparse:
         raise ParameterError("`engine`='petsc' needs a discretization with a sparse Jacobian (fv2d, the "
                              "2-D cell); got a dense one")
     if jacobian not in (None, "sparse"):
         raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
-    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC gamg")
+    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC bjacobi")
 
 
 def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:

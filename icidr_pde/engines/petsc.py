@@ -1,5 +1,5 @@
 """PETSc through petsc4py behind the :class:`~.base.Engine` protocol: TS (BDF by default), SNES
-Newton on the analytic sparse Jacobian, KSP GMRES preconditioned by algebraic multigrid (GAMG),
+Newton on the analytic sparse Jacobian, KSP GMRES preconditioned by block Jacobi/ILU (or GAMG, ASM: options),
 on one rank or many (``mpiexec -n P``).
 
 Distribution, first step: the state vector, the Jacobian matrix and every Krylov and multigrid
@@ -25,11 +25,13 @@ from .time_scale import MIN_STEP_FRACTION
 
 __all__ = ["PetscEngine", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank"]
 
-#: the engine's defaults: PETSc's BDF (orders 1-6, adaptive), Newton, GMRES + GAMG.
-#: Measured on iCIDR bump2d (docs/distributed.md): GAMG's iteration counts stay flat from 32^2 to
-#: 256^2, ILU's and ASM's grow with the grid
+#: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
+#: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)). Measured on iCIDR
+#: bump2d 64^2 to t = 2 (docs/distributed.md): KSPSolve 5.1 s with bjacobi/ILU, 5.1 s ASM,
+#: 16.2 s GAMG (its setup at each Newton matrix and its Chebyshev smoothing cost more than the
+#: ILU's extra iterations at this size); -pc_type gamg selects it
 DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "basic", "ksp_type": "gmres",
-            "pc_type": "gamg", "ksp_rtol": 1e-8}
+            "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8}
 #: the scheme's Jacobian of f is re-evaluated after this many steps, or after a rejected step or a
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
