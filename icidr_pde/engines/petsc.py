@@ -81,6 +81,7 @@ class PetscEngine(Engine):
         if problem.jacobian.mode != "sparse":
             raise ValueError(f"the PETSc engine takes a 'sparse' Jacobian; got {problem.jacobian.mode!r}")
         self.PETSc, self.problem, self.comm = PETSc, problem, PETSc.COMM_WORLD
+        PETSc.Sys.pushErrorHandler("python")  # an interrupt is said once, by the run path, not as PETSc's traceback
         self.n_jac, self._values, self._evaluated, self._last_keys = 0, None, (0, 0, 0), None
         n = problem.y0.size
         self._pattern(problem.jacobian.sparsity, n)
@@ -191,7 +192,12 @@ class PetscEngine(Engine):
     def advance(self, t_end):
         PETSc, ts, check = self.PETSc, self.ts, self.problem.check
         while self.t < t_end:
-            ts.step()
+            try:
+                ts.step()
+            except PETSc.Error as err:  # an interrupt inside a callback reaches here as PETSc's error
+                if isinstance(err.__cause__, KeyboardInterrupt):
+                    raise err.__cause__ from None
+                raise
             reason = ts.getConvergedReason()
             if reason < 0:
                 return self.t, self.y, f"integrator failed (PETSc TS: {_reason_name(PETSc, reason)}, " \
