@@ -235,7 +235,9 @@ def add_run_parser(subparsers):
                    help="auto: the native engine (C kernels and CVODE compiled once per installation, no "
                         "Python in the loop, no py-pde import) where it applies: fd or cheb, CVODE, analytic Jacobian, "
                         "no --save/--movie; else the py-pde path. native: the same, saying why when it falls "
-                        "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy)")
+                        "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy). petsc: PETSc's TS, "
+                        "Newton and GMRES (block Jacobi/ILU; -pc_type gamg) on the 2-D cell (the [petsc] extra; PETSC_OPTIONS passes options; "
+                        "runs under mpiexec)")
     p.set_defaults(func=cmd_run)
 
 
@@ -251,9 +253,21 @@ def cmd_run(args) -> int:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
     written = {}  # "result", then "status" once --json and --plot are written
+    quiet = False  # a rank other than 0 of an MPI run: it computes, rank 0 prints and writes
+    if args.engine == "petsc":
+        from .engines.petsc import rank
+
+        try:
+            quiet = rank() != 0
+        except ImportError as err:
+            print(f"{PREFIX} {err}", file=sys.stderr)
+            return EXIT_BAD_INPUT
 
     def write_results(result):  # the finished outputs, before the movie is rendered
         written["result"] = result
+        if quiet:
+            written["status"] = EXIT_OK
+            return
         print(result)
         print(json.dumps({k: v for k, v in result.to_dict().items()
                           if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
@@ -265,7 +279,7 @@ def cmd_run(args) -> int:
         try:
             options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
-                           progress=not args.no_progress, save=args.save, movie=args.movie, **scene_params)
+                           progress=not (args.no_progress or quiet), save=args.save, movie=args.movie, **scene_params)
             from .api import run
 
             with warnings.catch_warnings():  # an output not written: said below, once

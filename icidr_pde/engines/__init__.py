@@ -7,7 +7,8 @@
   the reason where the native engine was asked for and not taken;
 * :mod:`.scipy` (scipy's BDF, Radau, LSODA), :mod:`.sundae` (SUNDIALS CVODE through
   scikit-sundae), :mod:`.native` (CVODE on the compiled C problem of :mod:`icidr_pde.native`,
-  many output times per call into C);
+  many output times per call into C), :mod:`.petsc` (PETSc's TS, SNES, KSP over MPI; the
+  ``[petsc]`` extra);
 * :mod:`.stiff` -- :class:`~.stiff.StiffSolver`, py-pde's solver "stiff" over these engines
   (the README's ``pde.solve(state)`` idiom);
 * helpers: :mod:`.colored_fd`, :mod:`.conservative_jacobian`, :mod:`.cvode_counters`,
@@ -46,6 +47,7 @@ ENGINES = {
                                                   "LSODA": ("banded-fd", "analytic", "none")}),
     "sundae": EngineEntry("sundae", "CvodeEngine", {"CVODE": ("analytic", "banded-fd", "krylov", "sparse", "none")}),
     "native": EngineEntry("native", "NativeEngine", {"CVODE": ("analytic",)}),
+    "petsc": EngineEntry("petsc", "PetscEngine", {"PETSC-BDF": ("sparse",)}),
 }
 #: every method a run can take, each by the first engine above that has it
 METHODS = tuple(dict.fromkeys(m for entry in ENGINES.values() for m in entry.methods))

@@ -13,11 +13,14 @@ from dataclasses import dataclass
 from ..validation import ParameterError, choice as checked_choice
 from . import ENGINES, METHODS
 
-__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES"]
+__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
-#: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme
-REQUESTS = ("auto", "native", "pde")
+#: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
+#: 'petsc' is PETSc's TS on the py-pde scheme's sparse Jacobian (any method asked: PETSc's BDF)
+REQUESTS = ("auto", "native", "pde", "petsc")
+#: the method of the PETSc engine (PETSc's TSBDF; its -ts_type option changes it)
+PETSC_METHOD = "PETSC-BDF"
 
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
@@ -87,6 +90,8 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
     reason = ""
+    if request == "petsc" or method == PETSC_METHOD:
+        return _petsc_choice(jacobian, structure)
     if request != "pde":
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
         if not reason:
@@ -94,6 +99,16 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure)
     return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
+
+
+def _petsc_choice(jacobian, structure) -> Choice:
+    """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + block Jacobi/ILU by default)."""
+    if not structure.sparse:
+        raise ParameterError("`engine`='petsc' needs a discretization with a sparse Jacobian (fv2d, the "
+                             "2-D cell); got a dense one")
+    if jacobian not in (None, "sparse"):
+        raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
+    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC bjacobi")
 
 
 def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
