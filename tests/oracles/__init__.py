@@ -3,15 +3,12 @@
 ``numpy_rhs(pde, grid)`` of each scheme module is the rates of the py-pde class `pde` on `grid`.
 """
 
-from . import cheb, fd
+from . import cartesian2d, cheb, fd
 
 #: discretization name -> its oracle's numpy_rhs(pde, grid)
-NUMPY_RHS = {"fd": fd.numpy_rhs, "cheb": cheb.numpy_rhs}
+NUMPY_RHS = {"fd": fd.numpy_rhs, "cheb": cheb.numpy_rhs, "fv2d": cartesian2d.numpy_rhs}
 
 
 def oracle_rhs(pde, state):
-    """rhs(data, t) of an implementation independent of the compiled kernels: the oracle of a
-    1-D scheme, the numpy path of a scheme that keeps its own (fv2d)."""
-    if pde.name in NUMPY_RHS:
-        return NUMPY_RHS[pde.name](pde, state.grid)
-    return pde.make_evolution_rate(state, "numpy")
+    """rhs(data, t) of an implementation independent of the compiled kernels: the scheme's oracle."""
+    return NUMPY_RHS[pde.name](pde, state.grid)
