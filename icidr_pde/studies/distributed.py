@@ -17,8 +17,10 @@ dask is the optional extra ``pip install "icidr-pde[dask]"``; see docs/distribut
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
+import socket
 import sys
 import traceback
 from dataclasses import dataclass
@@ -29,6 +31,8 @@ __all__ = ["TaskError", "cluster", "map_cases", "run_many"]
 
 #: seconds to wait for a scheduler to answer before giving up (bad input, exit 2 on the CLI)
 CONNECT_TIMEOUT = 3.0
+#: seconds the client may take to start on a scheduler that answered (a loaded machine is slow)
+CLIENT_TIMEOUT = 60.0
 
 
 @dataclass
@@ -89,14 +93,36 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
 
 
 def _connect(distributed, address: str):
-    where = {"scheduler_file": address} if os.path.isfile(address) else {"address": address}
+    """A Client on the scheduler at `address` (or named by the scheduler file `address`). The
+    scheduler's port is probed first: a Client that fails to start can hang in its own clean-up
+    (distributed's LoopRunner.stop, seen under load), so it is made only once the port answers."""
     try:
-        return distributed.Client(**where, timeout=CONNECT_TIMEOUT)
+        target = _scheduler_address(address)
+        _probe(target)
+        return distributed.Client(address=target, timeout=CLIENT_TIMEOUT)
     except Exception as err:  # OSError, TimeoutError, ValueError of a malformed address, ...
         reason = (str(err).strip().splitlines() or [type(err).__name__])[0]
         raise ValueError(f"`scheduler` must be the address of a running dask scheduler "
                          f"(tcp://host:port) or its scheduler file; could not connect to {address!r}: "
                          f"{reason}") from None
+
+
+def _scheduler_address(address: str) -> str:
+    """The address itself, or the one the scheduler file `address` holds."""
+    if os.path.isfile(address):
+        with open(address) as f:
+            return json.load(f)["address"]
+    return address
+
+
+def _probe(address: str) -> None:
+    """Raise unless a TCP connection to tcp://host:port opens within CONNECT_TIMEOUT seconds."""
+    scheme, sep, rest = address.rpartition("://")
+    if not sep or scheme != "tcp":
+        raise ValueError(f"not a tcp://host:port address: {address!r}")
+    host, _, port = rest.rpartition(":")
+    with socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT):
+        pass
 
 
 _initialised = False
