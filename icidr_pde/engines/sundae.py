@@ -11,17 +11,12 @@ import numpy as np
 from scipy import sparse
 
 from . import cvode_counters
-from .base import Engine, Problem, dense
+from .base import DENSE_LU_DELTA_GAMMA, Engine, Problem, dense
 from .conservative_jacobian import ConservativeDifferenceQuotients
 from .time_scale import MIN_STEP_FRACTION
 
-__all__ = ["CvodeEngine", "DENSE_LU_DELTA_GAMMA", "KRYLOV_EPS_LIN", "LINEAR_SOLVERS"]
+__all__ = ["CvodeEngine", "KRYLOV_EPS_LIN", "LINEAR_SOLVERS"]
 
-#: refactor CVODE's dense Newton matrix when gamma = h/l0 changed by more than this (SUNDIALS: 0.3).
-#: Measured, mu(I) shear t* and iCIDR sine, Chebyshev N = 201: 138 -> 100 and 130 -> 97 LU
-#: decompositions, t* error against the converged t* 3.5e-5 -> 9.9e-6, max|w| error 6.4e-5 -> 5.1e-5
-#: (0.6: 160 and 113 LUs; 1.5: 138 and 109)
-DENSE_LU_DELTA_GAMMA = 1.0
 #: CVODE's Krylov tolerance factor. SUNDIALS' 0.05 is too loose for an ill-posed law: the inexact
 #: Newton solves delay the grid-scale growth (mu(I) bump2d 128^2: t* 0.11844; eps_lin 5e-4: 0.11709,
 #: 5e-5: 0.11700, 5e-6: 0.11697; docs/scaling.md, benchmarks/tstar2d_solvers.py)

@@ -17,13 +17,13 @@ import os
 import numpy as np
 
 from ..discretizations.grid_size import CHEB
+from ..engines.base import DENSE_LU_DELTA_GAMMA
 from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate
-DENSE_LU_DELTA_GAMMA = 1.0  # engines.sundae.DENSE_LU_DELTA_GAMMA (importing it would import scipy)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
 #: OpenBLAS threads of a run where neither OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set: one.
@@ -53,7 +53,7 @@ class ChebProblem(NativeProblem):
     """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
-    `delta_gamma`, default :data:`icidr_pde.engines.sundae.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
+    `delta_gamma`, default :data:`icidr_pde.engines.base.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
     "krylov" (default :data:`LINEAR_SOLVER`; the dense LU where the build cannot), GMRES with the
     low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`;
     given `weights`, the quadrature weights of phi, the Krylov path projects every step onto the

@@ -1,7 +1,7 @@
 /* CVODE driver of the native engine: the shear cell, finite volumes (fd) or Chebyshev
    collocation (cheb), integrated by SUNDIALS CVODE without a Python callback.
 
-   The same CVODE set-up as icidr_pde.integrator.CvodeEngine (through scikit-sundae) on
+   The same CVODE set-up as icidr_pde.engines.sundae.CvodeEngine (through scikit-sundae) on
    the same problem: BDF up to order 5, scalar tolerances, the band linear solver with
    bandwidths (5, 5) and the analytic band Jacobian (fd_jacobian_interleaved), at most 3 Newton
    iterations and 10 convergence failures a step, 1e6 steps, the minimum step the caller
@@ -12,7 +12,7 @@
    Chebyshev (as CvodeEngine's dense 'analytic' mode): the analytic dense Jacobian
    (cheb_jacobian) and the dense LU, LAPACK's (SUNLinSol_LapackDense, OpenBLAS) where the
    build found it, else SUNDIALS' own; the factored Newton matrix kept until gamma changed
-   by delta_gamma (integrator.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
+   by delta_gamma (icidr_pde.engines.base.DENSE_LU_DELTA_GAMMA); the state in blocks (phi, u, w).
    Or (icidr_cheb_krylov, where the build found SPGMR and LAPACK): Newton-Krylov, SUNDIALS'
    GMRES (SPGMR, left preconditioning) with CVODE's difference-quotient products J v (one
    right-hand side each, O(N^2)), preconditioned by the LU of I - gamma J_p, J_p the analytic
