@@ -1,21 +1,33 @@
 """The field images and the movie of docs/sim2d.md (scene bump2d, both rheologies).
 
-``python -m icidr_pde.figures.sim2d_fields`` writes docs/sim2d_fields.png (w and phi - phi0 of both
-rheologies) and docs/sim2d.mp4 (w of both runs side by side), from runs with the settings of
-:mod:`icidr_pde.studies.sim2d`.
+``python -m icidr_pde.figures.sim2d_fields [--out DIR] [--N N] [--movie-N N] [--frames K]`` writes
+DIR/sim2d_fields.png (w and phi - phi0 of both rheologies) and DIR/sim2d.mp4 (both runs side by
+side, through :func:`icidr_pde.movies.render.movie_from_results_2d`), from runs with the settings of
+:mod:`icidr_pde.studies.sim2d`. DIR defaults to ``docs``.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from ..outputs import replacing, save_figure
+from ..argtypes import int_at_least
+from ..outputs import save_figure
 from ..plotting import field_panel
 from ..studies.sim2d import SETTINGS
 
-__all__ = ["field_figure", "movie"]
+__all__ = ["field_figure", "movie", "main"]
+
+
+def _failure_time(n: int, t_end: float = 10.0) -> float:
+    """mu(I)'s t* on bump2d at n x n (t_end where it does not fail)."""
+    from ..api import run
+
+    probe = run("mui", "bump2d", (n, n), t_end, ["0", f"{t_end:g}"], series_times=[], **SETTINGS)
+    return probe.t_star if probe.blew_up else t_end
 
 
 def _snapshots(rheology, n, t_end, n_frames):
@@ -23,18 +35,17 @@ def _snapshots(rheology, n, t_end, n_frames):
 
     t_end = float(f"{t_end:.4g}")  # the labels below must not round past t_end
     times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, n_frames)[:-1]] + [f"{t_end:.6g}"]
-    return run(rheology, "bump2d", (n, n), t_end, times, series_times=[], **SETTINGS)
+    return run(rheology, "bump2d", (n, n), t_end, times, **SETTINGS)
 
 
-def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
+def field_figure(path="docs/sim2d_fields.png", n=64) -> Path:
     """w and phi - phi0 of both rheologies on bump2d: iCIDR at t = 0.5, 2, 10, mu(I) before t*."""
     import matplotlib.pyplot as plt
 
     from ..api import run
 
     icidr = run("icidr", "bump2d", (n, n), 10.0, ["0.5", "2", "10"], series_times=[], **SETTINGS)
-    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
-    t_star = probe.t_star if probe.blew_up else 10.0
+    t_star = _failure_time(n)
     mui = run("mui", "bump2d", (n, n), 10.0, [f"{f * t_star:.6g}" for f in (0.25, 0.6, 0.97)],
               series_times=[], **SETTINGS)
     fig, axes = plt.subplots(4, 3, figsize=(10, 12), constrained_layout=True)
@@ -47,41 +58,32 @@ def field_figure(path="docs/sim2d_fields.png", n=64) -> None:
     fig.suptitle(f"bump2d, {n}x{n}: iCIDR decays smoothly; mu(I),Phi(I) fails at t* = {t_star:.3g}")
     save_figure(fig, path, dpi=90)
     plt.close(fig)
-    print(f"figure written to {path}")
+    return Path(path)
 
 
-def movie(path="docs/sim2d.mp4", n=48, n_frames=60) -> None:
-    """Side-by-side movie of w: iCIDR to t = 10 and mu(I),Phi(I) up to its failure, same frame count."""
-    import imageio_ffmpeg
-    import matplotlib
-    import matplotlib.animation as animation
-    import matplotlib.pyplot as plt
+def movie(path="docs/sim2d.mp4", n=48, n_frames=60, progress=True) -> Path:
+    """Movie of w and phi - phi0, iCIDR and mu(I),Phi(I) side by side, the same n_frames
+    snapshots up to 0.99 t* of mu(I) (its failure frame last), with max|w| against t beside."""
+    from ..movies.render import movie_from_results_2d
 
-    from ..api import run
-
-    matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
-    icidr = _snapshots("icidr", n, 10.0, n_frames)
-    probe = run("mui", "bump2d", (n, n), 10.0, ["0", "10"], series_times=[], **SETTINGS)
-    t_star = probe.t_star if probe.blew_up else 10.0
+    t_star = _failure_time(n)
     mui = _snapshots("mui", n, 0.99 * t_star, n_frames)
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2), constrained_layout=True)
-
-    def draw(frame):
-        for ax in axes:
-            ax.clear()
-        field_panel(axes[0], icidr, "w", min(frame, len(icidr.times) - 1), "iCIDR")
-        field_panel(axes[1], mui, "w", min(frame, len(mui.times) - 1), "mu(I)")
-
-    anim = animation.FuncAnimation(fig, draw, frames=n_frames)
-    with replacing(path) as tmp:
-        anim.save(tmp, writer=animation.FFMpegWriter(fps=12, bitrate=900))
-    plt.close(fig)
-    print(f"movie written to {path}")
+    icidr = _snapshots("icidr", n, 0.99 * t_star, n_frames)
+    return movie_from_results_2d({"mu(I)": mui, "iCIDR": icidr}, path, fps=12,
+                                 title=f"bump2d, {n}x{n}: mu(I),Phi(I) fails at t* = {t_star:.3g}, iCIDR decays", progress=progress)
 
 
-def main() -> int:
-    field_figure()
-    movie()
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m icidr_pde.figures.sim2d_fields", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=Path("docs"), help="folder of sim2d_fields.png and sim2d.mp4 (default docs)")
+    parser.add_argument("--N", type=int_at_least(8), default=64, help="cells per side of the field images (default 64)")
+    parser.add_argument("--movie-N", type=int_at_least(8), default=48, help="cells per side of the movie (default 48)")
+    parser.add_argument("--frames", type=int_at_least(2), default=60, help="snapshots in the movie (default 60)")
+    args = parser.parse_args(argv)
+    if not args.out.is_dir():
+        parser.error(f"--out: folder {args.out} does not exist")
+    print(f"figure written to {field_figure(args.out / 'sim2d_fields.png', args.N)}")
+    print(f"movie written to {movie(args.out / 'sim2d.mp4', args.movie_N, args.frames)}")
     return 0
 
 
