@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import signal
 import sys
 import time
@@ -156,8 +157,21 @@ class interrupt_signals:
         return False
 
 
-def write_outputs(writers) -> int:
-    """Call each (option, path, write) in turn; report failures; EXIT_WRITE_FAILED if any."""
+def is_stdout(path) -> bool:
+    """Whether `path` is this process's standard output (``/dev/stdout``, ``/proc/self/fd/1``, the file
+    or pipe stdout goes to)."""
+    if path is None:
+        return False
+    try:
+        here, there = os.stat(path), os.fstat(sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        return False
+    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
+
+
+def write_outputs(writers, report=None) -> int:
+    """Call each (option, path, write) in turn; report failures; EXIT_WRITE_FAILED if any. What was
+    written is said on `report` (default stdout)."""
     status = EXIT_OK
     for option, path, write in writers:
         if path is None:
@@ -172,7 +186,7 @@ def write_outputs(writers) -> int:
             print(f"{PREFIX} interrupted while writing {option} {path}; it was not written", file=sys.stderr)
             raise
         else:
-            print(f"{option.lstrip('-')} written to {path}")
+            print(f"{option.lstrip('-')} written to {path}", file=report or sys.stdout)
     return status
 
 
@@ -268,12 +282,14 @@ def cmd_run(args) -> int:
         if quiet:
             written["status"] = EXIT_OK
             return
-        print(result)
+        summary = sys.stderr if is_stdout(args.json) else sys.stdout  # stdout then holds only the JSON
+        print(result, file=summary)
         print(json.dumps({k: v for k, v in result.to_dict().items()
                           if k in ("blew_up", "t_star", "reason", "t_final", "max_w", "mass_drift", "wall_s")},
-                         indent=1))
+                         indent=1), file=summary)
         written["status"] = write_outputs([("--json", args.json, result.save_json),
-                                           ("--plot", plot, lambda path: _write_run_plot(result, path))])
+                                           ("--plot", plot, lambda path: _write_run_plot(result, path))],
+                                          report=summary)
 
     with interrupt_signals() as signals:
         try:

@@ -559,6 +559,9 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetMaxStep(p->cvode, max_step));
     CHECK(CVodeSetMaxOrd(p->cvode, 5));
     CHECK(CVodeSetMaxNumSteps(p->cvode, max_num_steps));
+    /* no "t + h = t" warnings on stdout (they would break --json /dev/stdout): a step that small
+       ends the run at the minimum step, whose reason the Result reports */
+    CHECK(CVodeSetMaxHnilWarns(p->cvode, -1));
     return 0;
 fail:
     if (p->message[0]) {

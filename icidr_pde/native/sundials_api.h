@@ -85,6 +85,7 @@ int CVodeSetMinStep(void *cvode_mem, sunrealtype hmin);
 int CVodeSetMaxStep(void *cvode_mem, sunrealtype hmax);
 int CVodeSetMaxOrd(void *cvode_mem, int maxord);
 int CVodeSetMaxNumSteps(void *cvode_mem, long int mxsteps);
+int CVodeSetMaxHnilWarns(void *cvode_mem, int mxhnil);
 int CVode(void *cvode_mem, sunrealtype tout, N_Vector yout, sunrealtype *tret, int itask);
 int CVodeGetNumSteps(void *cvode_mem, long int *nsteps);
 int CVodeGetNumRhsEvals(void *cvode_mem, long int *nfevals);
