@@ -140,3 +140,16 @@ def test_low_order_c_is_the_numba_template():
     case.scheme.loops().low_order_jacobian(y.reshape(3, N), D, z, c.pde.material.params, B)
     mine = case.problem().jacobian_low_order(y)
     assert np.max(np.abs(mine - B)) <= 1e-13 * np.max(np.abs(B))
+
+
+@pytest.mark.parametrize("accuracy, within", [("standard", 1e-3), ("publication", 1e-5)])
+def test_the_presets_tstar_is_within_its_stated_accuracy(accuracy, within):
+    """icidr_pde.presets: mu(I) shear, N = 201, the native default (GMRES, band preconditioner) at a
+    preset's Chebyshev tolerances gives t* within 1e-3 (standard) or 1e-5 (publication) of the converged
+    t* of scipy's BDF at rtol 1e-10 (data/reference; measured 7.4e-5 and 1.4e-6, load 1.9: icidr_pde.presets)."""
+    from icidr_pde.studies.references import reference_tstar
+
+    converged = reference_tstar("cheb")["t_star"]
+    result = run_native("mui", "shear", 201, 0.05, discretization="cheb", accuracy=accuracy)
+    assert result.blew_up and result.settings["linear_solver"].startswith("GMRES")
+    assert abs(result.t_star - converged) / converged < within
