@@ -153,3 +153,18 @@ def test_the_presets_tstar_is_within_its_stated_accuracy(accuracy, within):
     result = run_native("mui", "shear", 201, 0.05, discretization="cheb", accuracy=accuracy)
     assert result.blew_up and result.settings["linear_solver"].startswith("GMRES")
     assert abs(result.t_star - converged) / converged < within
+
+
+def test_the_memory_check_takes_the_linear_solvers_estimate(monkeypatch):
+    """icidr_pde.discretizations.grid_size.CHEB: with 1.2 GB available N = 2001 fits the Krylov path
+    (D and vectors, 0.07 GB) and not the dense LU (0.93 GB), refused before anything is allocated."""
+    from icidr_pde.validation import ParameterError
+
+    monkeypatch.setenv("ICIDR_PDE_MEMORY", "1.2e9")
+    case = ChebCase("mui", "shear", 2001)
+    with pytest.raises(ParameterError, match=r"`N` = 2001 is too large for discretization 'cheb' with linear "
+                                             r"solver 'dense'.*dense 3N x 3N"):
+        case.problem(linear_solver="dense")
+    with pytest.raises(ParameterError, match="linear solver 'krylov': it"):  # the lagged dense LU is dense too
+        case.problem(linear_solver="krylov", krylov={"preconditioner": "dense"})
+    assert case.problem(linear_solver="krylov", krylov={"preconditioner": "band"}).linear_solver == "krylov"
