@@ -1,6 +1,6 @@
 """Chebyshev collocation beyond the dense LU: the native engine's linear solvers measured.
 
-    nice -n 5 python benchmarks/cheb_krylov.py tstar [--N 101 201 401] [--json out.json]
+    nice -n 5 python benchmarks/cheb_krylov.py tstar [--N 101 201 401] [--rtols 1e-5 1e-7] [--json out.json]
     nice -n 5 python benchmarks/cheb_krylov.py speed [--repeats 3] [--json out.json]
     nice -n 5 python benchmarks/cheb_krylov.py large [--N 401 801] [--json out.json]
     nice -n 5 python benchmarks/cheb_krylov.py roofline [--N 201]
@@ -13,10 +13,12 @@ on the CGL points) and ``lagged`` (SPGMR preconditioned by the dense LU of an ea
 
 * ``tstar``: t* of mu(I), scene shear (3.16), at each N, per solver, GMRES tolerance factor
   (``eps_lin``) and CVODE tolerance, in process (the round-off seed: the spread of t* between
-  solvers must stay at the level of the dense path's own spread between tolerances).
+  solvers must stay at the level of the dense path's own spread between tolerances); ``--rtols``
+  the CVODE tolerances (atol = rtol / 1000), at N = 201 with the error against the converged t*.
 * ``speed``: end_to_end.py's ``tstar-cheb`` (mu(I) N = 201 to t*, rtol 1e-7, atol 1e-10) and
   ``sine-cheb`` (iCIDR sine N = 201, t = 15, rtol 1e-5, atol 1e-8) and a t*(N) sweep, N = 21..201
-  step 20, t_end = 20, at the standard preset's rtol 1e-5, atol 1e-8 (the baseline too), as whole
+  step 20, t_end = 20, at the standard preset's Chebyshev tolerances (rtol 1e-7, atol 1e-10; the
+  baseline too), as whole
   processes, interleaved with end_to_end.py's scipy baseline (BDF, dense analytic Jacobian,
   numpy right-hand side) in the same run; in-process solve times beside them.
 * ``large``: time, steps and peak memory (ru_maxrss of the child) at N = 401, 801.
@@ -45,12 +47,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from end_to_end import CASES, ROOT, TIMES  # noqa: E402
 
 SWEEP_N = tuple(range(21, 202, 20))
+
+
+def standard_cheb() -> dict:
+    """The standard preset's Chebyshev tolerances (icidr_pde.presets)."""
+    from icidr_pde.presets import PRESETS, scheme_value
+
+    return {key: scheme_value(PRESETS["standard"][key], "cheb") for key in ("rtol", "atol")}
+
+
 #: the cases a project run can do: end_to_end.py's two Chebyshev ones and the t*(N) sweep
 RUNS = {
     "tstar-cheb": dict(CASES["tstar-cheb"], rtol=1e-7, atol=1e-10),
     "sine-cheb": dict(CASES["sine-cheb"], rtol=1e-5, atol=1e-8),
-    "tstar-std": dict(CASES["tstar-cheb"], rtol=1e-5, atol=1e-8),
-    "sweep": dict(CASES["tstar-cheb"], t_end=20.0, rtol=1e-5, atol=1e-8),
+    "tstar-std": dict(CASES["tstar-cheb"], **standard_cheb()),
+    "sweep": dict(CASES["tstar-cheb"], t_end=20.0, **standard_cheb()),
 }
 REFERENCE = json.loads((ROOT / "data" / "reference" / "mui-shear-tstar-cheb.json").read_text())["t_star"]
 
@@ -139,12 +150,12 @@ def baseline(case: str) -> dict:
 
 
 def baseline_sweep() -> dict:
-    """end_to_end.baseline_tstar at every N of the sweep, t_end = 20, rtol 1e-5, atol 1e-8."""
+    """end_to_end.baseline_tstar at every N of the sweep, t_end = 20, the project's tolerances."""
     import end_to_end
 
     rows = []
     for N in SWEEP_N:
-        end_to_end.CASES["tstar-cheb"].update(N=N, t_end=20.0, baseline=dict(rtol=1e-5, atol=1e-8))
+        end_to_end.CASES["tstar-cheb"].update(N=N, t_end=20.0, baseline=standard_cheb())
         rows.append(dict(N=N, **{k: v for k, v in end_to_end.baseline_tstar("tstar-cheb").items() if k != "max_w"}))
     return dict(runs=rows, solve_s=sum(r["solve_s"] for r in rows))
 
@@ -157,7 +168,8 @@ def tstar_table(Ns, solvers, tolerances) -> list[dict]:
             for solver in solvers:
                 r = one(solver, "tstar-cheb", N, rtol=rtol, atol=atol)["runs"][0]
                 rows.append(dict(r, solver=solver, rtol=rtol, atol=atol))
-                print(f"N {N:4d}  rtol {rtol:g} atol {atol:g}  {solver:28s} t* {r['t_star']!r:22s}"
+                error = f"  error {abs(r['t_star'] - REFERENCE) / REFERENCE:.2e}" if N == 201 and r['t_star'] else ""
+                print(f"N {N:4d}  rtol {rtol:g} atol {atol:g}  {solver:28s} t* {r['t_star']!r:22s}{error}"
                       f"  solve {r['wall_s']:6.2f} s  steps {r['steps']:5d}  lu {r['lu']:4d}  jac {r['jac']:3d}"
                       f"  krylov {r.get('krylov_iterations', 0):5d}  newton {r['newton_iterations']:5d}", flush=True)
     return rows
@@ -273,6 +285,7 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline-sweep", action="store_true", help="the baseline's sweep (internal)")
     parser.add_argument("--N", type=int, nargs="+")
     parser.add_argument("--solvers", nargs="+")
+    parser.add_argument("--rtols", type=float, nargs="+", help="tstar: CVODE rtols (atol = rtol / 1000)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--json")
     args = parser.parse_args(argv)
@@ -287,7 +300,7 @@ def main(argv=None) -> int:
     if args.what == "tstar":
         data = tstar_table(args.N or (101, 201, 401),
                            args.solvers or ("dense", "band", "band:eps_lin=0.005", "band:eps_lin=0.0005", "lagged"),
-                           [(1e-5, 1e-8), (1e-7, 1e-10)])
+                           [(rtol, rtol / 1000) for rtol in args.rtols or (1e-5, 1e-7)])
     elif args.what == "speed":
         data = speed(args.solvers or ("dense", "band"), args.repeats)
     elif args.what == "large":

@@ -4,7 +4,10 @@
         --t-end 20 --json cheb.json --plot fig4b.png
 
 The JSON maps N (as a string) to t* (null where
-the run reached t-end without failing). Several discretizations at once
+the run reached t-end without failing). ``--engine native`` runs each case on the native engine
+(CVODE, tolerances of the standard preset unless given: Chebyshev rtol 1e-7, atol 1e-10)
+instead of scipy's BDF at rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the
+paper's t* are pinned on). Several discretizations at once
 (``--discretization fd cheb``) give one such mapping per discretization, keyed by its
 name; ``--load label=file.json`` adds saved sweeps to the plot.
 """
@@ -19,6 +22,7 @@ import os
 from .argtypes import positive_int
 from .discretizations import DISCRETIZATIONS
 from .engines import JACOBIAN_MODES, METHODS
+from .engines.choose import REQUESTS
 from .engines.base import check_tolerances
 from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
@@ -67,9 +71,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="start:stop:step with stop included, e.g. 21:201:2 (default), "
                         "or a comma-separated list")
     p.add_argument("--t-end", type=float, default=20.0, help="a run that reaches it did not fail")
-    p.add_argument("--method", choices=sorted(METHODS), default="BDF", help="integrator")
-    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
-    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
+    p.add_argument("--engine", choices=[r for r in REQUESTS if r in ("pde", "native")], default="pde",
+                   help="pde (default): scipy's or scikit-sundae's solver on the py-pde scheme; native: the "
+                        "compiled problem and CVODE (Chebyshev: GMRES with the low-order band preconditioner)")
+    p.add_argument("--method", choices=sorted(METHODS), default=None,
+                   help="integrator (default: BDF; CVODE with --engine native)")
+    p.add_argument("--rtol", type=float, default=None,
+                   help="relative tolerance (default: 1e-6; with --engine native the standard preset's)")
+    p.add_argument("--atol", type=float, default=None,
+                   help="absolute tolerance (default: 1e-9; with --engine native the standard preset's)")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
@@ -111,19 +121,29 @@ def cmd_tstar(args) -> int:
         results = {}
     else:
         Ns = parse_range(args.N or "21:201:2")
-        check_tolerances(args.rtol, args.atol)
+        native = args.engine == "native"
+        method = args.method or ("CVODE" if native else "BDF")
+        if native and method != "CVODE":
+            raise ValueError(f"`--method` must be CVODE with `--engine native`; got {method!r}")
+        default_rtol, default_atol = (None, None) if native else (1e-6, 1e-9)  # None: the preset's, per scheme
+        rtol = default_rtol if args.rtol is None else args.rtol
+        atol = default_atol if args.atol is None else args.atol
+        check_tolerances(1e-6 if rtol is None else rtol, 1e-9 if atol is None else atol)
         check_t_end(args.t_end)
         with _client(args) as client:
             results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
                             progress=not args.no_progress, client=client, rheology=args.rheology,
-                            scene=args.scene, t_end=args.t_end, method=args.method,
-                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian,
-                            backend=args.backend)
+                            scene=args.scene, t_end=args.t_end, method=method,
+                            rtol=rtol, atol=atol, jacobian=args.jacobian,
+                            backend=args.backend, engine=args.engine)
     mappings = {d: tstar_mapping(r) for d, r in results.items()}
     for disc, mapping in mappings.items():
         curves[disc] = mapping
         failed = [(int(n), t) for n, t in mapping.items() if t is not None]
         thr = threshold(mapping)
+        used = {(r.get("engine"), r.get("rtol"), r.get("atol")) for r in results[disc].values()}
+        print(f"{disc}: " + "; ".join(f"engine {e}, rtol {rt:g}, atol {at:g}" for e, rt, at in sorted(used, key=str)
+                                      if rt is not None))
         print(f"{disc}: {len(failed)}/{len(mapping)} runs failed; "
               f"every N >= {thr} fails" if thr is not None else
               f"{disc}: {len(failed)}/{len(mapping)} runs failed; the largest N did not fail")

@@ -60,6 +60,28 @@ def test_cli_refuses_a_run_that_cannot_fit_before_writing(tmp_path, capsys, monk
     assert not target.exists()
 
 
+def test_chebyshev_memory_estimate_depends_on_the_linear_solver(monkeypatch):
+    """The dense LU holds three dense 3N x 3N arrays (27 N^2 doubles), the Krylov path with the band
+    preconditioner D and vectors (2 N^2 + O(N)): the grid check takes the least, each path its own;
+    with 1.2 GB available, N = 2001 (0.93 GB dense, 0.07 GB Krylov) is refused on the py-pde path only."""
+    from icidr_pde.case import build_case
+    from icidr_pde.discretizations.grid_size import CHEB, FD
+    from icidr_pde.engines.stiff import StiffSolver
+
+    previous = 0.0
+    for N in (9, 33, 201, 801, 4001):
+        dense, krylov = CHEB.estimate(N, "dense")[0], CHEB.estimate(N, "krylov")[0]
+        assert previous < krylov < dense and CHEB.least(N)[0] == krylov
+        assert CHEB.estimate(N)[0] == CHEB.memory_estimate(N) == dense
+        previous = krylov
+    assert 10 < CHEB.estimate(801, "dense")[0] / CHEB.estimate(801, "krylov")[0] < 30  # 29 N^2 against 2 N^2
+    assert FD.least(201) == FD.estimate(201, "krylov") == (FD.memory_estimate(201), FD.memory_note)
+    monkeypatch.setenv(MEMORY_ENV, "1.2e9")
+    case = build_case("mui", "shear", "cheb", 2001)  # the grid check: the least estimate fits
+    with pytest.raises(ParameterError, match=r"`N` = 2001 with method 'BDF'.*dense 3N x 3N Jacobian"):
+        StiffSolver(case.pde, method="BDF").check_memory(case.state)
+
+
 @pytest.mark.parametrize("nx, nz", [(4000, 4000), (100000, 100000)])
 def test_2d_grid_beyond_memory_is_refused(capsys, monkeypatch, nx, nz):
     monkeypatch.setenv(MEMORY_ENV, str(16 * 2**30))

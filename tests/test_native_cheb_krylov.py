@@ -140,3 +140,31 @@ def test_low_order_c_is_the_numba_template():
     case.scheme.loops().low_order_jacobian(y.reshape(3, N), D, z, c.pde.material.params, B)
     mine = case.problem().jacobian_low_order(y)
     assert np.max(np.abs(mine - B)) <= 1e-13 * np.max(np.abs(B))
+
+
+@pytest.mark.parametrize("accuracy, within", [("standard", 1e-3), ("publication", 1e-5)])
+def test_the_presets_tstar_is_within_its_stated_accuracy(accuracy, within):
+    """icidr_pde.presets: mu(I) shear, N = 201, the native default (GMRES, band preconditioner) at a
+    preset's Chebyshev tolerances gives t* within 1e-3 (standard) or 1e-5 (publication) of the converged
+    t* of scipy's BDF at rtol 1e-10 (data/reference; measured 7.4e-5 and 1.4e-6, load 1.9: icidr_pde.presets)."""
+    from icidr_pde.studies.references import reference_tstar
+
+    converged = reference_tstar("cheb")["t_star"]
+    result = run_native("mui", "shear", 201, 0.05, discretization="cheb", accuracy=accuracy)
+    assert result.blew_up and result.settings["linear_solver"].startswith("GMRES")
+    assert abs(result.t_star - converged) / converged < within
+
+
+def test_the_memory_check_takes_the_linear_solvers_estimate(monkeypatch):
+    """icidr_pde.discretizations.grid_size.CHEB: with 1.2 GB available N = 2001 fits the Krylov path
+    (D and vectors, 0.07 GB) and not the dense LU (0.93 GB), refused before anything is allocated."""
+    from icidr_pde.validation import ParameterError
+
+    monkeypatch.setenv("ICIDR_PDE_MEMORY", "1.2e9")
+    case = ChebCase("mui", "shear", 2001)
+    with pytest.raises(ParameterError, match=r"`N` = 2001 is too large for discretization 'cheb' with linear "
+                                             r"solver 'dense'.*dense 3N x 3N"):
+        case.problem(linear_solver="dense")
+    with pytest.raises(ParameterError, match="linear solver 'krylov': it"):  # the lagged dense LU is dense too
+        case.problem(linear_solver="krylov", krylov={"preconditioner": "dense"})
+    assert case.problem(linear_solver="krylov", krylov={"preconditioner": "band"}).linear_solver == "krylov"

@@ -13,8 +13,14 @@ def test_presets_resolve_and_explicit_knobs_override():
     assert resolve()["N"] == PRESETS["standard"]["N"]["fd"]  # standard is the default
     assert resolve("draft")["rtol"] == PRESETS["draft"]["rtol"]
     s = resolve("publication", N=101, method="BDF")
-    assert s["N"] == 101 and s["method"] == "BDF" and s["rtol"] == PRESETS["publication"]["rtol"]
-    assert resolve("standard", discretization="cheb")["N"] == PRESETS["standard"]["N"]["cheb"]
+    assert s["N"] == 101 and s["method"] == "BDF" and s["rtol"] == PRESETS["publication"]["rtol"]["fd"]
+    cheb = resolve("standard", discretization="cheb")
+    assert cheb["N"] == PRESETS["standard"]["N"]["cheb"]
+    # tolerances per scheme: Chebyshev's t* needs a tighter rtol than fd's max|w| (presets docstring)
+    assert (cheb["rtol"], cheb["atol"]) == (PRESETS["standard"]["rtol"]["cheb"], PRESETS["standard"]["atol"]["cheb"])
+    assert cheb["rtol"] < resolve("standard")["rtol"]
+    assert resolve("standard", discretization="cheb", rtol=1e-4)["rtol"] == 1e-4
+    assert resolve("standard", discretization="fv2d")["rtol"] == PRESETS["standard"]["rtol"]["fd"]
     with pytest.raises(ValueError, match="accuracy"):
         resolve("best")
 

@@ -3,8 +3,12 @@
 One table for every run path, importing no py-pde: the discretizations
 (:meth:`icidr_pde.discretizations.base.ShearCellBase.check_N`, the 2-D scheme's
 ``make_grid``) and the native engine (:class:`icidr_pde.native.NativeCase`) check the grid
-with :func:`check_N` / :func:`check_cells`; the stiff solver adds what its linear algebra
-allocates (:func:`path_bytes`, checked by :func:`check_path` before the integration starts).
+with :func:`check_N` / :func:`check_cells` against the least a run of the scheme needs (the
+estimate of its cheapest linear solver, :meth:`GridLimit.least`); the stiff solver adds what its
+linear algebra allocates (:func:`path_bytes`, checked by :func:`check_path` before the
+integration starts), the native Chebyshev problem checks the estimate of its linear solver
+(:meth:`GridLimit.estimate`: the dense LU's three dense 3N x 3N arrays, or the Krylov path's
+D and vectors).
 A run whose estimate exceeds half the memory available (:func:`~icidr_pde.validation.memory_bytes`)
 is refused before any allocation.
 
@@ -14,6 +18,9 @@ numba loaded is ~250 MB):
 * 1-D fd, py-pde path, CVODE with the analytic band Jacobian: 538 MB at N = 2000, 1384 MB at
   N = 4000 -- one dense 3N x 3N array (288 MB, 1152 MB): scikit-sundae hands a band Jacobian
   over in a dense NEQ x NEQ array; the native engine: 53 MB at N = 2000;
+* 1-D cheb, native engine, mu(I) shear to t* (``benchmarks/cheb_krylov.py large``, child's
+  ru_maxrss, Python and numpy included): dense LU 77, 172 MiB at N = 401, 801; GMRES with the
+  band preconditioner (the default) 45, 53 MiB -- D, not a dense Jacobian, is what grows;
 * 2-D fv2d, bump2d, CVODE + GMRES (the default): 289, 412, 904 MB at 128^2, 256^2, 512^2 cells
   -- 2.5 kB a cell (the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each); with
   SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in).
@@ -21,7 +28,7 @@ numba loaded is ~250 MB):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 from ..validation import ParameterError, format_bytes, integer, memory_bytes
@@ -33,11 +40,25 @@ __all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "path_by
 @dataclass(frozen=True)
 class GridLimit:
     """The documented largest N (cells of a 2-D grid), what a run's memory holds, and its size
-    in bytes for N (roughly)."""
+    in bytes for N (roughly); `paths`: (linear solver, what its run holds, its size) of linear
+    solvers whose runs need another amount than `memory_estimate` (the scheme's default)."""
 
     max_N: int
     memory_note: str
     memory_estimate: Callable[[int], float]
+    paths: tuple[tuple[str, str, Callable[[int], float]], ...] = field(default=())
+
+    def estimate(self, N: int, linear_solver: str | None = None) -> tuple[float, str]:
+        """(bytes, what they hold) of a run on N whose Newton systems `linear_solver` solves
+        (None or one not in `paths`: the scheme's default, `memory_estimate`)."""
+        for name, note, estimate in self.paths:
+            if name == linear_solver:
+                return estimate(N), note
+        return self.memory_estimate(N), self.memory_note
+
+    def least(self, N: int) -> tuple[float, str]:
+        """(bytes, what they hold) of the cheapest run on N: what every run of the scheme needs."""
+        return min([self.estimate(N)] + [self.estimate(N, name) for name, _, _ in self.paths])
 
 
 def _fd_bytes(N: int) -> float:
@@ -48,14 +69,25 @@ def _cheb_bytes(N: int) -> float:
     return 8.0 * (3 * 9 * N**2 + 2 * N**2)
 
 
+def _cheb_krylov_bytes(N: int) -> float:
+    # D twice (the scheme's and the C problem's copy); per unknown the band J_lo (11 doubles) and
+    # its LAPACK LU (16), CVODE's history and work vectors and GMRES's basis (about 35 vectors)
+    return 8.0 * (2 * N**2 + 3 * N * (11 + 16 + 35))
+
+
 def _fv2d_bytes(cells: int) -> float:
     return 2500.0 * cells  # measured, see the module docstring
 
 
 #: finite volumes: the run time, not the memory, grows like N^2
 FD = GridLimit(100_000, "banded Jacobian and work vectors", _fd_bytes)
-#: Chebyshev: the dense 3N x 3N Jacobian and its LU, ~2.5 GB at N = 4001
-CHEB = GridLimit(4001, "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix", _cheb_bytes)
+#: Chebyshev: the dense 3N x 3N Jacobian and its LU, ~3.7 GB at N = 4001 (the dense LU of the py-pde
+#: path and of the native engine's ``linear_solver="dense"``); the native engine's Newton-Krylov path
+#: with the band preconditioner (:data:`icidr_pde.native.cheb.KRYLOV`, its default) stores no dense
+#: 3N x 3N array: ~0.26 GB at N = 4001
+CHEB = GridLimit(4001, "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix", _cheb_bytes,
+                 paths=(("krylov", "the N x N differentiation matrix, the band preconditioner and its LU, "
+                         "CVODE's and GMRES's vectors", _cheb_krylov_bytes),))
 #: 2-D finite volumes, per cell of the Nx x Nz grid; at most 3 Nx Nz < 2^31 unknowns (the 32-bit
 #: indices of the sparse Jacobian)
 FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5 kB a cell, measured",
@@ -103,15 +135,15 @@ def check_memory(subject: str, need: float, note: str, hint: str = "") -> None:
 
 
 def _check_size(subject: str, size: int, limit: GridLimit, unit: str) -> None:
-    need = limit.memory_estimate(size)
+    need, note = limit.least(size)
     if size > limit.max_N:
         raise ParameterError(f"{subject}: the maximum is {limit.max_N}{unit}, and it "
-                             f"{_memory_text(need, limit.memory_note, memory_bytes())}")
-    check_memory(f"{subject}: it", need, limit.memory_note)
+                             f"{_memory_text(need, note, memory_bytes())}")
+    check_memory(f"{subject}: it", need, note)
 
 
 def check_N(scheme: str, N, limit: GridLimit) -> int:
-    """N as an int in [4, limit.max_N] whose memory estimate fits into half the memory available."""
+    """N as an int in [4, limit.max_N] whose least memory estimate fits into half the memory available."""
     N = integer("N", N, 4)
     _check_size(f"`N` = {N} is too large for discretization {scheme!r}", N, limit, "")
     return N
@@ -123,10 +155,10 @@ def check_cells(scheme: str, Nx: int, Nz: int, limit: GridLimit) -> None:
                 Nx * Nz, limit, " cells")
 
 
-def check_path(what: str, n: int, scheme_bytes: float, method: str, mode: str, hint: str = "") -> None:
+def check_path(what: str, n: int, scheme_bytes: float, method: str, mode: str, hint: str = "",
+               scheme_note: str = "") -> None:
     """Refuse a run of n unknowns (`what`: its grid, e.g. "`N` = 20000") whose scheme needs
-    `scheme_bytes` and whose linear algebra (:func:`path_bytes`) does not fit."""
+    `scheme_bytes` (holding `scheme_note`) and whose linear algebra (:func:`path_bytes`) does not fit."""
     extra, note = path_bytes(n, method, mode)
-    if extra:
-        shown = "'analytic' (band)" if mode == "analytic-band" else repr(mode)
-        check_memory(f"{what} with method {method!r}, Jacobian {shown}", scheme_bytes + extra, note, hint)
+    shown = "'analytic' (band)" if mode == "analytic-band" else repr(mode)
+    check_memory(f"{what} with method {method!r}, Jacobian {shown}", scheme_bytes + extra, note or scheme_note, hint)

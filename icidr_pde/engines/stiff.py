@@ -138,7 +138,8 @@ def check_memory(pde, state, method: str, choice: Choice) -> None:
     mode = choice.memory_mode
     hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
-    check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), method, mode, hint)
+    check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), method, mode, hint,
+               limit.memory_note)
 
 
 def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):

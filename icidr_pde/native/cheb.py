@@ -16,14 +16,14 @@ import os
 
 import numpy as np
 
-from ..discretizations.grid_size import CHEB
+from ..discretizations.grid_size import CHEB, check_memory
 from ..engines.base import DENSE_LU_DELTA_GAMMA
 from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
-memory_estimate = CHEB.memory_estimate
+memory_estimate = CHEB.memory_estimate  # the dense LU's; a problem checks its own linear solver's (CHEB.estimate)
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
 #: OpenBLAS threads of a run where neither OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set: one.
@@ -82,6 +82,11 @@ class ChebProblem(NativeProblem):
             linear_solver = "dense"
         if delta_gamma is None:
             delta_gamma = settings["delta_gamma"] if linear_solver == "krylov" else DENSE_LU_DELTA_GAMMA
+        N = int(np.shape(D)[0])
+        band = linear_solver == "krylov" and settings["preconditioner"] == "band"
+        need, note = CHEB.estimate(N, "krylov" if band else "dense")
+        check_memory(f"`N` = {N} is too large for discretization 'cheb' with linear solver {linear_solver!r}"
+                     f"{' (band preconditioner)' if band else ''}: it", need, note)
         if not any(os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")):
             self.lib.icidr_blas_threads(BLAS_THREADS)
         self.D = np.ascontiguousarray(D, dtype=float)

@@ -4,7 +4,8 @@ For the ill-posed mu(I),Phi(I)-rheology the discrete system blows up once the gr
 resolves the short waves that grow fastest; the stiff integrator then cannot meet its
 tolerances (step-size underflow, the paper's 'non-convergent') and the run stops at
 t*. :func:`failure_time` runs one case with :func:`icidr_pde.api.run` on a Python engine
-(the path the paper's t* are pinned on) without the max|w| series; :func:`sweep` computes t* for a range of N (in parallel, with a progress bar).
+(the path the paper's t* are pinned on; ``engine="native"``: the compiled C problem and CVODE,
+for Chebyshev GMRES with the low-order band preconditioner) without the max|w| series; :func:`sweep` computes t* for a range of N (in parallel, with a progress bar).
 
 t* is a property of the discrete system and of the integrator (its tolerances, its
 error control, even the round-off of the linear algebra), not of the PDE: the PDE is
@@ -62,11 +63,12 @@ def failure_time(
     t_end: float = 20.0,
     *,
     method: str = "BDF",
-    rtol: float = 1e-6,
-    atol: float = 1e-9,
+    rtol: float | None = 1e-6,
+    atol: float | None = 1e-9,
     jacobian: str | None = None,
     backend: str = "numpy",
     max_wall: float | None = None,
+    engine: str = "pde",
     return_state: bool = False,
     times=None,
     **scene_params,
@@ -76,7 +78,9 @@ def failure_time(
     The same case builder, solver and failure detection as :func:`icidr_pde.api.run`.
     `backend` is that of the right-hand side: 'numpy' needs no compilation and is as fast
     as numba here (the cost is in the implicit solves). `max_wall` (seconds) abandons a
-    run that takes longer (reason 'timeout ...').
+    run that takes longer (reason 'timeout ...'). `engine` as :func:`~icidr_pde.api.run`'s
+    ('pde': scipy's or scikit-sundae's solver; 'native' needs method 'CVODE' and takes the
+    numba backend's kernels in C); `rtol`, `atol` None: the accuracy preset's for the scheme.
 
     Returns a dict with N, t_star, reason, wall_s (solve, without set-up), n_steps, n_rhs,
     n_jac, n_lu (and, with `return_state`, t_final, z and the final state (3, N) or the
@@ -89,9 +93,10 @@ def failure_time(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = run(rheology, scene, N, t_end, snap or [0.0], discretization=discretization, method=method,
-                     rtol=rtol, atol=atol, jacobian=jacobian, backend=backend, max_wall=max_wall,
-                     series_times=(), engine="pde", **scene_params)
+                     rtol=rtol, atol=atol, jacobian=jacobian, backend="numba" if engine == "native" else backend,
+                     max_wall=max_wall, series_times=(), engine=engine, **scene_params)
     out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
+           "rtol": result.rtol, "atol": result.atol, "engine": result.settings.get("engine"),
            **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
     if return_state:
         out.update(t_final=result.t_final, z=result.z, state=np.array(result.final))

@@ -58,3 +58,18 @@ def test_tstar_command(tmp_path):
     assert abs(data["201"] - PAPER_T_STAR) / PAPER_T_STAR < 0.05
     assert png.stat().st_size > 1000
     assert cli_main(["tstar", "--N", "2"]) == 2  # invalid N: error code, no traceback
+
+
+def test_tstar_command_on_the_native_engine(tmp_path):
+    """--engine native: the native default at the standard preset's Chebyshev tolerances (rtol 1e-7):
+    t* at N = 201 within 1e-3 of the converged t* of BDF rtol 1e-10 (data/reference)."""
+    from icidr_pde.studies.references import reference_tstar
+
+    out = tmp_path / "t.json"
+    code = cli_main(["tstar", "--discretization", "cheb", "--N", "21,201", "--t-end", "0.05", "--jobs", "1",
+                     "--engine", "native", "--no-progress", "--json", str(out)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    converged = reference_tstar("cheb")["t_star"]
+    assert data["21"] is None and abs(data["201"] - converged) / converged < 1e-3
+    assert cli_main(["tstar", "--N", "21", "--engine", "native", "--method", "BDF"]) == 2  # CVODE only
