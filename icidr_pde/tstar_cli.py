@@ -15,18 +15,17 @@ name; ``--load label=file.json`` adds saved sweeps to the plot.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
 
-from .argtypes import positive_int
 from .discretizations import DISCRETIZATIONS
 from .engines import JACOBIAN_MODES, METHODS
 from .engines.choose import REQUESTS
 from .engines.base import check_tolerances
-from .outputs import check_outputs, write_json
+from .outputs import check_outputs, writable_folder, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
+from .studies.distributed import add_cluster_options, client_of
 from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
 
@@ -84,12 +83,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
                    help="right-hand side backend (numpy: no compile time, default)")
-    p.add_argument("--jobs", type=int, default=2, help="worker processes of this machine's process pool")
-    p.add_argument("--workers", type=positive_int, default=None, metavar="N",
-                   help="run the cases as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run the cases as tasks of the dask cluster whose scheduler is at ADDRESS "
-                        "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
+    add_cluster_options(p, "the cases", jobs=2)
+    p.add_argument("--cache", default=None, metavar="DIR",
+                   help="keep each finished case in DIR and take it from there on a rerun (resumes an "
+                        "interrupted sweep; a case whose settings or code changed is run again)")
     p.add_argument("--json", default=None, help="write {N: t*} here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
@@ -100,18 +97,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _client(args):
-    """The dask client of --workers/--scheduler (None, the process pool, without either)."""
-    if args.workers is None and args.scheduler is None:
-        return contextlib.nullcontext()
-    from .studies.distributed import cluster
-
-    return cluster(args.workers, args.scheduler, dashboard=not args.no_progress)
-
-
 def cmd_tstar(args) -> int:
-    if args.jobs < 1:
-        raise ValueError(f"`--jobs` must be >= 1; got {args.jobs}")
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
@@ -130,9 +116,11 @@ def cmd_tstar(args) -> int:
         atol = default_atol if args.atol is None else args.atol
         check_tolerances(1e-6 if rtol is None else rtol, 1e-9 if atol is None else atol)
         check_t_end(args.t_end)
-        with _client(args) as client:
+        if args.cache is not None:
+            writable_folder("--cache", args.cache)
+        with client_of(args, dashboard=not args.no_progress) as client:
             results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
-                            progress=not args.no_progress, client=client, rheology=args.rheology,
+                            progress=not args.no_progress, client=client, cache=args.cache, rheology=args.rheology,
                             scene=args.scene, t_end=args.t_end, method=method,
                             rtol=rtol, atol=atol, jacobian=args.jacobian,
                             backend=args.backend, engine=args.engine)

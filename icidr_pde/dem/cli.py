@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..argtypes import int_at_least, positive_int as _pos_int
 from ..outputs import check_outputs, writable_folder, write_json
+from ..studies.distributed import add_cluster_options, client_of
 
 
 def _fraction(text):
@@ -104,6 +105,7 @@ def add_parser(subparsers):
     tr.add_argument("--json", default=None, help="summary path (default: OUT/transient.json)")
     tr.add_argument("--npz", default=None, help="ensemble path (default: OUT/transient_ensemble.npz; '' for none)")
     tr.add_argument("--fig", default=None, help="figure path (default: OUT/fig8_dem.png; '' for none)")
+    add_cluster_options(tr, "the ensemble's members")
     tr.set_defaults(func=_needs_lammps(cmd_transient))
 
     po = sub.add_parser("pool", help="fig 1 pooled over k_n, H and N: run the pool (resumable) or summarise it",
@@ -211,11 +213,10 @@ def cmd_transient(args) -> int:
     base = ensemble.BaseState(phi0=0.78, params=params, preparation=args.preparation, t_shear=args.t_shear)
     pert = ensemble.Perturbation(fluctuations=fluct, t_end=args.t_end,
                                  dt_fraction=args.transient_dt_fraction)
-    results = []
-    for i, seed in enumerate(ensemble.seeds(args.repeats, args.seed, base.phi0)):
-        results.append(ensemble.run_ensemble_member(base, seed, [pert], _cache(args))[0])
-        if not args.no_progress:
-            print(f"DEM member {i + 1}/{args.repeats} done", flush=True)
+    with client_of(args, dashboard=not args.no_progress) as client:
+        members = ensemble.run_ensemble(base, ensemble.seeds(args.repeats, args.seed, base.phi0), [pert],
+                                        _cache(args), jobs=args.jobs, client=client, progress=not args.no_progress)
+    results = [member[0] for member in members]
     S = analysis.stack(results, args.bin_height, args.u_definition, args.u_frame)
     ens = {"times": S["times"], "z": S["z"], "repeats": len(results), "phi0": base.phi0, "H": args.H,
            "a": pert.a, "b": pert.b}

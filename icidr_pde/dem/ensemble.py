@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import replacing
+from ..studies.parallel import run_cases
 
 from . import cache, coarse
 from .driver import PREPARATIONS, ShearCell
@@ -237,6 +238,24 @@ def run_ensemble_member(base: BaseState, seed: int, perts, cache_dir, keep_resta
         if not keep_restart:
             restart.unlink(missing_ok=True)
     return [results[p] for p in perts]
+
+
+def _member_task(case: dict) -> list:
+    """One member of :func:`run_ensemble` (a task): :func:`run_ensemble_member` of the case."""
+    return run_ensemble_member(case["base"], case["seed"], case["perts"], case["cache_dir"])
+
+
+def run_ensemble(base: BaseState, seeds, perts, cache_dir, *, jobs: int = 1, client=None, progress: bool = False):
+    """:func:`run_ensemble_member` for every seed: [results of `perts` per seed], in the order of `seeds`.
+
+    The members are independent LAMMPS runs: `jobs` worker processes of this machine, or tasks
+    of the dask `client` (neither: one after the other here). Each writes its results to
+    `cache_dir` as it finishes (so the ensemble resumes from the cache as before); on a cluster
+    `cache_dir` must be a folder every worker sees.
+    """
+    cases = [dict(base=base, seed=int(seed), perts=list(perts), cache_dir=str(cache_dir)) for seed in seeds]
+    return list(run_cases(_member_task, cases, jobs, progress, desc="DEM members", client=client,
+                          init_here=False))
 
 
 def seeds(n, base_seed=1, phi0=0.78):

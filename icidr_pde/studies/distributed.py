@@ -7,7 +7,10 @@
   over them (the engine of :func:`~icidr_pde.studies.parallel.run_cases` given a client);
 * :func:`run_many` -- :func:`icidr_pde.api.run` for a list of cases, the
   :class:`~icidr_pde.result.Result`\\ s in the order asked; a task that raised is a
-  :class:`TaskError` naming its case, in its place.
+  :class:`TaskError` naming its case, in its place;
+* :func:`add_cluster_options` and :func:`client_of` -- ``--workers N`` / ``--scheduler
+  ADDRESS`` of every command that runs independent runs (``icidr-pde tstar``, the studies'
+  ``python -m`` commands), parsed and checked in this one place.
 
 A task computes what the serial run computes: the same function on the same arguments in
 a process with one BLAS thread, so t* agrees bit for bit (tests/test_distributed.py).
@@ -16,6 +19,7 @@ dask is the optional extra ``pip install "icidr-pde[dask]"``; see docs/distribut
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import json
 import logging
@@ -27,7 +31,7 @@ from dataclasses import dataclass
 
 from .parallel import single_thread_environment, worker_init
 
-__all__ = ["TaskError", "cluster", "map_cases", "run_many"]
+__all__ = ["TaskError", "add_cluster_options", "client_of", "cluster", "map_cases", "run_many"]
 
 #: seconds to wait for a scheduler to answer before giving up (bad input, exit 2 on the CLI)
 CONNECT_TIMEOUT = 3.0
@@ -57,10 +61,60 @@ def _distributed():
     return distributed
 
 
-def _check_workers(workers) -> int:
+_WORKERS_RANGE = "must be an integer >= 1"
+
+
+def _check_workers(workers, name: str = "workers") -> int:
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"`workers` must be an integer >= 1; got {workers!r}")
+        raise ValueError(f"`{name}` {_WORKERS_RANGE}; got {workers!r}")
     return workers
+
+
+def _count_argument(text: str) -> int:
+    """argparse type of ``--workers`` and ``--jobs``: the check of :func:`_check_workers` on the text."""
+    try:
+        return _check_workers(int(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{_WORKERS_RANGE}; got {text!r}") from None
+
+
+def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:
+    """Add ``--jobs N`` (this machine's process pool; default `jobs`, 1: one run after the
+    other in this process) and ``--workers N`` or ``--scheduler ADDRESS`` (dask; one or the
+    other) to `parser`; :func:`client_of` opens the client they ask for."""
+    parser.add_argument("--jobs", type=_count_argument, default=jobs, metavar="N",
+                        help=f"worker processes of this machine's process pool for {what} (default {jobs})")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=_count_argument, default=None, metavar="N",
+                       help=f"run {what} as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
+    group.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                       help=f"run {what} as tasks of the dask cluster whose scheduler is at ADDRESS "
+                            "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
+
+
+@contextlib.contextmanager
+def client_of(args, parser: argparse.ArgumentParser | None = None, *, dashboard: bool = True):
+    """The dask client of ``args.workers``/``args.scheduler`` for the block (None without
+    either: the caller's own serial path or process pool), its dashboard's link printed.
+
+    A cluster that cannot start or a scheduler that does not answer is bad input, its message
+    naming the option: with `parser`, its one-line error and exit 2 (``parser.error``); without,
+    a ValueError (the commands' mains print it as one line, exit 2).
+    """
+    if args.workers is None and args.scheduler is None:
+        yield None
+        return
+    with contextlib.ExitStack() as stack:
+        try:
+            client = stack.enter_context(cluster(args.workers, args.scheduler, dashboard=dashboard))
+        except ValueError as err:
+            message = str(err)
+            for name in ("workers", "scheduler"):
+                message = message.replace(f"`{name}`", f"`--{name}`")
+            if parser is None:
+                raise ValueError(message) from None
+            parser.error(message)
+        yield client
 
 
 @contextlib.contextmanager

@@ -121,18 +121,35 @@ def sweep(
     jobs: int = 2,
     progress: bool = True,
     client=None,
+    cache=None,
     **kwargs,
 ) -> dict[str, dict[int, dict]]:
     """t* for every N and discretization: {discretization: {N: failure_time(...) dict}}.
 
     Runs in `jobs` worker processes (spawned, with one BLAS thread each; jobs=1 runs
     in this process), or as tasks of the dask `client` (:mod:`.distributed`), with a
-    tqdm progress bar. `kwargs` go to :func:`failure_time`.
+    tqdm progress bar. `kwargs` go to :func:`failure_time`. With `cache` (a folder,
+    :class:`~.case_cache.CaseCache`) every finished case is kept there as it arrives and a
+    case already there is not run again: an interrupted sweep resumes.
     """
     Ns = [int(n) for n in Ns]
     cases = [dict(kwargs, discretization=d, N=n) for d in discretizations
              for n in sorted(Ns, reverse=True)]  # large N first: the slowest runs
     out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
+    store = None
+    if cache is not None:
+        from .case_cache import CaseCache
+
+        store = CaseCache(cache, "failure_time")
+        todo = []
+        for case in cases:
+            kept = store.get(case)
+            if kept is None:
+                todo.append(case)
+            else:
+                out[case["discretization"]][case["N"]] = kept
+        cases = todo
+    by_run = {(c["discretization"], c["N"]): c for c in cases}
 
     def label(item):
         disc, res = item
@@ -141,6 +158,8 @@ def sweep(
 
     for disc, res in run_cases(_run_case, cases, jobs, progress, ordered=False, desc="t*(N)", postfix=label,
                                client=client):
+        if store is not None:
+            store.put(by_run[disc, res["N"]], res)
         out[disc][res["N"]] = res
     return {d: dict(sorted(v.items())) for d, v in out.items()}
 

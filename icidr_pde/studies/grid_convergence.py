@@ -1,6 +1,8 @@
 """Grid-convergence study: error of coarse runs against a fine run, and the observed order.
 
-Run ``python -m icidr_pde.studies.grid_convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``.
+Run ``python -m icidr_pde.studies.grid_convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``;
+the runs are independent: ``--jobs N`` runs them on this machine's process pool, ``--workers N`` /
+``--scheduler ADDRESS`` as dask tasks (docs/distributed.md), with the numbers of the serial run.
 """
 
 from __future__ import annotations
@@ -9,10 +11,11 @@ import argparse
 import json
 
 import numpy as np
-from tqdm import tqdm
 
 from ..api import run
 from ..discretizations import get_discretization
+from .distributed import add_cluster_options, client_of
+from .parallel import run_cases
 
 __all__ = ["convergence_study"]
 
@@ -32,16 +35,25 @@ def relative_l2(coarse, ref, k: int) -> float:
     return float(np.sqrt(num / den))
 
 
+def _run_grid(case: dict):
+    """One grid of the study: api.run of the case (a task of run_cases)."""
+    return run(**case)
+
+
 def convergence_study(rheology="icidr", scene="sine", t=5.0, Ns=(51, 101, 201, 401), N_ref=1601,
-                      advection="upwind", rtol=1e-10, atol=1e-12, discretization="fd"):
-    """Errors against an N_ref run at time t and the orders log2(e_N / e_2N)."""
+                      advection="upwind", rtol=1e-10, atol=1e-12, discretization="fd", *, jobs=1,
+                      client=None, progress=True):
+    """Errors against an N_ref run at time t and the orders log2(e_N / e_2N).
+
+    The N_ref run and the coarse runs are independent: `jobs` worker processes of this
+    machine, or tasks of the dask `client` (jobs=1 and no client: one after the other here).
+    """
     kwargs = dict(rtol=rtol, atol=atol, discretization=discretization)
     if "advection" in get_discretization(discretization).options:
         kwargs["advection"] = advection
-    ref = run(rheology, scene, N_ref, t, [t], **kwargs)
-    errors = {}
-    for N in tqdm(Ns, desc="grids"):
-        errors[N] = relative_l2(run(rheology, scene, N, t, [t], **kwargs), ref, -1)
+    cases = [dict(rheology=rheology, scene=scene, N=n, t_end=t, times=[t], **kwargs) for n in (N_ref, *Ns)]
+    ref, *coarse = run_cases(_run_grid, cases, jobs, progress, desc="grids", client=client, init_here=False)
+    errors = {N: relative_l2(result, ref, -1) for N, result in zip(Ns, coarse)}
     Ns = list(Ns)
     orders = [float(np.log(errors[a] / errors[b]) / np.log(b / a)) for a, b in zip(Ns[:-1], Ns[1:])]
     return {"rheology": rheology, "scene": scene, "t": t, "N_ref": N_ref, "advection": advection,
@@ -58,8 +70,12 @@ def main(argv=None):
     parser.add_argument("--ref", type=int, default=1601)
     parser.add_argument("--advection", default="upwind")
     parser.add_argument("--json", default=None)
+    add_cluster_options(parser, "the grids")
+    parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
-    out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection)
+    with client_of(args, parser, dashboard=not args.no_progress) as client:
+        out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection,
+                                jobs=args.jobs, client=client, progress=not args.no_progress)
     print(json.dumps(out, indent=1))
     if args.json:
         from ..outputs import write_json

@@ -57,11 +57,13 @@ def worker_init() -> None:
 
 
 def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool = True, desc=None,
-              postfix=None, client=None):
+              postfix=None, client=None, init_here: bool = True):
     """Yield function(case) for every case, in `jobs` spawned workers (jobs=1: this process),
     or as tasks of the dask `client` if given (`jobs` is then unused).
 
     With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
+    With jobs=1, `init_here` gives this process the workers' set-up (one BLAS thread,
+    warnings off) for good; ``init_here=False`` leaves it as it is (a study's serial default).
     """
     if client is not None:
         from .distributed import map_cases
@@ -72,7 +74,8 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
 
     with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
         if jobs <= 1:
-            worker_init()
+            if init_here:
+                worker_init()
             results = map(function, cases)
             pool = None
         else:

@@ -13,7 +13,10 @@ growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_
 
 The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
-Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path).
+Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path). The runs of
+a study are independent: ``--jobs N`` runs them on this machine's process pool, ``--workers N`` /
+``--scheduler ADDRESS`` as dask tasks (docs/distributed.md), with the numbers of the serial run
+(default: one after the other in this process).
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ import sys
 import numpy as np
 
 from ..outputs import write_json
+from .distributed import add_cluster_options, client_of
+from .parallel import run_cases
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
            "observed_orders", "mode_growth", "predicted_growth", "SETTINGS"]
@@ -48,18 +53,29 @@ def observed_orders(values: list[float]) -> list[float | None]:
     return out
 
 
-def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", **settings) -> dict:
-    """iCIDR on bump2d at Nx = Nz = N for each N in `sizes`; the JSON of each run plus orders."""
+def _convergence_run(case: dict) -> tuple[dict, str]:
+    """One grid of :func:`convergence_study` (a task): the run's JSON fields of the study and its summary."""
     from ..api import run
 
+    n, times = case["n"], case["times"]
+    result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times), **case["settings"])
+    fields = {k: v for k, v in result.to_dict().items()
+              if k in ("Nx", "Nz", "L", "blew_up", "reason", "mass_drift", "wall_s", "n_rhs", *QUANTITIES)}
+    return fields, str(result)
+
+
+def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", *, jobs=1, client=None,
+                      progress=False, **settings) -> dict:
+    """iCIDR on bump2d at Nx = Nz = N for each N in `sizes`; the JSON of each run plus orders.
+
+    The grids run in `jobs` worker processes or as tasks of the dask `client` (neither: here)."""
     settings = {**SETTINGS, **settings}
+    cases = [dict(n=n, times=list(times), settings=settings) for n in sizes]
     runs = {}
-    for n in sizes:
-        result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times), **settings)
-        runs[str(n)] = {k: v for k, v in result.to_dict().items()
-                        if k in ("Nx", "Nz", "L", "blew_up", "reason", "mass_drift", "wall_s", "n_rhs",
-                                 *QUANTITIES)}
-        print(f"iCIDR bump2d {n}x{n}: {result}", flush=True)
+    for n, (fields, summary) in zip(sizes, run_cases(_convergence_run, cases, jobs, progress, desc="grids",
+                                                     client=client, init_here=False)):
+        runs[str(n)] = fields
+        print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
@@ -68,21 +84,36 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
     return payload
 
 
-def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", **settings) -> dict:
-    """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz."""
+def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]:
+    """One run of :func:`tstar_study` (a task): mu(I) on bump2d (``case["dim"] == 2``, n^2 cells)
+    or on its x-independent 1-D fd form (n cells): t*, the reason, max|w| at the end of a 1-D run
+    that did not fail, the summary."""
     from ..api import run
     from ..scenes2d import Bump2DScene
 
+    n, t_end, settings = case["n"], case["t_end"], case["settings"]
+    times = ["0", f"{t_end:g}"]
+    if case["dim"] == 2:
+        r = run("mui", "bump2d", (n, n), t_end, times, series_times=[], **settings)
+        return r.t_star, r.reason, None, str(r)
+    r = run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[], **settings)
+    return r.t_star, r.reason, None if r.blew_up else float(np.max(np.abs(r.final[2]))), str(r)
+
+
+def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", *, jobs=1, client=None,
+                progress=False, **settings) -> dict:
+    """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz.
+
+    The runs (two per N) go to `jobs` worker processes or to the dask `client` (neither: here)."""
     settings = {**SETTINGS, **settings}
-    scene = Bump2DScene()
+    cases = [dict(dim=dim, n=n, t_end=t_end, settings=settings) for n in sizes for dim in (2, 1)]
+    done = iter(run_cases(_tstar_run, cases, jobs, progress, desc="runs", client=client, init_here=False))
     rows = []
     for n in sizes:
-        r2 = run("mui", "bump2d", (n, n), t_end, ["0", f"{t_end:g}"], series_times=[], **settings)
-        r1 = run("mui", scene.x_independent(), n, t_end, ["0", f"{t_end:g}"], discretization="fd",
-                 series_times=[], **settings)
-        rows.append({"N": n, "t_star_2d": r2.t_star, "reason_2d": r2.reason, "t_star_1d": r1.t_star,
-                     "reason_1d": r1.reason, "max_w_1d_end": None if r1.blew_up else float(np.max(np.abs(r1.final[2])))})
-        print(f"mu(I) bump2d N = {n}: 2-D {r2}; 1-D {r1}", flush=True)
+        (t2, reason2, _, s2), (t1, reason1, max_w1, s1) = next(done), next(done)
+        rows.append({"N": n, "t_star_2d": t2, "reason_2d": reason2, "t_star_1d": t1,
+                     "reason_1d": reason1, "max_w_1d_end": max_w1})
+        print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
                "command": "python -m icidr_pde.studies.sim2d tstar"}
     write_json(payload, path)
@@ -173,14 +204,22 @@ def mode_growth(rheology, theta, n=64, k=0.9, eps=1e-8, material=None) -> dict:
             "rel_error": abs(slope - pred["symbol"]) / abs(pred["symbol"]), "blew_up": result.blew_up}
 
 
-def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth.json") -> dict:
-    """Measured growth of mode2d waves against the symbol, both rheologies, at `angles`."""
+def _growth_run(case: dict) -> dict:
+    """One wave of :func:`growth_study` (a task)."""
+    return mode_growth(case["rheology"], case["theta"], n=case["n"], eps=1e-6)
+
+
+def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth.json", *, jobs=1, client=None,
+                 progress=False) -> dict:
+    """Measured growth of mode2d waves against the symbol, both rheologies, at `angles`.
+
+    The waves run in `jobs` worker processes or as tasks of the dask `client` (neither: here)."""
+    cases = [dict(rheology=rheology, theta=theta, n=n) for rheology in ("icidr", "mui") for theta in angles]
     rows = []
-    for rheology in ("icidr", "mui"):
-        for theta in angles:
-            row = mode_growth(rheology, theta, n=n, eps=1e-6)
-            rows.append(row)
-            print(f"{rheology} theta = {theta:g}: measured {row['measured']:.4g}, symbol {row['symbol']:.4g}", flush=True)
+    for row in run_cases(_growth_run, cases, jobs, progress, desc="waves", client=client, init_here=False):
+        rows.append(row)
+        print(f"{row['rheology']} theta = {row['theta']:g}: measured {row['measured']:.4g}, "
+              f"symbol {row['symbol']:.4g}", flush=True)
     payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "python -m icidr_pde.studies.sim2d growth"}
     write_json(payload, path)
     return payload
@@ -199,13 +238,15 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies.sim2d", description=__doc__.split("\n")[0])
     parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables"])
     parser.add_argument("--sizes", type=int, nargs="+", default=None)
+    add_cluster_options(parser, "the study's runs")
+    parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
-    if args.study == "convergence":
-        convergence_study(**({"sizes": tuple(args.sizes)} if args.sizes else {}))
-    elif args.study == "tstar":
-        tstar_study(**({"sizes": tuple(args.sizes)} if args.sizes else {}))
-    elif args.study == "growth":
-        growth_study()
+    sizes = {"sizes": tuple(args.sizes)} if args.sizes else {}
+    studies = {"convergence": lambda **kw: convergence_study(**sizes, **kw),
+               "tstar": lambda **kw: tstar_study(**sizes, **kw), "growth": growth_study}
+    if args.study in studies:
+        with client_of(args, parser, dashboard=not args.no_progress) as client:
+            studies[args.study](jobs=args.jobs, client=client, progress=not args.no_progress)
     else:
         print(convergence_table(json.loads((DATA / "convergence.json").read_text())))
         print()

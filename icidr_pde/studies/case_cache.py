@@ -1,0 +1,93 @@
+"""A folder of finished cases, so that a sweep resumes where it stopped (``tstar --cache DIR``).
+
+Each finished case is one JSON file ``<key>.json`` holding the case, its result and the key;
+the key hashes everything that determines the result: the study's function, the case (law,
+scene, scheme, N, tolerances, engine, ...: every keyword argument), and the code version
+(:func:`code_version`: this package's sources and the versions of Python and of the numerical
+libraries under it). A rerun of the same sweep takes what is there and runs the rest; a
+changed setting or a changed source is another key, so the old entry is not used. An entry is
+written whole or not at all (:func:`icidr_pde.outputs.write_json`: a temporary file renamed
+into place), so an interrupted sweep keeps every case that finished; an entry that cannot be
+read, or whose stored case or key is not the one asked for, is run again and rewritten.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from pathlib import Path
+
+from ..outputs import write_json, writable_folder
+
+__all__ = ["CaseCache", "code_version"]
+
+#: the libraries whose round-off and step control a result depends on (their versions enter the key)
+_LIBRARIES = ("numpy", "scipy", "numba", "scikit-sundae", "py-pde", "sympy")
+_VERSION: list[str] = []
+
+
+def code_version() -> str:
+    """Hash of every Python, C and template source of this package, with the versions of Python
+    and of :data:`_LIBRARIES`: a change to any of them makes every key new."""
+    if not _VERSION:
+        from importlib import metadata
+
+        h = hashlib.sha256(sys.version.encode())
+        for name in _LIBRARIES:
+            try:
+                h.update(f"\0{name}={metadata.version(name)}".encode())
+            except metadata.PackageNotFoundError:
+                h.update(f"\0{name}=none".encode())
+        root = Path(__file__).resolve().parents[1]
+        for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".c", ".h", ".toml") and p.is_file()):
+            h.update(b"\0" + str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+        _VERSION.append(h.hexdigest()[:16])
+    return _VERSION[0]
+
+
+def _canonical(function: str, case: dict) -> str:
+    try:
+        return json.dumps({"function": function, "case": case}, sort_keys=True, allow_nan=True)
+    except TypeError as err:
+        raise ValueError(f"`cache` keeps cases of JSON values (numbers, strings, lists) only; "
+                         f"case {case!r} has another: {err}") from None
+
+
+class CaseCache:
+    """Finished cases of the study `function` (a name) in the folder `path` (made if missing;
+    OutputError naming `option` if it cannot be written)."""
+
+    def __init__(self, path, function: str, option: str = "cache"):
+        self.folder = writable_folder(option, path)
+        self.function = function
+
+    def key(self, case: dict) -> str:
+        text = _canonical(self.function, case)
+        return hashlib.sha256(f"{text}\0{code_version()}".encode()).hexdigest()[:32]
+
+    def _path(self, key: str) -> Path:
+        return self.folder / f"{key}.json"
+
+    def get(self, case: dict):
+        """The stored result of `case`, or None (not there, unreadable, or not this case's)."""
+        key = self.key(case)
+        try:
+            with open(self._path(key), encoding="utf-8") as fh:
+                entry = json.load(fh)
+        except (OSError, ValueError):
+            return None
+        if not isinstance(entry, dict) or entry.get("key") != key or "result" not in entry \
+                or json.dumps(entry.get("case"), sort_keys=True) != json.dumps(case, sort_keys=True):
+            return None
+        return entry["result"]
+
+    def put(self, case: dict, result) -> None:
+        """Store `result` (JSON values) of `case`, atomically."""
+        key = self.key(case)
+        write_json({"key": key, "function": self.function, "code_version": code_version(), "case": case,
+                    "result": result}, self._path(key))
+
+    def __len__(self) -> int:
+        return sum(1 for name in os.listdir(self.folder) if name.endswith(".json") and not name.startswith("."))

@@ -1,0 +1,112 @@
+"""Resumable sweeps: ``icidr-pde tstar --cache DIR`` (icidr_pde.studies.case_cache).
+
+Truth: the same sweep run without a cache (its JSON), and the count of runs actually made
+(a case taken from the cache runs nothing).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+
+import pytest
+
+from icidr_pde.cli import main
+from icidr_pde.studies import case_cache
+
+ft = importlib.import_module("icidr_pde.studies.failure_time")  # the module (the package exports its function)
+
+ARGV = ["tstar", "--discretization", "fd", "--N", "21,25,29", "--t-end", "0.02", "--jobs", "1", "--no-progress"]
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """failure_time wrapped: the N of every run made, and an optional interrupt at the k-th run."""
+    real = ft.failure_time
+    made: list[int] = []
+    state = {"interrupt_at": None}
+
+    def wrapper(**kwargs):
+        if state["interrupt_at"] is not None and len(made) == state["interrupt_at"]:
+            raise KeyboardInterrupt
+        made.append(kwargs["N"])
+        return real(**kwargs)
+
+    monkeypatch.setattr(ft, "failure_time", wrapper)
+    return made, state
+
+
+@pytest.fixture(scope="module")
+def uncached(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plain") / "t.json"
+    assert main([*ARGV, "--json", str(out)]) == 0
+    return json.loads(out.read_text())
+
+
+def test_an_interrupted_sweep_resumes_to_the_uncached_json(counted, uncached, tmp_path):
+    made, state = counted
+    cache, out = tmp_path / "cache", tmp_path / "t.json"
+    state["interrupt_at"] = 2
+    with pytest.raises(KeyboardInterrupt):
+        main([*ARGV, "--cache", str(cache), "--json", str(out)])
+    assert len(made) == 2 and len(case_cache.CaseCache(cache, "failure_time")) == 2  # the finished ones kept
+    assert not out.exists()
+    state["interrupt_at"] = None
+    assert main([*ARGV, "--cache", str(cache), "--json", str(out)]) == 0
+    assert len(made) == 3                       # only the case that had not finished ran
+    assert json.loads(out.read_text()) == uncached
+    assert main([*ARGV, "--cache", str(cache), "--json", str(out)]) == 0
+    assert len(made) == 3 and json.loads(out.read_text()) == uncached  # all three from the cache
+
+
+def test_a_corrupt_or_foreign_entry_is_run_again(counted, uncached, tmp_path):
+    made, _ = counted
+    cache, out = tmp_path / "cache", tmp_path / "t.json"
+    assert main([*ARGV, "--cache", str(cache), "--json", str(out)]) == 0
+    entries = sorted(cache.glob("*.json"))
+    entries[0].write_text(entries[0].read_text()[:40])                  # cut short
+    entry = json.loads(entries[1].read_text())
+    entry["case"]["N"] = 999                                             # not the case of its key
+    entries[1].write_text(json.dumps(entry))
+    del made[:]
+    assert main([*ARGV, "--cache", str(cache), "--json", str(out)]) == 0
+    assert len(made) == 2 and json.loads(out.read_text()) == uncached
+    assert all(json.loads(p.read_text())["key"] == p.stem for p in entries)  # rewritten whole
+
+
+@pytest.mark.parametrize("change", [["--rtol", "1e-7"], ["--method", "Radau"], ["--t-end", "0.03"]])
+def test_a_changed_setting_does_not_reuse_the_entries(counted, tmp_path, change):
+    made, _ = counted
+    cache = tmp_path / "cache"
+    assert main([*ARGV, "--cache", str(cache)]) == 0
+    assert main([*ARGV, *change, "--cache", str(cache)]) == 0
+    assert len(made) == 6 and len(case_cache.CaseCache(cache, "failure_time")) == 6
+
+
+def test_changed_code_does_not_reuse_the_entries(counted, tmp_path, monkeypatch):
+    made, _ = counted
+    cache = tmp_path / "cache"
+    assert main([*ARGV, "--cache", str(cache)]) == 0
+    monkeypatch.setattr(case_cache, "_VERSION", ["another code version"])
+    assert main([*ARGV, "--cache", str(cache)]) == 0
+    assert len(made) == 6
+
+
+def test_the_code_version_hashes_the_sources(tmp_path, monkeypatch):
+    first = case_cache.code_version()
+    monkeypatch.setattr(case_cache, "_VERSION", [])
+    assert case_cache.code_version() == first  # the same sources, the same version
+    assert len(first) == 16
+
+
+def test_a_cache_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
+    path = tmp_path / "file"
+    path.write_text("")
+    assert main([*ARGV, "--cache", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "`--cache` must be a directory" in err[0]
+
+
+def test_a_case_of_other_values_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="`cache` keeps cases of JSON values"):
+        case_cache.CaseCache(tmp_path, "f").key({"scene": object()})
