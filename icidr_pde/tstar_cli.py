@@ -26,7 +26,7 @@ from .outputs import check_outputs, writable_folder, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
 from .studies.distributed import add_cluster_options, client_of
-from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
+from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
@@ -111,10 +111,10 @@ def cmd_tstar(args) -> int:
         method = args.method or ("CVODE" if native else "BDF")
         if native and method != "CVODE":
             raise ValueError(f"`--method` must be CVODE with `--engine native`; got {method!r}")
-        default_rtol, default_atol = (None, None) if native else (1e-6, 1e-9)  # None: the preset's, per scheme
+        default_rtol, default_atol = (None, None) if native else (BDF_RTOL, BDF_ATOL)  # None: the preset's, per scheme
         rtol = default_rtol if args.rtol is None else args.rtol
         atol = default_atol if args.atol is None else args.atol
-        check_tolerances(1e-6 if rtol is None else rtol, 1e-9 if atol is None else atol)
+        check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
         check_t_end(args.t_end)
         if args.cache is not None:
             writable_folder("--cache", args.cache)
