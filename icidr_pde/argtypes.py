@@ -1,25 +1,18 @@
-"""argparse types and pieces shared by the command lines (``icidr-pde`` and ``python -m icidr_pde.dem``)."""
+"""argparse types and pieces shared by the command lines (``icidr-pde`` and ``python -m icidr_pde.dem``).
+
+:func:`int_at_least` is defined in :mod:`icidr_pde.validation` (as the check of
+:func:`~icidr_pde.validation.integer` on the text), so that the studies' own options
+(``--jobs``/``--workers`` of :mod:`icidr_pde.studies.distributed`), which may not import a
+command-line module, parse with the same type.
+"""
 
 from __future__ import annotations
 
 import argparse
 
+from .validation import int_at_least
+
 __all__ = ["int_at_least", "positive_int", "subcommand"]
-
-
-def int_at_least(lowest):
-    """argparse type: an integer >= `lowest`, the error naming that range and the text received."""
-    def parse(text):
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < lowest:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}; got {text!r}")
-        return value
-
-    parse.__name__ = f"integer >= {lowest}"
-    return parse
 
 
 positive_int = int_at_least(1)

@@ -22,11 +22,12 @@ from .discretizations import DISCRETIZATIONS
 from .engines import JACOBIAN_MODES, METHODS
 from .engines.choose import REQUESTS
 from .engines.base import check_tolerances
-from .outputs import check_outputs, writable_folder, write_json
+from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
+from .studies.case_cache import add_cache_option, check_cache_option
 from .studies.distributed import add_cluster_options, client_of
-from .studies.failure_time import parse_range, sweep, threshold, tstar_mapping
+from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
 
 __all__ = ["add_parser", "cmd_tstar"]
@@ -84,9 +85,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
                    help="right-hand side backend (numpy: no compile time, default)")
     add_cluster_options(p, "the cases", jobs=2)
-    p.add_argument("--cache", default=None, metavar="DIR",
-                   help="keep each finished case in DIR and take it from there on a rerun (resumes an "
-                        "interrupted sweep; a case whose settings or code changed is run again)")
+    add_cache_option(p, "case")
     p.add_argument("--json", default=None, help="write {N: t*} here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
@@ -111,13 +110,12 @@ def cmd_tstar(args) -> int:
         method = args.method or ("CVODE" if native else "BDF")
         if native and method != "CVODE":
             raise ValueError(f"`--method` must be CVODE with `--engine native`; got {method!r}")
-        default_rtol, default_atol = (None, None) if native else (1e-6, 1e-9)  # None: the preset's, per scheme
+        default_rtol, default_atol = (None, None) if native else (BDF_RTOL, BDF_ATOL)  # None: the preset's, per scheme
         rtol = default_rtol if args.rtol is None else args.rtol
         atol = default_atol if args.atol is None else args.atol
-        check_tolerances(1e-6 if rtol is None else rtol, 1e-9 if atol is None else atol)
+        check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
         check_t_end(args.t_end)
-        if args.cache is not None:
-            writable_folder("--cache", args.cache)
+        check_cache_option(args)
         with client_of(args, dashboard=not args.no_progress) as client:
             results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
                             progress=not args.no_progress, client=client, cache=args.cache, rheology=args.rheology,

@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes",
+__all__ = ["ParameterError", "real", "integer", "int_at_least", "choice", "shown", "memory_bytes", "format_bytes",
            "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
            "output_path"]
 
@@ -60,9 +60,13 @@ def real(name: str, value, low: float | None = None, high: float | None = None, 
     return x
 
 
+def _integer_wanted(low, high) -> str:
+    return " ".join(s for s in ("an integer", _range_text(low, high, False, False)) if s)
+
+
 def integer(name: str, value, low: int | None = None, high: int | None = None, *, hint: str = "") -> int:
     """`value` as an int: an integer (or an integral float) in [low, high]."""
-    wanted = " ".join(s for s in ("an integer", _range_text(low, high, False, False)) if s) + hint
+    wanted = _integer_wanted(low, high) + hint
     ok = not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(float(value)) \
         and float(value) == int(value)
     if not ok:
@@ -71,6 +75,22 @@ def integer(name: str, value, low: int | None = None, high: int | None = None, *
     if (low is not None and n < low) or (high is not None and n > high):
         raise ParameterError(f"`{name}` must be {wanted}; got {shown(value)}")
     return n
+
+
+def int_at_least(lowest: int):
+    """argparse type: the text as an integer >= `lowest` (the check of :func:`integer`), else
+    argparse's error naming that range and the text received. The one such type of every
+    command line, the studies' ``--jobs``/``--workers`` among them."""
+    def parse(text):
+        import argparse
+
+        try:
+            return integer("value", int(text), lowest)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {_integer_wanted(lowest, None)}; got {text!r}") from None
+
+    parse.__name__ = _integer_wanted(lowest, None)
+    return parse
 
 
 def choice(name: str, value, choices) -> str:

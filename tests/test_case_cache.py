@@ -110,3 +110,60 @@ def test_a_cache_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
 def test_a_case_of_other_values_is_refused(tmp_path):
     with pytest.raises(ValueError, match="`cache` keeps cases of JSON values"):
         case_cache.CaseCache(tmp_path, "f").key({"scene": object()})
+
+
+# --- the 2-D studies and grid convergence resume from a cache ----------------------------------
+
+def _no_run(*args, **kwargs):
+    raise AssertionError("a run was made where the cache holds its result")
+
+
+def _without_wall(payload: dict) -> dict:
+    runs = {n: {k: v for k, v in run.items() if k != "wall_s"} for n, run in payload.get("runs", {}).items()}
+    return {**payload, "runs": runs}
+
+
+@pytest.mark.parametrize("study, args", [
+    ("convergence_study", dict(sizes=(8, 16), times=("0.05", "0.1"))),
+    ("tstar_study", dict(sizes=(8, 12), t_end=0.1)),
+    ("growth_study", dict(angles=(45.0,), n=8)),
+])
+def test_a_2d_study_rerun_from_its_cache_runs_nothing_and_gives_the_same_numbers(study, args, tmp_path,
+                                                                                   monkeypatch):
+    from icidr_pde import api
+    from icidr_pde.studies import sim2d
+
+    plain = getattr(sim2d, study)(**args, path=tmp_path / "plain.json")
+    first = getattr(sim2d, study)(**args, path=tmp_path / "first.json", cache=tmp_path / "cache")
+    assert _without_wall(first) == _without_wall(plain)  # the uncached study's numbers
+    monkeypatch.setattr(api, "run", _no_run)
+    again = getattr(sim2d, study)(**args, path=tmp_path / "again.json", cache=tmp_path / "cache")
+    assert again == first
+    assert json.loads((tmp_path / "again.json").read_text()) == json.loads((tmp_path / "first.json").read_text())
+
+
+def test_grid_convergence_rerun_from_its_cache_runs_nothing_and_gives_the_same_numbers(tmp_path, monkeypatch,
+                                                                                      capsys):
+    from icidr_pde.studies import grid_convergence
+
+    argv = ["--t", "0.05", "--N", "11", "21", "--ref", "41", "--no-progress", "--cache", str(tmp_path / "c")]
+    plain = grid_convergence.convergence_study("icidr", "sine", 0.05, (11, 21), 41, progress=False)
+    grid_convergence.main([*argv, "--json", str(tmp_path / "first.json")])
+    assert json.loads((tmp_path / "first.json").read_text()) == plain
+    assert len(case_cache.CaseCache(tmp_path / "c", "grid_convergence")) == 3
+    monkeypatch.setattr(grid_convergence, "run", _no_run)
+    grid_convergence.main([*argv, "--json", str(tmp_path / "again.json")])
+    assert json.loads((tmp_path / "again.json").read_text()) == plain
+
+
+def test_a_study_cache_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
+    from icidr_pde.studies import grid_convergence, sim2d
+
+    path = tmp_path / "file"
+    path.write_text("")
+    for main_of in (grid_convergence.main, lambda argv: sim2d.main(["tstar", *argv])):
+        with pytest.raises(SystemExit) as stop:
+            main_of(["--cache", str(path), "--no-progress"])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert "`--cache` must be a directory" in err[-1] and not any("Traceback" in line for line in err)

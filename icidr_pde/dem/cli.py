@@ -74,7 +74,7 @@ def add_parser(subparsers):
                     help="mean packing fractions")
     _common(st, "JSON summary and figure")
     st.add_argument("--t-avg", type=float, default=100.0, help="averaging window")
-    st.add_argument("--jobs", type=_pos_int, default=1, help="parallel LAMMPS processes")
+    add_cluster_options(st, "the LAMMPS runs")
     st.add_argument("--json", default=None, help="summary path (default: OUT/steady.json)")
     st.add_argument("--fig", default=None, help="figure path (default: OUT/fig1_dem.png; '' for none)")
     st.set_defaults(func=_needs_lammps(cmd_steady))
@@ -125,8 +125,11 @@ def add_parser(subparsers):
     au.add_argument("action", choices=("run", "report"))
     au.add_argument("factors", nargs="*", help="factors to run (run): baseline, drop_fluctuations, ...")
     au.add_argument("--repeats", type=_pos_int, default=10, help="members per factor (run)")
+    au.add_argument("--first", type=int_at_least(0), default=0, help="index of the first member (run)")
     au.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
     au.add_argument("--out", default=".", help="directory for the report files")
+    au.add_argument("--no-progress", action="store_true", help="no progress output")
+    add_cluster_options(au, "the members (run)")
     au.set_defaults(func=_needs_lammps(cmd_audit))
     return dem
 
@@ -173,9 +176,11 @@ def cmd_steady(args) -> int:
     fig_path = _output(args.fig, out, "fig1_dem.png", "--fig")
     check_outputs({"--json": json_path, "--fig": fig_path})  # not one file
     params = _params(args)
-    s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs,
-                         cache_dir=_cache(args), protocol=Protocol(t_shear=args.t_shear, t_avg=args.t_avg),
-                         params=params, json_path=json_path, progress=not args.no_progress)
+    protocol = Protocol(t_shear=args.t_shear, t_avg=args.t_avg)
+    with client_of(args, dashboard=not args.no_progress) as client:
+        s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs, client=client,
+                             cache_dir=_cache(args), protocol=protocol, params=params, json_path=json_path,
+                             progress=not args.no_progress)
     if "fit" in s and fig_path:
         plots.fig1(s, fig_path)
     for pt in s["points"]:
@@ -281,8 +286,11 @@ def cmd_audit(args) -> int:
         unknown = [f for f in args.factors if f not in audit.FACTORS]
         if not args.factors or unknown:
             raise ValueError(f"`factors` must be among {sorted(audit.FACTORS)}; got {args.factors}")
-        for f in args.factors:
-            audit.run_factor(f, args.repeats, cache_dir)
+        with client_of(args, dashboard=not args.no_progress) as client:
+            runs = audit.run_factors(args.factors, args.repeats, cache_dir, first=args.first, jobs=args.jobs,
+                                     client=client, progress=not args.no_progress)
+        for name, results in runs.items():
+            print(f"{name}: members {args.first + 1}..{args.first + len(results)} in {cache_dir}")
         return 0
     from .audit_report import make_report
 

@@ -240,8 +240,9 @@ def run_ensemble_member(base: BaseState, seed: int, perts, cache_dir, keep_resta
     return [results[p] for p in perts]
 
 
-def _member_task(case: dict) -> list:
-    """One member of :func:`run_ensemble` (a task): :func:`run_ensemble_member` of the case."""
+def member_task(case: dict) -> list:
+    """One member (a task of :func:`run_ensemble` and of the audit): :func:`run_ensemble_member` of
+    the case's base state, seed, perturbations and cache folder."""
     return run_ensemble_member(case["base"], case["seed"], case["perts"], case["cache_dir"])
 
 
@@ -254,7 +255,7 @@ def run_ensemble(base: BaseState, seeds, perts, cache_dir, *, jobs: int = 1, cli
     `cache_dir` must be a folder every worker sees.
     """
     cases = [dict(base=base, seed=int(seed), perts=list(perts), cache_dir=str(cache_dir)) for seed in seeds]
-    return list(run_cases(_member_task, cases, jobs, progress, desc="DEM members", client=client,
+    return list(run_cases(member_task, cases, jobs, progress, desc="DEM members", client=client,
                           init_here=False))
 
 

@@ -6,13 +6,13 @@ runs at phi0 = 0.78 also carry the (5.7) transient used by figure 8.
 
 from __future__ import annotations
 
-import multiprocessing as mp
 from dataclasses import asdict
 
 import numpy as np
 
 from ..outputs import write_json
 from ..rheology import TABLE1
+from ..studies.parallel import run_cases
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams, check_phi0
@@ -23,14 +23,15 @@ DEFAULT_PHI0 = (0.76, 0.77, 0.78, 0.79, 0.80)
 
 
 def _task(args):
+    """One (phi0, repeat) of the study (a task): its result from the cache, or run and cached."""
     phi0, seed, params, protocol, cache_dir = args
     key = cache.run_key(phi0, seed, params, protocol)
     res = cache.load(cache_dir, key)
     if res is not None:
-        return key, res
+        return res
     res = run_cell(phi0, seed, params, protocol)
     cache.save(cache_dir, key, res)
-    return key, res
+    return res
 
 
 def plan(phi0s, repeats, base_seed, params, protocol, cache_dir):
@@ -38,30 +39,19 @@ def plan(phi0s, repeats, base_seed, params, protocol, cache_dir):
     tasks = []
     for r in range(repeats):
         for phi0 in phi0s:
-            tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, cache_dir))
+            tasks.append((phi0, cache.run_seed(base_seed, r, phi0), params, protocol, str(cache_dir)))
     return tasks
 
 
-def execute(tasks, jobs=2, progress=True):
-    """Run (or load from cache) all tasks over ``jobs`` processes; list of results."""
-    if not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"`jobs` must be an integer >= 1; got {jobs!r}")
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover
-        def tqdm(it, **kw):
-            return it
-    results = {}
-    if jobs == 1:
-        it = map(_task, tasks)
-        for key, res in tqdm(it, total=len(tasks), disable=not progress, desc="DEM runs"):
-            results[key] = res
-    else:
-        with mp.get_context("spawn").Pool(processes=jobs) as pool:
-            it = pool.imap_unordered(_task, tasks)
-            for key, res in tqdm(it, total=len(tasks), disable=not progress, desc="DEM runs"):
-                results[key] = res
-    return [results[cache.run_key(t[0], t[1], t[2], t[3])] for t in tasks]
+def execute(tasks, jobs=2, progress=True, client=None):
+    """Results of all tasks (run, or loaded from the cache), in their order.
+
+    The runs are independent LAMMPS processes: `jobs` worker processes of this machine, or
+    tasks of the dask `client` (neither: one after the other here). Each run is cached as it
+    finishes, so an interrupted study resumes; on a cluster the cache folder must be one that
+    every worker sees.
+    """
+    return list(run_cases(_task, tasks, jobs, progress, desc="DEM runs", client=client, init_here=False))
 
 
 def summarize(results, table1=None) -> dict:
@@ -118,8 +108,10 @@ def table1_dict():
 
 def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed=1,
                      jobs=2, cache_dir=cache.DEFAULT_CACHE, protocol=None, params=None,
-                     json_path=None, progress=True) -> dict:
-    """The full figure-1 study; returns (and optionally writes) the JSON summary."""
+                     json_path=None, progress=True, client=None) -> dict:
+    """The full figure-1 study; returns (and optionally writes) the JSON summary.
+
+    The runs go to `jobs` worker processes or to the dask `client` (:func:`execute`)."""
     phi0s = [check_phi0(p) for p in phi0s]
     if len(phi0s) < 1:
         raise ValueError("`phi0s` must hold at least one packing fraction")
@@ -128,7 +120,7 @@ def run_steady_study(phi0s=DEFAULT_PHI0, repeats=10, n_particles=1000, base_seed
     params = params or DEMParams(n_particles=n_particles)
     protocol = protocol or Protocol()
     tasks = plan(phi0s, repeats, base_seed, params, protocol, cache_dir)
-    results = execute(tasks, jobs=jobs, progress=progress)
+    results = execute(tasks, jobs=jobs, progress=progress, client=client)
     summary = summarize(results, table1_dict())
     summary["wall_total_s"] = float(sum(r["wall_total"] for r in results))
     summary.update(params=asdict(params), protocol=asdict(protocol), base_seed=base_seed)

@@ -5,7 +5,8 @@
 * :mod:`.grid_convergence` -- errors of coarse runs against a fine one and the observed order;
 * :mod:`.references` -- converged reference solutions of the speed-accuracy study (data/reference);
 * :mod:`.sim2d` -- the 2-D shear cell: grid convergence, t*(N), growth of oblique modes (data/sim2d);
-* :mod:`.parallel` -- worker processes.
+* :mod:`.parallel` -- worker processes; :mod:`.distributed` -- the runs as dask tasks;
+* :mod:`.case_cache` -- finished cases kept in a folder, so that an interrupted study resumes.
 
 The command ``icidr-pde tstar`` is :mod:`icidr_pde.tstar_cli`, its figure :mod:`icidr_pde.figures.tstar_plot`.
 """

@@ -13,6 +13,7 @@ read, or whose stored case or key is not the one asked for, is run again and rew
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -20,8 +21,9 @@ import sys
 from pathlib import Path
 
 from ..outputs import write_json, writable_folder
+from .parallel import run_cases
 
-__all__ = ["CaseCache", "code_version"]
+__all__ = ["CaseCache", "add_cache_option", "check_cache_option", "code_version", "run_cached"]
 
 #: the libraries whose round-off and step control a result depends on (their versions enter the key)
 _LIBRARIES = ("numpy", "scipy", "numba", "scikit-sundae", "py-pde", "sympy")
@@ -91,3 +93,55 @@ class CaseCache:
 
     def __len__(self) -> int:
         return sum(1 for name in os.listdir(self.folder) if name.endswith(".json") and not name.startswith("."))
+
+
+def add_cache_option(parser, what: str = "case") -> None:
+    """``--cache DIR`` of a command whose runs are independent (``tstar``, the studies' commands)."""
+    parser.add_argument("--cache", default=None, metavar="DIR",
+                        help=f"keep each finished {what} in DIR and take it from there on a rerun (resumes an "
+                             f"interrupted study; a {what} whose settings or code changed is run again)")
+
+
+def check_cache_option(args, parser=None) -> None:
+    """Refuse a ``--cache`` that cannot be written, before any run: OutputError naming the option,
+    or with `parser` its one-line error and exit 2."""
+    if args.cache is None:
+        return
+    try:
+        writable_folder("--cache", args.cache)
+    except ValueError as err:
+        if parser is None:
+            raise
+        parser.error(str(err))
+
+
+def _indexed(function, item):
+    index, case = item
+    return index, function(case)
+
+
+def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: bool, postfix=None,
+               **options) -> list:
+    """``function(case)`` for every case (:func:`~.parallel.run_cases`), in the order of `cases`.
+
+    With `cache` (a folder) the study `name`'s cases found there are not run, and every result is
+    kept there (JSON values only) as it arrives, so an interrupted study resumes; a result taken
+    from the cache is its JSON form (a tuple comes back as a list). `postfix(case, result)`
+    labels the progress bar; `options` go to run_cases (``desc``, ``client``, ``init_here``).
+    """
+    store = None if cache is None else CaseCache(cache, name)
+    results = [None] * len(cases)
+    todo = []
+    for i, case in enumerate(cases):
+        kept = None if store is None else store.get(case)
+        if kept is None:
+            todo.append((i, case))
+        else:
+            results[i] = kept
+    label = None if postfix is None else (lambda item: postfix(cases[item[0]], item[1]))
+    for i, result in run_cases(functools.partial(_indexed, function), todo, jobs, progress, ordered=False,
+                               postfix=label, **options):
+        if store is not None:
+            store.put(cases[i], result)
+        results[i] = result
+    return results

@@ -8,7 +8,7 @@ import numpy as np
 from ..discretizations.cheb import interpolate
 from ..engines import METHODS
 from ..scenes import get_scene
-from .failure_time import failure_time
+from .failure_time import BDF_ATOL, BDF_RTOL, failure_time
 from .parallel import run_cases
 
 __all__ = ["tolerance_study", "spectral_convergence", "compare_discretizations"]
@@ -25,11 +25,13 @@ def tolerance_study(
     *,
     t_end: float = 0.2,
     jobs: int = 2,
+    client=None,
     progress: bool = True,
     **kwargs,
 ) -> list[dict]:
     """t* of mu(I), IC (3.16) at one N for BDF at several (rtol, atol), and for each method
     at `method_tolerances`. Returns one row per run (failure_time's dict plus the settings).
+    The runs are independent: `jobs` worker processes, or tasks of the dask `client`.
 
     `jacobians` maps (discretization, method) to the Jacobian mode; by default the
     analytic one, except LSODA: dense differences for 'cheb' ('none') and banded
@@ -52,20 +54,21 @@ def tolerance_study(
         case.setdefault("rheology", "mui")
         case.setdefault("scene", "shear")
         case.setdefault("t_end", t_end)
-    return _run_cases(cases, jobs, progress)
+    return _run_cases(cases, jobs, progress, client)
 
 
 def _run_row(case: dict) -> dict:
     res = failure_time(**case)
-    defaults = {"method": "BDF", "rtol": 1e-6, "atol": 1e-9}
+    defaults = {"method": "BDF", "rtol": BDF_RTOL, "atol": BDF_ATOL}
     return {**{k: case.get(k, defaults.get(k)) for k in ("discretization", "N", "method", "rtol",
                                                           "atol")},
             "jacobian": case.get("jacobian") or "default", "backend": case.get("backend", "numpy"),
             **{k: v for k, v in res.items() if k != "N"}}
 
 
-def _run_cases(cases: list[dict], jobs: int, progress: bool) -> list[dict]:
-    return list(run_cases(_run_row, cases, jobs, progress))
+def _run_cases(cases: list[dict], jobs: int, progress: bool, client) -> list[dict]:
+    """The rows of `cases` in their order: `jobs` worker processes, or tasks of the dask `client`."""
+    return list(run_cases(_run_row, cases, jobs, progress, client=client))
 
 
 def spectral_convergence(
@@ -78,6 +81,7 @@ def spectral_convergence(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     jobs: int = 2,
+    client=None,
     progress: bool = True,
 ) -> dict:
     """Error of the Chebyshev solution at time `t` against a fine Chebyshev reference.
@@ -86,12 +90,13 @@ def spectral_convergence(
     I interpolates the reference (barycentric, spectrally accurate). Returns
     {"N": [...], "error": [...], "N_ref": N_ref, "rate": r, "fit_N": [...]} where the error
     behaves like C exp(-r N) on the points above the tolerance floor used for the fit.
+    The runs go to `jobs` worker processes, or to the dask `client` as tasks.
     """
     Ns = sorted(int(n) for n in Ns)
     base = dict(rheology=rheology, scene=scene, discretization="cheb", t_end=t, rtol=rtol,
                 atol=atol, return_state=True)
     cases = [dict(base, N=n) for n in [N_ref] + Ns]
-    rows = _run_cases(cases, jobs, progress)
+    rows = _run_cases(cases, jobs, progress, client)
     ref = rows[0]
     if ref["t_star"] is not None:
         raise RuntimeError(f"reference run failed at t* = {ref['t_star']}")
@@ -123,6 +128,7 @@ def compare_discretizations(
     rtol: float = 1e-8,
     atol: float = 1e-10,
     jobs: int = 2,
+    client=None,
     progress: bool = True,
 ) -> dict:
     """w(z, t) of several discretizations at the times of figs 6, 7, compared on the
@@ -133,6 +139,7 @@ def compare_discretizations(
     reference being interpolated there spectrally (as the figures draw the coarse runs as
     circles at their nodes over the reference line), and max_w the reference amplitude
     max_z |w_ref| (so max_w[0] is that of the initial condition).
+    The runs go to `jobs` worker processes, or to the dask `client` as tasks.
     """
     scene_obj = get_scene(scene)
     if times is None:
@@ -140,7 +147,7 @@ def compare_discretizations(
     times = sorted({0.0} | {float(t) for t in times})
     runs = [dict(rheology=rheology, scene=scene, discretization=d, N=n, t_end=times[-1],
                  rtol=rtol, atol=atol, times=times) for d, n in cases]
-    rows = _run_cases(runs, jobs, progress)
+    rows = _run_cases(runs, jobs, progress, client)
     labels = [f"{d}{n}" for d, n in cases]
     by = dict(zip(labels, rows))
     ref_label = max((lab for lab, (d, n) in zip(labels, cases) if d == "cheb"),

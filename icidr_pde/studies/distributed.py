@@ -29,6 +29,7 @@ import sys
 import traceback
 from dataclasses import dataclass
 
+from ..validation import int_at_least, integer
 from .parallel import single_thread_environment, worker_init
 
 __all__ = ["TaskError", "add_cluster_options", "client_of", "cluster", "map_cases", "run_many"]
@@ -61,21 +62,7 @@ def _distributed():
     return distributed
 
 
-_WORKERS_RANGE = "must be an integer >= 1"
-
-
-def _check_workers(workers, name: str = "workers") -> int:
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"`{name}` {_WORKERS_RANGE}; got {workers!r}")
-    return workers
-
-
-def _count_argument(text: str) -> int:
-    """argparse type of ``--workers`` and ``--jobs``: the check of :func:`_check_workers` on the text."""
-    try:
-        return _check_workers(int(text))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{_WORKERS_RANGE}; got {text!r}") from None
+_count_argument = int_at_least(1)  # argparse type of --workers and --jobs
 
 
 def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:
@@ -129,7 +116,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
         raise ValueError(f"give `workers` (a cluster on this machine) or `scheduler` (an existing one), "
                          f"not both; got workers={workers!r}, scheduler={scheduler!r}")
     if scheduler is None:
-        _check_workers(workers)
+        workers = integer("workers", workers, 1)
     distributed = _distributed()
     with contextlib.ExitStack() as stack:
         if scheduler is None:

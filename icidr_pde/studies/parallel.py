@@ -6,6 +6,7 @@ tasks (:mod:`.distributed`: a ``LocalCluster`` or a cluster's scheduler).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import multiprocessing
 import os
@@ -13,9 +14,42 @@ import re
 import sys
 import warnings
 
-__all__ = ["limit_blas_threads", "run_cases", "single_thread_environment", "worker_init"]
+from ..validation import integer
+
+__all__ = ["blas_threads", "limit_blas_threads", "run_cases", "single_thread_environment", "worker_init",
+           "worker_state"]
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+#: (set, get) symbols of OpenBLAS's thread count in the builds numpy and scipy ship and in plain OpenBLAS
+_THREAD_SYMBOLS = (("openblas_set_num_threads", "openblas_get_num_threads"),
+                   ("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
+                   ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
+                   ("openblas_set_num_threads64_", "openblas_get_num_threads64_"))
+
+
+def _openblas_libraries():
+    """(name, set_threads, get_threads) of every OpenBLAS library loaded in this process."""
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = sorted(set(re.findall(r"(/\S*openblas\S*\.so\S*)", fh.read())))
+    except OSError:
+        return
+    for path in paths:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for setter, getter in _THREAD_SYMBOLS:
+            if hasattr(lib, setter) and hasattr(lib, getter):
+                yield os.path.basename(path), getattr(lib, setter), getattr(lib, getter)
+                break
+
+
+def blas_threads() -> dict[str, int]:
+    """{library: its thread count} of the OpenBLAS libraries loaded in this process."""
+    return {name: int(get()) for name, _, get in _openblas_libraries()}
 
 
 def limit_blas_threads(n: int = 1) -> list[str]:
@@ -26,22 +60,9 @@ def limit_blas_threads(n: int = 1) -> list[str]:
     that were limited (an empty list if none could be).
     """
     done = []
-    try:
-        with open("/proc/self/maps") as fh:
-            libs = sorted(set(re.findall(r"(/\S*openblas\S*\.so\S*)", fh.read())))
-    except OSError:
-        return done
-    for path in libs:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for symbol in ("openblas_set_num_threads", "scipy_openblas_set_num_threads64_",
-                       "scipy_openblas_set_num_threads", "openblas_set_num_threads64_"):
-            if hasattr(lib, symbol):
-                getattr(lib, symbol)(int(n))
-                done.append(os.path.basename(path))
-                break
+    for name, set_threads, _ in _openblas_libraries():
+        set_threads(int(n))
+        done.append(name)
     return done
 
 
@@ -52,8 +73,32 @@ def single_thread_environment() -> None:
 
 
 def worker_init() -> None:
+    """The state of a worker process, for good: one BLAS thread, warnings off."""
     limit_blas_threads(1)
     warnings.simplefilter("ignore")
+
+
+@contextlib.contextmanager
+def worker_state():
+    """A worker's state (:func:`worker_init`) for the block only: the caller's BLAS thread
+    counts and warning filters are restored after it, whatever happens in it."""
+    before = [(set_threads, int(get())) for _, set_threads, get in _openblas_libraries()]
+    with warnings.catch_warnings():
+        worker_init()
+        try:
+            yield
+        finally:
+            for set_threads, n in before:
+                set_threads(n)
+
+
+def _in_worker_state(function):
+    """`function` run in :func:`worker_state` at every call (the serial path of :func:`run_cases`)."""
+    def call(case):
+        with worker_state():
+            return function(case)
+
+    return call
 
 
 def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool = True, desc=None,
@@ -62,21 +107,22 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
     or as tasks of the dask `client` if given (`jobs` is then unused).
 
     With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
-    With jobs=1, `init_here` gives this process the workers' set-up (one BLAS thread,
-    warnings off) for good; ``init_here=False`` leaves it as it is (a study's serial default).
+    With jobs=1 and `init_here`, each call runs in a worker's state (one BLAS thread, warnings
+    off: the numbers of a worker) and the caller's state is restored after it
+    (:func:`worker_state`); ``init_here=False`` runs the calls in the caller's state (a
+    study's serial default).
     """
     if client is not None:
         from .distributed import map_cases
 
         yield from map_cases(function, cases, client, progress, ordered=ordered, desc=desc, postfix=postfix)
         return
+    jobs = integer("jobs", jobs, 1)
     from tqdm.auto import tqdm
 
     with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
-        if jobs <= 1:
-            if init_here:
-                worker_init()
-            results = map(function, cases)
+        if jobs == 1:
+            results = map(_in_worker_state(function) if init_here else function, cases)
             pool = None
         else:
             single_thread_environment()

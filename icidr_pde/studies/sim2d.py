@@ -31,7 +31,7 @@ import numpy as np
 
 from ..outputs import write_json
 from .distributed import add_cluster_options, client_of
-from .parallel import run_cases
+from .case_cache import add_cache_option, check_cache_option, run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
            "observed_orders", "mode_growth", "predicted_growth", "SETTINGS"]
@@ -65,15 +65,17 @@ def _convergence_run(case: dict) -> tuple[dict, str]:
 
 
 def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", *, jobs=1, client=None,
-                      progress=False, **settings) -> dict:
+                      progress=False, cache=None, **settings) -> dict:
     """iCIDR on bump2d at Nx = Nz = N for each N in `sizes`; the JSON of each run plus orders.
 
-    The grids run in `jobs` worker processes or as tasks of the dask `client` (neither: here)."""
+    The grids run in `jobs` worker processes or as tasks of the dask `client` (neither: here);
+    with `cache` (a folder) each finished grid is kept there and not run again (:func:`run_cached`)."""
     settings = {**SETTINGS, **settings}
     cases = [dict(n=n, times=list(times), settings=settings) for n in sizes]
     runs = {}
-    for n, (fields, summary) in zip(sizes, run_cases(_convergence_run, cases, jobs, progress, desc="grids",
-                                                     client=client, init_here=False)):
+    for n, (fields, summary) in zip(sizes, run_cached(_convergence_run, cases, cache, "sim2d.convergence", jobs=jobs,
+                                                      progress=progress, desc="grids", client=client,
+                                                      init_here=False)):
         runs[str(n)] = fields
         print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
@@ -101,13 +103,15 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
 
 
 def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", *, jobs=1, client=None,
-                progress=False, **settings) -> dict:
+                progress=False, cache=None, **settings) -> dict:
     """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz.
 
-    The runs (two per N) go to `jobs` worker processes or to the dask `client` (neither: here)."""
+    The runs (two per N) go to `jobs` worker processes or to the dask `client` (neither: here);
+    with `cache` (a folder) each finished run is kept there and not run again (:func:`run_cached`)."""
     settings = {**SETTINGS, **settings}
     cases = [dict(dim=dim, n=n, t_end=t_end, settings=settings) for n in sizes for dim in (2, 1)]
-    done = iter(run_cases(_tstar_run, cases, jobs, progress, desc="runs", client=client, init_here=False))
+    done = iter(run_cached(_tstar_run, cases, cache, "sim2d.tstar", jobs=jobs, progress=progress, desc="runs",
+                           client=client, init_here=False))
     rows = []
     for n in sizes:
         (t2, reason2, _, s2), (t1, reason1, max_w1, s1) = next(done), next(done)
@@ -210,13 +214,15 @@ def _growth_run(case: dict) -> dict:
 
 
 def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth.json", *, jobs=1, client=None,
-                 progress=False) -> dict:
+                 progress=False, cache=None) -> dict:
     """Measured growth of mode2d waves against the symbol, both rheologies, at `angles`.
 
-    The waves run in `jobs` worker processes or as tasks of the dask `client` (neither: here)."""
+    The waves run in `jobs` worker processes or as tasks of the dask `client` (neither: here);
+    with `cache` (a folder) each finished wave is kept there and not run again (:func:`run_cached`)."""
     cases = [dict(rheology=rheology, theta=theta, n=n) for rheology in ("icidr", "mui") for theta in angles]
     rows = []
-    for row in run_cases(_growth_run, cases, jobs, progress, desc="waves", client=client, init_here=False):
+    for row in run_cached(_growth_run, cases, cache, "sim2d.growth", jobs=jobs, progress=progress, desc="waves",
+                          client=client, init_here=False):
         rows.append(row)
         print(f"{row['rheology']} theta = {row['theta']:g}: measured {row['measured']:.4g}, "
               f"symbol {row['symbol']:.4g}", flush=True)
@@ -239,14 +245,16 @@ def main(argv=None) -> int:
     parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables"])
     parser.add_argument("--sizes", type=int, nargs="+", default=None)
     add_cluster_options(parser, "the study's runs")
+    add_cache_option(parser, "run")
     parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
+    check_cache_option(args, parser)
     sizes = {"sizes": tuple(args.sizes)} if args.sizes else {}
     studies = {"convergence": lambda **kw: convergence_study(**sizes, **kw),
                "tstar": lambda **kw: tstar_study(**sizes, **kw), "growth": growth_study}
     if args.study in studies:
         with client_of(args, parser, dashboard=not args.no_progress) as client:
-            studies[args.study](jobs=args.jobs, client=client, progress=not args.no_progress)
+            studies[args.study](jobs=args.jobs, client=client, progress=not args.no_progress, cache=args.cache)
     else:
         print(convergence_table(json.loads((DATA / "convergence.json").read_text())))
         print()
