@@ -127,3 +127,27 @@ def test_amg_needs_the_2d_cell():
         choose(method="BDF", jacobian="amg", structure=SCHEME_STRUCTURES["fv2d"])
     choice = choose(method="CVODE", jacobian="amg", structure=SCHEME_STRUCTURES["fv2d"], request="pde")
     assert (choice.engine, choice.jacobian, choice.linear_solver) == ("sundae", "amg", AMG_SOLVER)
+
+
+def test_x_independent_run_reproduces_the_1d_run():
+    """x-independent data on 8 x 16 cells, CVODE + GMRES + AMG, equal the 1-D finite-volume run
+    (scipy BDF, analytic Jacobian: an independent solver) to the integrators' tolerance."""
+    from pde.solvers import Controller
+
+    from icidr_pde.discretizations.fd import ShearCellPDE
+    from icidr_pde.engines.stiff import StiffSolver
+
+    H = 30.0
+    fd = ShearCellPDE("icidr", advection="central")
+    g1 = fd.make_grid(16, H)
+    z = fd.nodes(g1)
+    s1 = fd.make_state(g1, 0.78, z / H, 0.05 * (z - H / 2) * np.exp(-(z - H / 2) ** 2 / 9))
+    pde = ShearCell2DPDE("icidr")
+    s2 = pde.make_state(pde.make_grid((8, 16), H), *np.broadcast_to(s1.data[:, None, :], (3, 8, 16)).copy())
+    one_d = Controller(StiffSolver(fd, method="BDF", rtol=1e-9, atol=1e-12, jacobian="analytic"),
+                       t_range=(0.0, 2.0), tracker=None).run(s1).data
+    solver = StiffSolver(pde, method="CVODE", rtol=1e-9, atol=1e-12, jacobian="amg")
+    two_d = Controller(solver, t_range=(0.0, 2.0), tracker=None).run(s2).data
+    assert solver.info["linear_solver"] == AMG_SOLVER
+    assert np.max(np.abs(two_d - one_d[:, None, :])) < 1e-7
+    assert np.max(np.abs(one_d[2])) > 1e-4

@@ -62,7 +62,7 @@ def check_tolerances(rtol: float, atol: float) -> tuple[float, float]:
 class JacobianSpec:
     """How the engine gets the Jacobian: `mode` and what that mode needs.
 
-    jac: analytic jac(t, y) (modes 'analytic', 'sparse'); sparsity: the Jacobian's pattern
+    jac: analytic jac(t, y) (modes 'analytic', 'sparse', 'amg'); sparsity: the Jacobian's pattern
     (colored finite differences 'sparse-fd', 'colored-fd'; the fixed pattern of 'sparse');
     band: (lower, upper) bandwidths of the engine's ordering ('banded-fd'); nothing for
     'krylov' (matrix-free) and 'none' (dense finite differences).

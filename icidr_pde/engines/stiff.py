@@ -47,7 +47,8 @@ class StiffSolver(SolverBase):
             'sparse-fd' (scipy's colored differences, BDF/Radau), 'colored-fd' (colored
             differences with well-scaled increments, :mod:`icidr_pde.engines.colored_fd`, BDF/Radau),
             'banded-fd' (LSODA/CVODE banded differences on the interleaved ordering),
-            'krylov' (CVODE's GMRES, matrix-free), 'sparse' (CVODE's SuperLU_MT with the
+            'krylov' (CVODE's GMRES, matrix-free), 'amg' (the same GMRES preconditioned by
+            algebraic multigrid on the analytic sparse Jacobian, 2-D), 'sparse' (CVODE's SuperLU_MT with the
             analytic Jacobian on the scheme's pattern) or 'none' (dense differences, for
             comparison only); None picks the method's best on the scheme
             (:func:`~icidr_pde.engines.choose.choose`)

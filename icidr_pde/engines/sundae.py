@@ -1,6 +1,6 @@
 """SUNDIALS CVODE through scikit-sundae behind the :class:`~.base.Engine` protocol: its linear
-solvers (band LU, LAPACK's dense LU, GMRES with a line preconditioner, SuperLU_MT), SUNDIALS'
-messages captured into the failure reason, CVODE's own counters (:mod:`.cvode_counters`)."""
+solvers (band LU, LAPACK's dense LU, GMRES with a line or an algebraic-multigrid preconditioner,
+SuperLU_MT), SUNDIALS' messages captured into the failure reason, CVODE's own counters (:mod:`.cvode_counters`)."""
 
 from __future__ import annotations
 
@@ -62,7 +62,8 @@ class CvodeEngine(Engine):
     conserve mass to round-off (SUNDIALS' own quotients drift it by 2.6e-11 at N = 7; kept
     above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
     the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
-    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md).
+    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md); 'amg'
+    preconditions that GMRES by one algebraic-multigrid V-cycle (:mod:`.amg`).
     SUNDIALS' messages are captured into the failure reason. The minimum step is relative
     to the problem's fastest time scale (:func:`fastest_time_scale`).
     """
