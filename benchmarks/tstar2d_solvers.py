@@ -45,6 +45,7 @@ CASES = {
     "gmres-epslin-5e-5-rtol-1e-9": (dict(method="CVODE", jacobian="krylov", rtol=1e-9, atol=1e-12), {"eps_lin": 5e-5}),
     "gmres-epslin-5e-5-rtol-1e-8": (dict(method="CVODE", jacobian="krylov", rtol=1e-8, atol=1e-11), {"eps_lin": 5e-5}),
     "gmres-amg-epslin-5e-5": (dict(method="CVODE", jacobian="amg"), {"eps_lin": 5e-5}),
+    "gmres-amg-epslin-5e-5-rtol-1e-8": (dict(method="CVODE", jacobian="amg", rtol=1e-8, atol=1e-11), {"eps_lin": 5e-5}),
     "sparse-lu": (dict(method="CVODE", jacobian="sparse"), {}),
     "scipy-bdf-analytic": (dict(method="BDF", jacobian="analytic"), {}),
     "scipy-bdf-analytic-rtol-1e-9": (dict(method="BDF", jacobian="analytic", rtol=1e-9, atol=1e-12), {}),
