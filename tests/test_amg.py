@@ -151,3 +151,17 @@ def test_x_independent_run_reproduces_the_1d_run():
     assert solver.info["linear_solver"] == AMG_SOLVER
     assert np.max(np.abs(two_d - one_d[:, None, :])) < 1e-7
     assert np.max(np.abs(one_d[2])) > 1e-4
+
+
+def test_amg_path_memory_is_checked_before_the_run(monkeypatch):
+    """The hierarchy's ~7 kB a cell (measured at 256^2) is part of the memory check: at 256^2
+    with 1 GB available (a run may take half) GMRES alone fits (2.5 kB a cell: 0.16 GB),
+    GMRES + AMG (9.7 kB a cell: 0.64 GB) does not."""
+    from icidr_pde.case import build_case
+    from icidr_pde.engines.stiff import StiffSolver
+
+    monkeypatch.setenv("ICIDR_PDE_MEMORY", "1e9")
+    case = build_case("icidr", "bump2d", "fv2d", (256, 256))
+    with pytest.raises(ParameterError, match="`Nx` x `Nz` = 256 x 256 .*'amg'.*multigrid"):
+        StiffSolver(case.pde, method="CVODE", jacobian="amg").check_memory(case.state)
+    StiffSolver(case.pde, method="CVODE", jacobian="krylov").check_memory(case.state)
