@@ -10,11 +10,17 @@ M x = b (b random, fixed seed) to a relative residual 1e-6: iterations and solve
 * ILU (scipy ``spilu``, drop_tol 1e-4, fill_factor 10);
 * the z-line block preconditioner: M restricted to the couplings within each x column
   (:meth:`ShearCell2DPDE.line_pattern` with the thin-cell threshold lifted), factored by
-  SuperLU (Nx independent banded systems after the ordering).
+  SuperLU (Nx independent banded systems after the ordering);
+* algebraic multigrid, one V-cycle per GMRES iteration (set-up: the hierarchy): pyamg's
+  smoothed aggregation with its defaults on M (scalar: every unknown a node), its nodal form
+  (the 3 fields of a cell one BSR block, constant fields as near-null space), and the one CVODE
+  uses (``--jacobian amg``, :class:`icidr_pde.engines.amg.AmgHierarchy`: nodal aggregation,
+  unsmoothed prolongators, one Gauss-Seidel sweep before and after).
 
-Not wired into the integrator: a measurement for issue 23, item 2.
+Only the z-line and the last AMG are wired into the integrator; ``--amg-only`` measures the
+AMG rows alone (SuperLU's factors at 256^2 would take ~2 GB).
 
-    nice -n 5 python benchmarks/precond2d.py [--sizes 64 128 256]
+    nice -n 5 python benchmarks/precond2d.py [--sizes 64 128 256] [--amg-only]
 """
 
 import argparse
@@ -59,10 +65,46 @@ def gmres_with(M, apply, b):
             "residual": float(np.linalg.norm(M @ x - b) / np.linalg.norm(b))}
 
 
-def measure(n: int, gamma: float) -> list[dict]:
+def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
+    """One V-cycle of each multigrid hierarchy as the preconditioner; fill: operator complexity."""
+    import pyamg
+
+    from icidr_pde.engines.amg import AmgHierarchy
+
+    J = (sparse.identity(M.shape[0], format="csr") - M) / gamma
+    fields, cells = 3, M.shape[0] // 3
+    order = (np.arange(M.shape[0]) % fields) * cells + np.arange(M.shape[0]) // fields
+    position = np.argsort(order)
+    nodal = sparse.bsr_matrix(sparse.csr_matrix(M)[order][:, order], blocksize=(fields, fields))
+    B = np.kron(np.ones((cells, 1)), np.eye(fields))
+    rows = []
+    for name, build in (("AMG SA scalar", lambda: pyamg.smoothed_aggregation_solver(sparse.csr_matrix(M))),
+                        ("AMG SA nodal", lambda: pyamg.smoothed_aggregation_solver(nodal, B=B))):
+        start = time.process_time()
+        ml = build()
+        setup = time.process_time() - start
+        if name.endswith("nodal"):
+            def apply(v, ml=ml):
+                return ml.solve(np.asarray(v)[order], maxiter=1, tol=1e-30)[position]
+        else:
+            def apply(v, ml=ml):
+                return ml.solve(v, maxiter=1, tol=1e-30)
+        rows.append({"N": n, "preconditioner": name, "setup_s": setup, "fill": ml.operator_complexity(),
+                     **gmres_with(M, apply, b)})
+    start = time.process_time()
+    h = AmgHierarchy(J, fields, gamma)
+    setup = time.process_time() - start
+    rows.append({"N": n, "preconditioner": "AMG as wired (--jacobian amg)", "setup_s": setup,
+                 "fill": sum(A.nnz for A in h.A) / M.nnz, **gmres_with(M, h.vcycle, b)})
+    return rows
+
+
+def measure(n: int, gamma: float, amg_only: bool = False) -> list[dict]:
     M, M_line = newton_matrix(n, gamma)
     b = np.random.default_rng(1).standard_normal(M.shape[0])
     rows = [{"N": n, "preconditioner": "none", "setup_s": 0.0, "fill": 1.0, **gmres_with(M, lambda v: v, b)}]
+    if amg_only:
+        return rows + amg_rows(n, gamma, M, b)
     for name, factor in (("SuperLU COLAMD", lambda: linalg.splu(M, permc_spec="COLAMD")),
                          ("SuperLU MMD(A^T+A)", lambda: linalg.splu(M, permc_spec="MMD_AT_PLUS_A")),
                          ("ILU 1e-4", lambda: linalg.spilu(M, drop_tol=1e-4, fill_factor=10)),
@@ -72,20 +114,21 @@ def measure(n: int, gamma: float) -> list[dict]:
         setup = time.process_time() - start
         rows.append({"N": n, "preconditioner": name, "setup_s": setup, "fill": (lu.L.nnz + lu.U.nnz) / M.nnz,
                      **gmres_with(M, lu.solve, b)})
-    return rows
+    return rows + amg_rows(n, gamma, M, b)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256])
     parser.add_argument("--gamma", type=float, default=0.05)
+    parser.add_argument("--amg-only", action="store_true", help="no preconditioner and the AMG rows only")
     parser.add_argument("--json", default="data/benchmarks/precond2d.json")
     args = parser.parse_args()
     rows = []
     print("| grid | preconditioner | set-up [s] | fill | GMRES(20) iterations | solve [s] |")
     print("| --- | --- | --- | --- | --- | --- |")
     for n in args.sizes:
-        for r in measure(n, args.gamma):
+        for r in measure(n, args.gamma, args.amg_only):
             rows.append(r)
             iters = f"{r['iterations']}" + ("" if r["converged"] else " (not converged)")
             print(f"| {n}² | {r['preconditioner']} | {r['setup_s']:.3f} | {r['fill']:.1f} | {iters} | {r['solve_s']:.3f} |",
@@ -94,7 +137,8 @@ def main():
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps({"gamma": args.gamma, "rows": rows,
-                               "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"},
+                               "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"
+                                          + (" --amg-only" if args.amg_only else "")},
                               indent=1))
     tmp.replace(path)
 

@@ -6,6 +6,8 @@ processes of the command line (imports, kernel loading or compilation included),
 * the fast path: ``--method CVODE`` (SUNDIALS BDF, matrix-free GMRES Krylov solver) with the
   2-D default advection (central, second order);
 * the same with ``--advection upwind`` (first order, the default before issue 23);
+* the same with ``--jacobian amg`` (GMRES preconditioned by one algebraic-multigrid V-cycle on
+  I - gamma J, :mod:`icidr_pde.engines.amg`);
 * the baseline: ``--method BDF --jacobian colored-fd`` (scipy's BDF with a sparse
   finite-difference Jacobian, colored, well-scaled increments, SuperLU);
 
@@ -36,11 +38,13 @@ QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 CONFIGS = {
     "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8"],
     "fast-upwind": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--advection", "upwind"],
+    "fast-amg": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--jacobian", "amg"],
     "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
     "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11"],
     "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10"],  # cheaper, for 256^2
 }
 LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind",
+          "fast-amg": "CVODE, GMRES + AMG, central",
           "baseline": "scipy BDF, colored sparse FD J"}
 RICHARDSON = pathlib.Path("data") / "sim2d" / "richardson.json"
 
@@ -63,6 +67,7 @@ def whole_process(n: int, config: str) -> dict:
         result = json.loads(out.read_text())
     return {"process_s": wall, "max_rss_mb": usage.ru_maxrss / 1024, "solve_s": result["wall_s"],
             "compile_s": result["compile_s"], "n_rhs": result["n_rhs"], "n_jac": result["n_jac"],
+            "n_steps": result["n_steps"], "linear_solver": result["settings"]["linear_solver"],
             **{q: result[q] for q in QUANTITIES}}
 
 
@@ -92,7 +97,7 @@ def main():
     for n in args.sizes + args.fast_only:
         ref = whole_process(n, "reference" if n not in args.fast_only else "reference-fast-only")
         row = {"N": n, "reference": ref}
-        configs = ("fast", "fast-upwind") if n in args.fast_only else ("fast", "fast-upwind", "baseline")
+        configs = ("fast", "fast-upwind", "fast-amg") + (() if n in args.fast_only else ("baseline",))
         for config in configs:
             row[config] = whole_process(n, config)
             row[config]["error"] = error(row[config], ref) if config != "fast-upwind" else None

@@ -9,7 +9,8 @@ integrator to :data:`icidr_pde.engines.sundae.KRYLOV_EPS_LIN` (5e-5 since this s
 default 0.1) is set through SUNDIALS' own C setter on the run's CVODE memory
 (:mod:`icidr_pde.engines.cvode_counters` finds it). ``krylov_dim`` is
 scikit-sundae's option (the integrator's 20). 'line' forces the z-line preconditioner of
-thin cells (:meth:`ShearCell2DPDE.line_pattern`) on the square cell.
+thin cells (:meth:`ShearCell2DPDE.line_pattern`) on the square cell; 'gmres-amg-epslin-5e-5' is GMRES
+preconditioned by algebraic multigrid (``jacobian='amg'``, :mod:`icidr_pde.engines.amg`).
 
     nice -n 5 python benchmarks/tstar2d_solvers.py --sizes 64 128 [--advection central] [--cases ...]
 
@@ -43,6 +44,8 @@ CASES = {
     "gmres-rtol-1e-9": (dict(method="CVODE", jacobian="krylov", rtol=1e-9, atol=1e-12), {}),
     "gmres-epslin-5e-5-rtol-1e-9": (dict(method="CVODE", jacobian="krylov", rtol=1e-9, atol=1e-12), {"eps_lin": 5e-5}),
     "gmres-epslin-5e-5-rtol-1e-8": (dict(method="CVODE", jacobian="krylov", rtol=1e-8, atol=1e-11), {"eps_lin": 5e-5}),
+    "gmres-amg-epslin-5e-5": (dict(method="CVODE", jacobian="amg"), {"eps_lin": 5e-5}),
+    "gmres-amg-epslin-5e-5-rtol-1e-8": (dict(method="CVODE", jacobian="amg", rtol=1e-8, atol=1e-11), {"eps_lin": 5e-5}),
     "sparse-lu": (dict(method="CVODE", jacobian="sparse"), {}),
     "scipy-bdf-analytic": (dict(method="BDF", jacobian="analytic"), {}),
     "scipy-bdf-analytic-rtol-1e-9": (dict(method="BDF", jacobian="analytic", rtol=1e-9, atol=1e-12), {}),

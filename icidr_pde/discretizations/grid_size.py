@@ -23,7 +23,9 @@ numba loaded is ~250 MB):
   band preconditioner (the default) 45, 53 MiB -- D, not a dense Jacobian, is what grows;
 * 2-D fv2d, bump2d, CVODE + GMRES (the default): 289, 412, 904 MB at 128^2, 256^2, 512^2 cells
   -- 2.5 kB a cell (the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each); with
-  SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in).
+  SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in); with
+  GMRES + AMG ('amg', whole run to t = 10, benchmarks/amg2d.py): 854 MB at 256^2 against 383 MB
+  without -- 7.2 kB a cell more (the Jacobian, the hierarchy and pyamg's set-up).
 """
 
 from __future__ import annotations
@@ -108,6 +110,10 @@ DENSE_ARRAYS = {
 }
 #: SuperLU_MT's factors ('sparse'), per unknown beyond the scheme's estimate: 26 kB a 2-D cell measured
 SPARSE_LU_BYTES = 23_500.0 / 3
+#: the algebraic-multigrid path ('amg'), per unknown beyond the scheme's estimate: the analytic
+#: Jacobian, its node-major copy, the level operators and pyamg's set-up temporaries; peak RSS
+#: 854 MB against 383 MB without it at 256^2 (benchmarks/amg2d.py): 7.2 kB a 2-D cell
+AMG_BYTES = 7_200.0 / 3
 
 
 def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
@@ -115,6 +121,8 @@ def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
     allocates for n unknowns beyond the scheme's own estimate."""
     if mode == "sparse":
         return SPARSE_LU_BYTES * n, "SuperLU_MT's LU factors"
+    if mode == "amg":
+        return AMG_BYTES * n, "the analytic sparse Jacobian and the algebraic-multigrid hierarchy"
     count, note = DENSE_ARRAYS.get((method, mode), (0, ""))
     return 8.0 * count * n * n, (f"{count} dense {n} x {n} array{'s' if count > 1 else ''}: {note}"
                                  if count else "")

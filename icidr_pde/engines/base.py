@@ -62,7 +62,7 @@ def check_tolerances(rtol: float, atol: float) -> tuple[float, float]:
 class JacobianSpec:
     """How the engine gets the Jacobian: `mode` and what that mode needs.
 
-    jac: analytic jac(t, y) (modes 'analytic', 'sparse'); sparsity: the Jacobian's pattern
+    jac: analytic jac(t, y) (modes 'analytic', 'sparse', 'amg'); sparsity: the Jacobian's pattern
     (colored finite differences 'sparse-fd', 'colored-fd'; the fixed pattern of 'sparse');
     band: (lower, upper) bandwidths of the engine's ordering ('banded-fd'); nothing for
     'krylov' (matrix-free) and 'none' (dense finite differences).
@@ -73,6 +73,8 @@ class JacobianSpec:
     that absorbs the column's sum, for difference quotients that keep it conserved
     (:mod:`icidr_pde.engines.conservative_jacobian`); None if the scheme has no quadrature weights.
     line_pattern: the couplings along z of a thin 2-D cell, for GMRES's line preconditioner.
+    fields: the unknowns per cell of 'amg' (the blocks of its nodal aggregation; the unknowns are
+    field-major), with `jac` the analytic sparse Jacobian its hierarchy is built from.
     """
 
     mode: str
@@ -83,6 +85,7 @@ class JacobianSpec:
     weights: np.ndarray | None = None
     anchor: np.ndarray | None = None
     line_pattern: object = None
+    fields: int | None = None
 
 
 @dataclass

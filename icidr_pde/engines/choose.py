@@ -22,6 +22,8 @@ REQUESTS = ("auto", "native", "pde", "petsc")
 #: the method of the PETSc engine (PETSc's TSBDF; its -ts_type option changes it)
 PETSC_METHOD = "PETSC-BDF"
 
+#: the linear solver of Jacobian mode 'amg' (:mod:`icidr_pde.engines.amg`)
+AMG_SOLVER = "GMRES + AMG preconditioner"
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
 
@@ -30,12 +32,14 @@ DENSE_HANDOVER_BYTES = 2**28
 class JacobianStructure:
     """What a scheme's Jacobian offers: a banded ordering (`banded`) and the analytic Jacobian
     in it (`band_jac`), a sparse pattern (`sparse`; else dense), a line preconditioner pattern
-    where the cell is thin (`line`, 2-D cells)."""
+    where the cell is thin (`line`, 2-D cells), an analytic sparse Jacobian of fields on a 2-D grid
+    for the algebraic multigrid preconditioner (`amg`)."""
 
     banded: bool = False
     band_jac: bool = False
     sparse: bool = False
     line: bool = False
+    amg: bool = False
 
     @classmethod
     def of(cls, pde, state) -> "JacobianStructure":
@@ -43,7 +47,8 @@ class JacobianStructure:
         ordering = getattr(pde, "interleaving", lambda state: None)(state)
         sparsity = getattr(pde, "jacobian_sparsity", lambda state: None)(state)
         return cls(banded=ordering is not None, band_jac=ordering is not None and hasattr(pde, "make_band_jacobian"),
-                   sparse=sparsity is not None, line=hasattr(pde, "line_pattern"))
+                   sparse=sparsity is not None, line=hasattr(pde, "line_pattern"),
+                   amg=sparsity is not None and getattr(pde, "dim", 1) == 2 and hasattr(pde, "make_jacobian"))
 
 
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
@@ -52,7 +57,7 @@ NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner"}
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
-                     "fv2d": JacobianStructure(sparse=True, line=True)}
+                     "fv2d": JacobianStructure(sparse=True, line=True, amg=True)}
 
 
 @dataclass(frozen=True)
@@ -142,6 +147,10 @@ def _jacobian_mode(valid, method, jacobian, structure) -> str:
                                  "ordering (finite differences); use 'analytic' or 'none'")
         # no banded ordering: Krylov where the Jacobian is sparse (2-D), else dense analytic (Chebyshev)
         mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
+    if mode == "amg" and not structure.amg:
+        raise ParameterError("`jacobian`='amg' (GMRES preconditioned by algebraic multigrid) needs the "
+                             "analytic sparse Jacobian of a 2-D grid (discretization fv2d); use 'krylov' "
+                             "or 'analytic'")
     if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
         raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
                              "discretization's is dense: use 'analytic' or 'none'")
@@ -154,6 +163,7 @@ def _linear_solver(method, mode, structure) -> str:
         if mode == "analytic":
             return "band LU" if structure.band_jac else "dense LU (LAPACK)"
         return {"banded-fd": "band LU", "krylov": "GMRES (line preconditioner in thin cells)" if structure.line else "GMRES",
+                "amg": AMG_SOLVER,
                 "sparse": "SuperLU_MT", "none": "dense LU"}[mode]
     if method == "LSODA":
         return "band LU (LSODA)" if mode == "banded-fd" else "dense LU (LSODA)"

@@ -27,7 +27,9 @@ _LIB = []
 _COUNTERS = {"steps": "CVodeGetNumSteps", "rhs": "CVodeGetNumRhsEvals", "lu": "CVodeGetNumLinSolvSetups",
              "jac": "CVodeGetNumJacEvals", "error_test_failures": "CVodeGetNumErrTestFails",
              "newton_iterations": "CVodeGetNumNonlinSolvIters",
-             "newton_failures": "CVodeGetNumNonlinSolvConvFails"}
+             "newton_failures": "CVodeGetNumNonlinSolvConvFails",
+             "linear_iterations": "CVodeGetNumLinIters", "preconditioner_setups": "CVodeGetNumPrecEvals",
+             "preconditioner_solves": "CVodeGetNumPrecSolves"}
 
 
 def _library():

@@ -47,7 +47,8 @@ class StiffSolver(SolverBase):
             'sparse-fd' (scipy's colored differences, BDF/Radau), 'colored-fd' (colored
             differences with well-scaled increments, :mod:`icidr_pde.engines.colored_fd`, BDF/Radau),
             'banded-fd' (LSODA/CVODE banded differences on the interleaved ordering),
-            'krylov' (CVODE's GMRES, matrix-free), 'sparse' (CVODE's SuperLU_MT with the
+            'krylov' (CVODE's GMRES, matrix-free), 'amg' (the same GMRES preconditioned by
+            algebraic multigrid on the analytic sparse Jacobian, 2-D), 'sparse' (CVODE's SuperLU_MT with the
             analytic Jacobian on the scheme's pattern) or 'none' (dense differences, for
             comparison only); None picks the method's best on the scheme
             (:func:`~icidr_pde.engines.choose.choose`)
@@ -216,15 +217,23 @@ def jacobian_spec(pde, state, choice: Choice):
     if mode in ("sparse-fd", "colored-fd"):
         weights, anchor = conserved(pde, state, None) if mode == "sparse-fd" else (None, None)
         return JacobianSpec(mode, sparsity=pde.jacobian_sparsity(state), weights=weights, anchor=anchor), None
+    if mode == "amg":  # GMRES preconditioned by multigrid on the cells' blocks of fields
+        return JacobianSpec(mode, jac=pde.make_jacobian(state), weights=_cell_mass(state),
+                            fields=state.data.shape[0]), None
     weights, anchor = conserved(pde, state, None)
     line = getattr(pde, "line_pattern", lambda state: None)(state) if mode == "krylov" else None
     if line is not None:  # a thin cell: GMRES preconditioned along the walls' normal
-        n = state.data[0].size
-        mass = np.zeros(state.data.size)
-        mass[:n] = 1.0  # equal finite-volume cells: the mass is the sum of phi
+        mass = _cell_mass(state)
         return JacobianSpec(mode, jac=pde.make_jacobian(state), line_pattern=line, weights=mass,
-                            anchor=np.arange(mass.size) % n), None
+                            anchor=np.arange(mass.size) % state.data[0].size), None
     return JacobianSpec(mode, weights=weights, anchor=anchor), None
+
+
+def _cell_mass(state) -> np.ndarray:
+    """The mass weights of a finite-volume state of equal cells: 1 on phi (field 0), 0 elsewhere."""
+    mass = np.zeros(state.data.size)
+    mass[:state.data[0].size] = 1.0
+    return mass
 
 
 def _validity(pde, shape, perm):

@@ -1,6 +1,6 @@
 """SUNDIALS CVODE through scikit-sundae behind the :class:`~.base.Engine` protocol: its linear
-solvers (band LU, LAPACK's dense LU, GMRES with a line preconditioner, SuperLU_MT), SUNDIALS'
-messages captured into the failure reason, CVODE's own counters (:mod:`.cvode_counters`)."""
+solvers (band LU, LAPACK's dense LU, GMRES with a line or an algebraic-multigrid preconditioner,
+SuperLU_MT), SUNDIALS' messages captured into the failure reason, CVODE's own counters (:mod:`.cvode_counters`)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from scipy import sparse
 
 from . import cvode_counters
 from .base import DENSE_LU_DELTA_GAMMA, Engine, Problem, dense
+from .choose import AMG_SOLVER
 from .conservative_jacobian import ConservativeDifferenceQuotients
 from .time_scale import MIN_STEP_FRACTION
 
@@ -61,7 +62,8 @@ class CvodeEngine(Engine):
     conserve mass to round-off (SUNDIALS' own quotients drift it by 2.6e-11 at N = 7; kept
     above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
     the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
-    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md).
+    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md); 'amg'
+    preconditions that GMRES by one algebraic-multigrid V-cycle (:mod:`.amg`).
     SUNDIALS' messages are captured into the failure reason. The minimum step is relative
     to the problem's fastest time scale (:func:`fastest_time_scale`).
     """
@@ -86,7 +88,7 @@ class CvodeEngine(Engine):
         kwargs.update(LINEAR_SOLVERS[linear_solver](problem, rtol, atol))
         kwargs.update(_events(problem))
         self.problem = problem
-        if linear_solver.startswith("GMRES"):  # what it is on this cell
+        if linear_solver.startswith("GMRES (line"):  # what it is on this cell
             linear_solver = "GMRES + line preconditioner" if "precond" in kwargs else "GMRES"
         self.linear_solver = linear_solver
         self.interrupt = None
@@ -95,7 +97,7 @@ class CvodeEngine(Engine):
         self.solver = CVODE(self._rhsfn(problem), **kwargs)
         start = self.solver.init_step(t0, problem.y0)
         self.counters = cvode_counters.attach(self.solver, start.nfev)
-        if problem.jacobian.mode == "krylov" and self.counters is not None:
+        if problem.jacobian.mode in ("krylov", "amg") and self.counters is not None:
             self.counters.set_eps_lin(KRYLOV_EPS_LIN)
         if kwargs.get("linsolver") == "lapackdense" and self.counters is not None:
             # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
@@ -211,6 +213,16 @@ def _gmres(problem, rtol, atol):
     return kwargs
 
 
+def _gmres_amg(problem, rtol, atol):
+    """GMRES, Jacobian-vector products by CVODE's difference quotients, left-preconditioned by one
+    algebraic-multigrid V-cycle on I - gamma J of the analytic sparse Jacobian (:mod:`.amg`)."""
+    from .amg import amg_preconditioner
+
+    jacobian = problem.jacobian
+    return dict(linsolver="gmres", krylov_dim=20,
+                precond=amg_preconditioner(jacobian.jac, jacobian.fields, jacobian.weights))
+
+
 def _superlu(problem, rtol, atol):
     """SuperLU_MT on the fixed pattern, analytic values."""
     values = _pattern_values(problem.jacobian.jac, problem.jacobian.sparsity)
@@ -223,7 +235,8 @@ def _superlu(problem, rtol, atol):
 
 #: linear solver named by :func:`icidr_pde.engines.choose.choose` -> scikit-sundae's options
 LINEAR_SOLVERS = {"band LU": _band_lu, "dense LU (LAPACK)": _dense_lapack, "dense LU": _dense_quotients,
-                  "GMRES": _gmres, "GMRES (line preconditioner in thin cells)": _gmres, "SuperLU_MT": _superlu}
+                  "GMRES": _gmres, "GMRES (line preconditioner in thin cells)": _gmres, AMG_SOLVER: _gmres_amg,
+                  "SuperLU_MT": _superlu}
 
 
 def _events(problem) -> dict:
