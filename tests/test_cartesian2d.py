@@ -320,3 +320,61 @@ def test_krylov_solves_of_2d_runs_use_the_tight_tolerance(monkeypatch):
     tight = n_rhs()
     monkeypatch.setattr(integrator, "KRYLOV_EPS_LIN", 0.05)
     assert tight > 1.1 * n_rhs()
+
+
+def _bump2d(pde, shape, sign_changes=False):
+    """The bump2d state on `shape`; with `sign_changes`, u shifted to change sign and phi
+    perturbed cell by cell, so that every upwind branch is taken."""
+    scene = Bump2DScene()
+    grid = pde.make_grid(shape, scene.H, L=scene.L)
+    state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    if sign_changes:
+        state.data[1] -= 0.5
+        state.data[0] += 0.01 * np.sin(np.arange(state.data[0].size)).reshape(grid.shape)
+    return state
+
+
+@pytest.mark.parametrize("shape", [(32, 32), (16, 24)])
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_whole_grid_rates_through_the_patch_kernel_equal_the_oracle(shape, rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    for sign_changes in (False, True):
+        state = _bump2d(pde, shape, sign_changes)
+        a = pde.make_rates(state)(state.data, 0.0)
+        b = oracle_rhs(pde, state)(state.data, 0.0)
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+
+
+def _patch(data, xs, zs):
+    """The block data[:, xs, zs] with one ghost layer, filled from the whole state as a
+    distributed array's local part is: x ghosts periodic, z ghosts from the neighbouring
+    rows, NaN beyond a wall (the patch kernel must fill those rows itself)."""
+    nz = data.shape[2]
+    cols = np.arange(xs.start - 1, xs.stop + 1) % data.shape[1]
+    rows = np.arange(zs.start - 1, zs.stop + 1)
+    g = np.full((3, cols.size, rows.size), np.nan)
+    inside = (rows >= 0) & (rows < nz)
+    g[:, :, inside] = data[:, cols][:, :, rows[inside]]
+    return g, zs.start == 0, zs.stop == nz
+
+
+@pytest.mark.parametrize("shape,x_split,z_split", [((32, 32), 16, 16), ((16, 24), 7, 13)])
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_patches_of_a_split_grid_give_the_whole_grid_rates(shape, x_split, z_split, rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    state = _bump2d(pde, shape, sign_changes=True)
+    whole = pde.make_rates(state)(state.data, 0.0)
+    patches = pde.patches(state)
+    assert patches.shape == shape and patches.dof == 3 and patches.periodic == (True, False)
+    nx, nz = shape
+    covered = np.zeros(shape, bool)
+    for xs in (slice(0, x_split), slice(x_split, nx)):
+        for zs in (slice(0, z_split), slice(z_split, nz)):
+            g, low, high = _patch(state.data, xs, zs)
+            out = np.empty((3, xs.stop - xs.start, zs.stop - zs.start))
+            patches.rates(g, low, high, out)
+            assert np.array_equal(out, whole[:, xs, zs])
+            covered[xs, zs] = True
+    assert covered.all()

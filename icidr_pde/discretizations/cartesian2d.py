@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import importlib.resources
 import math
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -56,9 +57,31 @@ from .base import ShearCellBase
 #: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`ShearCell2DPDE.line_pattern`)
 THIN_CELL = 10.0
 
-__all__ = ["ShearCell2DPDE", "measures"]
+__all__ = ["ShearCell2DPDE", "Patches", "measures"]
 
 _TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
+
+
+@dataclass(frozen=True)
+class Patches:
+    """The scheme's right-hand side on patches of the grid, for an engine that distributes the
+    grid by blocks of cells (PETSc's DMDA: periodic in x, walls in z, `dof` fields interleaved,
+    a box stencil of width `stencil`).
+
+    ``rates(g, low, high, out)``: g (dof, mx + 2, mz + 2) is a block of mx x mz cells with one
+    ghost layer (x ghosts from the neighbouring block or the periodic image, z ghosts from the
+    neighbouring block); where the block touches the wall z = 0 (`low`) or z = H (`high`) the
+    ghost row is filled here from the walls' conditions. The rates of the block's cells go
+    into out (dof, mx, mz): exactly the whole grid's rates on those cells (the whole grid is
+    evaluated by the same kernel, as one patch). The engine's vector (no permutation) is the
+    state data (dof, nx, nz) flattened.
+    """
+
+    shape: tuple[int, int]
+    rates: Callable
+    dof: int = 3
+    periodic: tuple[bool, bool] = (True, False)
+    stencil: int = 1
 
 
 class ShearCell2DPDE(ShearCellBase):
@@ -238,6 +261,22 @@ class ShearCell2DPDE(ShearCellBase):
             return out
 
         return pde_rhs
+
+    def patches(self, state: FieldCollection) -> Patches:
+        """The right-hand side on blocks of cells with one ghost layer (:class:`Patches`): the
+        compiled patch kernel of :meth:`make_rates`, the walls' ghost rows filled first."""
+        self.check_grid(state.grid)
+        nx, nz, hx, hz = self._spacing(state.grid)
+        loops = self._loops()
+        walls, patch_rates = loops.walls, loops.patch_rates
+        ghost = self.ghost_coefficients(state.grid)
+        upwind, params = self.advection == "upwind", self.material.params
+
+        def rates(g, low, high, out):
+            walls(g, ghost, low, high)
+            patch_rates(g, hx, hz, upwind, params, out)
+
+        return Patches((nx, nz), rates)
 
     # --- what the stiff integrator asks ------------------------------------------------------
 
