@@ -378,3 +378,35 @@ def test_patches_of_a_split_grid_give_the_whole_grid_rates(shape, x_split, z_spl
             assert np.array_equal(out, whole[:, xs, zs])
             covered[xs, zs] = True
     assert covered.all()
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_patch_jacobians_of_a_split_grid_are_the_whole_grid_jacobian_rows(rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    shape, x_split, z_split = (16, 24), 7, 13
+    state = _bump2d(pde, shape, sign_changes=True)
+    J = pde.make_jacobian(state)(0.0, state.data.ravel()).toarray()
+    patches = pde.patches(state)
+    nx, nz = shape
+    index = np.arange(state.data.size).reshape(state.data.shape)
+    rows_done = []
+    for xs in (slice(0, x_split), slice(x_split, nx)):
+        for zs in (slice(0, z_split), slice(z_split, nz)):
+            g, low, high = _patch(state.data, xs, zs)
+            Jp = patches.jacobian(g, low, high).toarray()
+            # the patch's values: periodic columns, rows beyond a wall have no unknown (-1)
+            cols = np.arange(xs.start - 1, xs.stop + 1) % nx
+            zrows = np.arange(zs.start - 1, zs.stop + 1)
+            unknown = np.full(g.shape, -1)
+            inside = (zrows >= 0) & (zrows < nz)
+            unknown[:, :, inside] = index[:, cols][:, :, zrows[inside]]
+            unknown = unknown.ravel()
+            assert np.all(Jp[:, unknown < 0] == 0)
+            rows = index[:, xs, zs].ravel()
+            whole = np.zeros_like(Jp)
+            whole[:, unknown >= 0] = J[np.ix_(rows, unknown[unknown >= 0])]
+            # (an unknown is one column of the patch here: no block spans the whole periodic x)
+            assert np.max(np.abs(Jp - whole)) <= 1e-14 * np.max(np.abs(J))
+            rows_done.append(rows)
+    assert np.array_equal(np.sort(np.concatenate(rows_done)), np.arange(J.shape[0]))
