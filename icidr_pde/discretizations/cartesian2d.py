@@ -44,7 +44,6 @@ ghosts come from the neighbouring blocks, so each process evaluates its own cell
 from __future__ import annotations
 
 import importlib.resources
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -53,14 +52,13 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
-from .grid_size import FV2D, check_cells
+from .cartesian2d_core import THIN_CELL, grid_shape, measures
+from .grid_size import FV2D
 from .registry import ADVECTION_SCHEMES_2D
 from ..rheology import PLANE_FLOW, Material, Rheology
 from ..rheology.codegen import compose
 from .base import ShearCellBase
 
-#: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`ShearCell2DPDE.line_pattern`)
-THIN_CELL = 10.0
 
 __all__ = ["ShearCell2DPDE", "Patches", "measures"]
 
@@ -135,26 +133,10 @@ class ShearCell2DPDE(ShearCellBase):
                   Nz: int | None = None) -> CartesianGrid:
         """CartesianGrid([[0, L], [0, H]], [Nx, Nz], periodic=[True, False]).
 
-        `N` is Nz (an int) or (Nx, Nz); explicit `Nx`, `Nz` win; Nx defaults to Nz and L to H.
+        `N` is Nz (an int) or (Nx, Nz); explicit `Nx`, `Nz` win; Nx defaults to Nz and L to H
+        (:func:`.cartesian2d_core.grid_shape`).
         """
-        if isinstance(N, (tuple, list)):
-            N = tuple(N)
-            if len(N) != 2:
-                raise ValueError(f"`N` must be an integer or a pair (Nx, Nz); got {N}")
-            Nx, Nz = Nx if Nx is not None else N[0], Nz if Nz is not None else N[1]
-        else:
-            if N is not None and (int(N) != N or N < 4):
-                raise ValueError(f"`N` must be an integer >= 4 (or a pair (Nx, Nz)); got {N}")
-            Nz = Nz if Nz is not None else (cls.default_N if N is None else N)
-            Nx = Nz if Nx is None else Nx
-        for name, value in (("Nx", Nx), ("Nz", Nz)):
-            if int(value) != value or value < 4:
-                raise ValueError(f"`{name}` must be an integer >= 4; got {value}")
-        L = H if L is None else L
-        for name, value in (("H", H), ("L", L)):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"`{name}` must be > 0; got {value}")
-        check_cells(cls.name, int(Nx), int(Nz), cls.grid_limit)
+        Nx, Nz, L = grid_shape(N, H, L=L, Nx=Nx, Nz=Nz, default_N=cls.default_N)
         return CartesianGrid([[0.0, float(L)], [0.0, float(H)]], [int(Nx), int(Nz)],
                              periodic=[True, False])
 
@@ -572,12 +554,3 @@ class _Jacobian2D:
     def matrix(self, y) -> sparse.csc_matrix:
         g = self.halo(np.ascontiguousarray(np.asarray(y, float).reshape(self.shape)), self.ghost)
         return sparse.csc_matrix(self.patch.matrix(g) @ self.extension)
-
-
-def measures(pde, grid, scene, data) -> dict:
-    """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...)."""
-    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
-    phi, u, w = data
-    return {"max_w": float(np.max(np.abs(w))),
-            "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),
-            "l2_velocity": float(math.sqrt(pde.integral((u - z / scene.H) ** 2 + w**2, grid)))}

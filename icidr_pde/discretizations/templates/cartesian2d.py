@@ -18,7 +18,7 @@ import __law__ as law
 
 
 @njit(cache=True, error_model="numpy")
-def walls(g, ghost, low, high):
+def walls(g: "float64[:, :, :]", ghost: "float64[:, :, :]", low: "boolean", high: "boolean"):
     """Fill the wall ghost rows of the patch g (3, mx + 2, mz + 2) in place, every column of it
     (its x ghosts too): row 0 if the patch touches z = 0 (`low`), row mz + 1 if it touches z = H
     (`high`). ghost[k, side] = (alpha, beta) gives alpha * (edge value) + beta, the affine map
@@ -33,22 +33,32 @@ def walls(g, ghost, low, high):
 
 
 @njit(cache=True, error_model="numpy")
-def halo(data, ghost):
-    """The whole grid data (3, nx, nz) as one patch (3, nx + 2, nz + 2): x ghosts the periodic
-    columns, z ghosts the walls' rows."""
+def halo_into(data: "float64[:, :, :]", ghost: "float64[:, :, :]", g: "float64[:, :, :]"):
+    """g (3, nx + 2, nz + 2) = the whole grid data (3, nx, nz) as one patch: x ghosts the
+    periodic columns, z ghosts the walls' rows."""
     nf, nx, nz = data.shape
-    g = numpy.empty((nf, nx + 2, nz + 2))
     for k in range(nf):
         for i in range(nx):
-            g[k, i + 1, 1:nz + 1] = data[k, i]
-        g[k, 0, 1:nz + 1] = data[k, nx - 1]
-        g[k, nx + 1, 1:nz + 1] = data[k, 0]
+            for j in range(nz):
+                g[k, i + 1, j + 1] = data[k, i, j]
+        for j in range(nz):
+            g[k, 0, j + 1] = data[k, nx - 1, j]
+            g[k, nx + 1, j + 1] = data[k, 0, j]
     walls(g, ghost, True, True)
+
+
+@njit(cache=True, error_model="numpy")
+def halo(data, ghost):
+    """The whole grid data (3, nx, nz) as one patch (3, nx + 2, nz + 2) (:func:`halo_into`)."""
+    nf, nx, nz = data.shape
+    g = numpy.empty((nf, nx + 2, nz + 2))
+    halo_into(data, ghost, g)
     return g
 
 
 @njit(cache=True, error_model="numpy")
-def patch_rates(g, hx, hz, upwind, params, out):
+def patch_rates(g: "float64[:, :, :]", hx: "float64", hz: "float64", upwind: "boolean", params: "float64[:]",
+                out: "float64[:, :, :]"):
     """Evolution rates (3, mx, mz) of (phi, u, w) on the cells of the filled patch g
     (3, mx + 2, mz + 2) into `out`; cell (a, b) of the patch is out[:, a - 1, b - 1].
 
