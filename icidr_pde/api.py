@@ -284,7 +284,7 @@ def run(
     ask = dict(method=settings["method"], jacobian=jacobian, discretization=settings["discretization"],
                structure=SCHEME_STRUCTURES.get(settings["discretization"], JacobianStructure()), request=engine,
                outputs=outputs, backend=backend, dim=2 if two_d else 1,
-               thin_cell=two_d and _thin_cell(scene, settings["N"], scene_params))
+               **(_plane_grid(scene, settings["N"], scene_params) if two_d else {}))
     choice = choose(**ask)
     if choice.engine == "native":
         from .native import NativeUnavailable
@@ -339,17 +339,17 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
     return result
 
 
-def _thin_cell(scene, N, scene_params) -> bool:
-    """Whether the 2-D grid of `scene` with `N` is a thin cell (hx > THIN_CELL hz); False where
-    the scene or N is invalid (the case builder says why)."""
+def _plane_grid(scene, N, scene_params) -> dict:
+    """What :func:`choose` asks of the 2-D grid of `scene` with `N`: its cells and whether it is a
+    thin cell (hx > THIN_CELL hz); nothing where the scene or N is invalid (the case builder says why)."""
     from .discretizations.cartesian2d_core import grid_shape, thin_cell
 
     try:
         scene_obj = scene if isinstance(scene, Scene) else get_scene(scene, **(scene_params or {}))
         Nx, Nz, L = grid_shape(N, scene_obj.H, L=getattr(scene_obj, "L", None))
     except (ValueError, TypeError):
-        return False
-    return thin_cell(Nx, Nz, L, scene_obj.H)
+        return {}
+    return dict(cells=Nx * Nz, thin_cell=thin_cell(Nx, Nz, L, scene_obj.H))
 
 
 #: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from icidr_pde import run
-from icidr_pde.engines.choose import SCHEME_STRUCTURES, JacobianStructure, choose
+from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, JacobianStructure, choose
 from icidr_pde.scenes2d import Bump2DScene, Scene2D
 from icidr_pde.native.fv2d import Fv2dCase
 
@@ -128,6 +128,12 @@ def test_choose_takes_native_for_thick_cells_only_while_pde_runs_plain_gmres():
     thin = choose(**fv2d, thin_cell=True)
     assert thin.engine == "sundae" and "thin" in thin.reason
     assert choose(**fv2d, request="pde").engine == "sundae"
+    limit = NATIVE_FV2D_AUTO_CELLS
+    assert choose(**fv2d, cells=limit).engine == "native"
+    large = choose(**fv2d, cells=limit + 1)
+    assert large.engine == "sundae" and "py-pde path measured faster" in large.reason
+    assert choose(**fv2d, cells=limit + 1, request="native").engine == "native"
+    assert choose(**fv2d, cells=limit + 1, request="native", thin_cell=True).engine == "sundae"
     assert choose(**fv2d, jacobian="sparse").engine == "sundae"
     assert choose(**dict(fv2d, method="BDF")).engine == "scipy"
     # a py-pde default other than the GMRES the native problem repeats (a preconditioned one): not replaced

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 from ..validation import ParameterError, choice as checked_choice
 from . import ENGINES, METHODS
 
-__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD"]
+__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
+           "NATIVE_FV2D_REPEATS", "NATIVE_FV2D_AUTO_CELLS"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
 #: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
@@ -53,6 +54,9 @@ NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d"
 #: (unpreconditioned GMRES on a thick cell) and was measured against (docs/engines.md): where the
 #: py-pde default becomes another solver, the native engine is no longer taken for fv2d by 'auto'
 NATIVE_FV2D_REPEATS = "GMRES (line preconditioner in thin cells)"
+#: the largest grid (cells) on which 'auto' takes the native engine for fv2d: where it measured no
+#: slower whole-process than the py-pde path (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any
+NATIVE_FV2D_AUTO_CELLS = 96 * 96
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
@@ -77,7 +81,8 @@ class Choice:
 
 def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
            discretization: str | None = None, request: str = "auto", outputs=(), backend: str = "numba",
-           dim: int = 1, native_unavailable: str | None = None, thin_cell: bool = False) -> Choice:
+           dim: int = 1, native_unavailable: str | None = None, thin_cell: bool = False,
+           cells: int | None = None) -> Choice:
     """The engine, Jacobian and linear solver of a run.
 
     Args:
@@ -91,11 +96,13 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         dim: 1 or 2
         native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
         thin_cell: a 2-D cell with hx > THIN_CELL hz (the py-pde path preconditions its GMRES along z)
+        cells: the cells of a 2-D grid (Nx Nz), if known
 
     The native engine is taken ('auto', 'native') for fd and cheb with CVODE and the analytic
     Jacobian, and for fv2d with CVODE on a thick cell while the py-pde path's default there is
-    :data:`NATIVE_FV2D_REPEATS` (the native problem is that solver in C); never with the outputs
-    only the py-pde run path writes.
+    :data:`NATIVE_FV2D_REPEATS` (the native problem is that solver in C), by 'auto' up to
+    :data:`NATIVE_FV2D_AUTO_CELLS` cells (beyond, the py-pde path measured faster), by 'native' on
+    any grid; never with the outputs only the py-pde run path writes.
     """
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
@@ -105,7 +112,7 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     if request != "pde":
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
         if not reason and discretization == "fv2d":
-            reason = _not_native_2d(jacobian, structure, thin_cell)
+            reason = _not_native_2d(jacobian, structure, thin_cell, cells if request == "auto" else None)
         if not reason:
             mode = "krylov" if discretization == "fv2d" else "analytic"
             return Choice("native", mode, NATIVE_SCHEMES[discretization])
@@ -144,10 +151,13 @@ def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
     return ""
 
 
-def _not_native_2d(jacobian, structure, thin_cell) -> str:
-    """Why fv2d on CVODE does not take the native engine (one line), or ''."""
+def _not_native_2d(jacobian, structure, thin_cell, cells) -> str:
+    """Why fv2d on CVODE does not take the native engine (one line), or ''; `cells` None: any grid."""
     if thin_cell:
         return "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES along z)"
+    if cells is not None and cells > NATIVE_FV2D_AUTO_CELLS:
+        return (f"a 2-D grid of {cells} cells (> {NATIVE_FV2D_AUTO_CELLS}: the py-pde path measured faster; "
+                "--engine native takes it)")
     mode = _jacobian_mode(ENGINES["sundae"].jacobian_modes["CVODE"], "CVODE", jacobian, structure)
     default = _linear_solver("CVODE", mode, structure)
     if default != NATIVE_FV2D_REPEATS:

@@ -153,7 +153,8 @@ def _source(rheology, kinematics, index, libs=()) -> str:
     return "\n".join([f"#define SUNINDEXTYPE {index}",
                       "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
                       "#define ICIDR_SPGMR" if spgmr else "",
-                      "#define ICIDR_PLANE\n#define LAW_INLINE inline __attribute__((always_inline))"
+                      "#define ICIDR_PLANE\n#define LAW_INLINE inline __attribute__((always_inline))\n#define KERNEL_SCRATCH\n"
+                      "#define LAW_POWI law_powi"
                       if _plane(kinematics) else "",
                       _text("sundials_api.h"),
                       c_law_source(rheology, kinematics), _scheme_kernels(kinematics), _text("cvode_driver.c")])

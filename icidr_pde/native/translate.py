@@ -14,7 +14,8 @@ The subset, what the templates use:
   ``double *a, long a_shape0, .., long a_shape{d-1}`` in C, row-major unless `storage`
   names a macro ``M(a, i, j)`` for it (a band or column-major matrix of the caller);
 * local scalars (int where every value assigned is, else double), declared at the top;
-  ``numpy.empty(shape)`` (freed at the end; no ``return`` of a value), a row ``a[k]`` of an
+  ``numpy.empty(shape)`` (``kernel_empty``, freed at the end by ``kernel_free``: the C driver
+  defines them; no ``return`` of a value), a row ``a[k]`` of an
   array, a tuple of scalars as a small local array;
 * ``a, b = x, y`` (where no x, y reads a or b), ``a, b, c = x.shape``;
 * ``for .. in range(..)``, ``if``/``elif``/``else``, ``a if c else b``, ``continue``,
@@ -223,7 +224,7 @@ class _Function:
                     self.scalars[f"{name}_shape{k}"] = "long"
                     self.emit(depth, f"{name}_shape{k} = {self.expr(s)};")
                     size.append(f"{name}_shape{k}")
-                self.emit(depth, f"{name} = malloc(sizeof(double) * {' * '.join(size)});")
+                self.emit(depth, f"{name} = kernel_empty(sizeof(double) * {' * '.join(size)});")
                 self.allocated.append(name)
                 return True
             if owner == "numpy" and attr == "dot":
@@ -365,7 +366,7 @@ class _Function:
                 declared.append(f"    double *{name};")
         for name, length in self.fixed.items():
             declared.append(f"    double *{name};" if length == "pointer" else f"    double {name}[{length}];")
-        frees = [f"    free({name});" for name in self.allocated]
+        frees = [f"    kernel_free({name});" for name in self.allocated]
         doc = ast.get_docstring(self.node)
         comment = f"/* {' '.join(doc.split())} */\n" if doc else ""
         return "\n".join([comment + self.signature(), "{", *declared, *self.lines, *frees, "}"]) + "\n"

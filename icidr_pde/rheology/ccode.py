@@ -36,6 +36,26 @@ static inline double rsqrt0(double x) {{ return x > 0.0 ? 1.0 / sqrt(x) : 0.0; }
 #ifndef LAW_INLINE
 #define LAW_INLINE
 #endif
+
+/* x^n, n a constant integer, as numba computes x**n (products by squaring, 1/x^-n for n < 0), where
+   the library defines LAW_POWI as law_powi (the 2-D cell's: its C then gives numba's numbers and
+   calls no libm pow); else libm's pow, as the 1-D cell's library always has */
+static inline double law_powi(double x, int n)
+{{
+    int k = n < 0 ? -n : n;
+    double r = 1.0;
+    while (k) {{
+        if (k & 1)
+            r = r * x;
+        k >>= 1;
+        if (k)
+            x = x * x;
+    }}
+    return n < 0 ? 1.0 / r : r;
+}}
+#ifndef LAW_POWI
+#define LAW_POWI pow
+#endif
 """
 
 
@@ -44,6 +64,12 @@ def _printer():
     from sympy.printing.c import C99CodePrinter
 
     class Printer(C99CodePrinter):
+        def _print_Pow(self, expr):
+            out = super()._print_Pow(expr)
+            if expr.exp.is_Integer and out.startswith("pow("):  # the same call unless LAW_POWI is law_powi
+                return "LAW_POWI" + out[3:]
+            return out
+
         def _print_Piecewise(self, expr):
             *pairs, (last, cond) = expr.args
             if cond != sp.true:
