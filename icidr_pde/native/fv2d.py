@@ -91,9 +91,9 @@ class Fv2dCase:
         law = _law(rheology, material)
         law.material.check_phi(self.scene.phi0, "phi0")
         options = {} if advection is None else {"advection": advection}
-        self.cells = CartesianCells(law, N, self.scene.H, L=self.scene.L, V0=1.0, **options)
+        self.cells = CartesianCells(law, N, self.scene.H, L=self.scene.L, **options)  # the walls' V0 as py-pde's case
         self.rheology, self.advection = self.cells.rheology, self.cells.advection
-        self.N, self.Nx, self.L, self.H, self.V0 = self.cells.Nz, self.cells.Nx, self.cells.L, self.cells.H, 1.0
+        self.N, self.Nx, self.L, self.H, self.V0 = self.cells.Nz, self.cells.Nx, self.cells.L, self.cells.H, self.cells.V0
         self.z = self.cells.nodes()
         self.y0 = self.cells.initial_data(*self.scene.initial_condition(self.z)).ravel()
 
