@@ -35,13 +35,15 @@ import time
 
 TIMES = ["0.5", "1", "2", "5", "10"]
 QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
+#: the CVODE configurations on the py-pde path ('auto' takes the native engine on small grids:
+#: benchmarks/native2d_speed.py compares the two)
 CONFIGS = {
-    "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8"],
-    "fast-upwind": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--advection", "upwind"],
-    "fast-amg": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--jacobian", "amg"],
+    "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--engine", "pde"],
+    "fast-upwind": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--advection", "upwind", "--engine", "pde"],
+    "fast-amg": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--jacobian", "amg", "--engine", "pde"],
     "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
-    "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11"],
-    "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10"],  # cheaper, for 256^2
+    "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11", "--engine", "pde"],
+    "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10", "--engine", "pde"],  # cheaper, for 256^2
 }
 LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind",
           "fast-amg": "CVODE, GMRES + AMG, central",

@@ -26,7 +26,7 @@ from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
 from .presets import resolve
 from .result import Result
 from .rheology import Material
-from .scenes import SCENES, Scene
+from .scenes import SCENES, Scene, get_scene
 from .times import (check_t_end, chi_times, dense_times, merged_output_times, time_labels as _time_labels)
 from .validation import check_atol, nonfinite_rates, output_path, real
 
@@ -283,7 +283,8 @@ def run(
                                         ("a wall-clock limit", max_wall)) if value]
     ask = dict(method=settings["method"], jacobian=jacobian, discretization=settings["discretization"],
                structure=SCHEME_STRUCTURES.get(settings["discretization"], JacobianStructure()), request=engine,
-               outputs=outputs, backend=backend, dim=2 if two_d else 1)
+               outputs=outputs, backend=backend, dim=2 if two_d else 1,
+               **(_plane_grid(scene, settings["N"], scene_params) if two_d else {}))
     choice = choose(**ask)
     if choice.engine == "native":
         from .native import NativeUnavailable
@@ -338,6 +339,19 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
     return result
 
 
+def _plane_grid(scene, N, scene_params) -> dict:
+    """What :func:`choose` asks of the 2-D grid of `scene` with `N`: its cells and whether it is a
+    thin cell (hx > THIN_CELL hz); nothing where the scene or N is invalid (the case builder says why)."""
+    from .discretizations.cartesian2d_core import grid_shape, thin_cell
+
+    try:
+        scene_obj = scene if isinstance(scene, Scene) else get_scene(scene, **(scene_params or {}))
+        Nx, Nz, L = grid_shape(N, scene_obj.H, L=getattr(scene_obj, "L", None))
+    except (ValueError, TypeError):
+        return {}
+    return dict(cells=Nx * Nz, thin_cell=thin_cell(Nx, Nz, L, scene_obj.H))
+
+
 #: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar
 #: act between calls, and a call costs ~1 us of Python
 _CHUNK = (8, 1, 1024)  # first, smallest, largest
@@ -347,6 +361,8 @@ def _native_case(rheology, scene, settings, *, material, advection, scene_params
     """The py-pde-free case of the native engine's scheme (:mod:`icidr_pde.native`)."""
     if settings["discretization"] == "cheb":
         from .native.cheb import ChebCase as case_class
+    elif settings["discretization"] == "fv2d":
+        from .native.fv2d import Fv2dCase as case_class
     else:
         from .native import FdCase as case_class
     return case_class(rheology, scene, settings["N"], material=material, advection=advection,
@@ -563,13 +579,14 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
     counts = problem.counts()
     if engine is not None:  # the linear solver the compiled problem set up
         choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
+    recorded = _recorded(view, sched, out, n_done)
     return assemble(rheology=case.rheology.name, scene=case.scene, discretization=case.discretization, N=case.N,
                     z=case.z, mass=case.mass, material=case.rheology.material.to_dict(), t_end=t_end,
                     rtol=settings["rtol"], atol=settings["atol"], method="CVODE", choice=choice, accuracy=accuracy,
                     options={"advection": case.advection} if case.advection else {}, labels=sched.labels,
-                    recorded=_recorded(view, sched, out, n_done), outcome=outcome,
+                    recorded=recorded, outcome=outcome,
                     counts=(counts["steps"], counts["rhs"], counts["jac"], counts["lu"]),
-                    y0_data=case.fields(case.y0))
+                    y0_data=case.fields(case.y0), plane=getattr(case, "plane", lambda data: {})(recorded.data))
 
 
 def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend,

@@ -298,7 +298,8 @@ def test_upwind_reproduces_the_first_order_study(monkeypatch):
     path = pathlib.Path(__file__).resolve().parents[1] / "data" / "sim2d" / "convergence_upwind.json"
     study = json.loads(path.read_text())
     times = study["times"]
-    d = run("icidr", "bump2d", (16, 16), float(times[-1]), times, advection="upwind", **study["settings"]).to_dict()
+    d = run("icidr", "bump2d", (16, 16), float(times[-1]), times, advection="upwind", engine="pde",
+            **study["settings"]).to_dict()  # the py-pde path's Krylov tolerance (the native one agrees to ~1e-8)
     for q in ("max_w", "max_phi_dev", "l2_velocity"):
         for t in times:
             assert d[q][t] == pytest.approx(study["runs"]["16"][q][t], rel=1e-9), (q, t)
@@ -314,9 +315,99 @@ def test_krylov_solves_of_2d_runs_use_the_tight_tolerance(monkeypatch):
 
     def n_rhs():
         return run("mui", "bump2d", (16, 16), 0.5, ["0", "0.5"], series_times=[], method="CVODE",
-                   jacobian="krylov", rtol=1e-7, atol=1e-10).to_dict()["n_rhs"]
+                   jacobian="krylov", rtol=1e-7, atol=1e-10, engine="pde").to_dict()["n_rhs"]
 
     assert integrator.KRYLOV_EPS_LIN == 5e-5
     tight = n_rhs()
     monkeypatch.setattr(integrator, "KRYLOV_EPS_LIN", 0.05)
     assert tight > 1.1 * n_rhs()
+
+
+def _bump2d(pde, shape, sign_changes=False):
+    """The bump2d state on `shape`; with `sign_changes`, u shifted to change sign and phi
+    perturbed cell by cell, so that every upwind branch is taken."""
+    scene = Bump2DScene()
+    grid = pde.make_grid(shape, scene.H, L=scene.L)
+    state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    if sign_changes:
+        state.data[1] -= 0.5
+        state.data[0] += 0.01 * np.sin(np.arange(state.data[0].size)).reshape(grid.shape)
+    return state
+
+
+@pytest.mark.parametrize("shape", [(32, 32), (16, 24)])
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_whole_grid_rates_through_the_patch_kernel_equal_the_oracle(shape, rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    for sign_changes in (False, True):
+        state = _bump2d(pde, shape, sign_changes)
+        a = pde.make_rates(state)(state.data, 0.0)
+        b = oracle_rhs(pde, state)(state.data, 0.0)
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+
+
+def _patch(data, xs, zs):
+    """The block data[:, xs, zs] with one ghost layer, filled from the whole state as a
+    distributed array's local part is: x ghosts periodic, z ghosts from the neighbouring
+    rows, NaN beyond a wall (the patch kernel must fill those rows itself)."""
+    nz = data.shape[2]
+    cols = np.arange(xs.start - 1, xs.stop + 1) % data.shape[1]
+    rows = np.arange(zs.start - 1, zs.stop + 1)
+    g = np.full((3, cols.size, rows.size), np.nan)
+    inside = (rows >= 0) & (rows < nz)
+    g[:, :, inside] = data[:, cols][:, :, rows[inside]]
+    return g, zs.start == 0, zs.stop == nz
+
+
+@pytest.mark.parametrize("shape,x_split,z_split", [((32, 32), 16, 16), ((16, 24), 7, 13)])
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_patches_of_a_split_grid_give_the_whole_grid_rates(shape, x_split, z_split, rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    state = _bump2d(pde, shape, sign_changes=True)
+    whole = pde.make_rates(state)(state.data, 0.0)
+    patches = pde.patches(state)
+    assert patches.shape == shape and patches.dof == 3 and patches.periodic == (True, False)
+    nx, nz = shape
+    covered = np.zeros(shape, bool)
+    for xs in (slice(0, x_split), slice(x_split, nx)):
+        for zs in (slice(0, z_split), slice(z_split, nz)):
+            g, low, high = _patch(state.data, xs, zs)
+            out = np.empty((3, xs.stop - xs.start, zs.stop - zs.start))
+            patches.rates(g, low, high, out)
+            assert np.array_equal(out, whole[:, xs, zs])
+            covered[xs, zs] = True
+    assert covered.all()
+
+
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_patch_jacobians_of_a_split_grid_are_the_whole_grid_jacobian_rows(rheology, advection):
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    shape, x_split, z_split = (16, 24), 7, 13
+    state = _bump2d(pde, shape, sign_changes=True)
+    J = pde.make_jacobian(state)(0.0, state.data.ravel()).toarray()
+    patches = pde.patches(state)
+    nx, nz = shape
+    index = np.arange(state.data.size).reshape(state.data.shape)
+    rows_done = []
+    for xs in (slice(0, x_split), slice(x_split, nx)):
+        for zs in (slice(0, z_split), slice(z_split, nz)):
+            g, low, high = _patch(state.data, xs, zs)
+            Jp = patches.jacobian(g, low, high).toarray()
+            # the patch's values: periodic columns, rows beyond a wall have no unknown (-1)
+            cols = np.arange(xs.start - 1, xs.stop + 1) % nx
+            zrows = np.arange(zs.start - 1, zs.stop + 1)
+            unknown = np.full(g.shape, -1)
+            inside = (zrows >= 0) & (zrows < nz)
+            unknown[:, :, inside] = index[:, cols][:, :, zrows[inside]]
+            unknown = unknown.ravel()
+            assert np.all(Jp[:, unknown < 0] == 0)
+            rows = index[:, xs, zs].ravel()
+            whole = np.zeros_like(Jp)
+            whole[:, unknown >= 0] = J[np.ix_(rows, unknown[unknown >= 0])]
+            # (an unknown is one column of the patch here: no block spans the whole periodic x)
+            assert np.max(np.abs(Jp - whole)) <= 1e-14 * np.max(np.abs(J))
+            rows_done.append(rows)
+    assert np.array_equal(np.sort(np.concatenate(rows_done)), np.arange(J.shape[0]))

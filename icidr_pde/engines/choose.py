@@ -13,7 +13,8 @@ from dataclasses import dataclass
 from ..validation import ParameterError, choice as checked_choice
 from . import ENGINES, METHODS
 
-__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD"]
+__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
+           "NATIVE_FV2D_REPEATS", "NATIVE_FV2D_AUTO_CELLS"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
 #: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
@@ -53,7 +54,14 @@ class JacobianStructure:
 
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
 #: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
-NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner"}
+NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d": "GMRES"}
+#: the py-pde path's default linear solver on the 2-D cell that the native fv2d problem repeats in C
+#: (unpreconditioned GMRES on a thick cell) and was measured against (docs/engines.md): where the
+#: py-pde default becomes another solver, the native engine is no longer taken for fv2d by 'auto'
+NATIVE_FV2D_REPEATS = "GMRES (line preconditioner in thin cells)"
+#: the largest grid (cells) on which 'auto' takes the native engine for fv2d: where it measured no
+#: slower whole-process than the py-pde path (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any
+NATIVE_FV2D_AUTO_CELLS = 96 * 96
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
@@ -78,7 +86,8 @@ class Choice:
 
 def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
            discretization: str | None = None, request: str = "auto", outputs=(), backend: str = "numba",
-           dim: int = 1, native_unavailable: str | None = None) -> Choice:
+           dim: int = 1, native_unavailable: str | None = None, thin_cell: bool = False,
+           cells: int | None = None) -> Choice:
     """The engine, Jacobian and linear solver of a run.
 
     Args:
@@ -91,6 +100,14 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         backend: 'numba' or 'numpy' (the native engine is compiled)
         dim: 1 or 2
         native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
+        thin_cell: a 2-D cell with hx > THIN_CELL hz (the py-pde path preconditions its GMRES along z)
+        cells: the cells of a 2-D grid (Nx Nz), if known
+
+    The native engine is taken ('auto', 'native') for fd and cheb with CVODE and the analytic
+    Jacobian, and for fv2d with CVODE on a thick cell while the py-pde path's default there is
+    :data:`NATIVE_FV2D_REPEATS` (the native problem is that solver in C), by 'auto' up to
+    :data:`NATIVE_FV2D_AUTO_CELLS` cells (beyond, the py-pde path measured faster), by 'native' on
+    any grid; never with the outputs only the py-pde run path writes.
     """
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
@@ -99,8 +116,11 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         return _petsc_choice(jacobian, structure)
     if request != "pde":
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
+        if not reason and discretization == "fv2d":
+            reason = _not_native_2d(jacobian, structure, thin_cell, cells if request == "auto" else None)
         if not reason:
-            return Choice("native", "analytic", NATIVE_SCHEMES[discretization])
+            mode = "krylov" if discretization == "fv2d" else "analytic"
+            return Choice("native", mode, NATIVE_SCHEMES[discretization])
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure)
     return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
@@ -119,17 +139,34 @@ def _petsc_choice(jacobian, structure) -> Choice:
 def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
     """Why these settings cannot take the native engine (one line), or ''."""
     if discretization not in NATIVE_SCHEMES:
-        return f"discretization {discretization!r} (the native engine is the 1-D cell: fd or cheb)"
+        return f"discretization {discretization!r} (the native engine has fd, cheb and fv2d)"
     if method != "CVODE":
         return f"method {method!r} (the native engine is CVODE)"
-    if jacobian not in (None, "analytic"):
+    if discretization == "fv2d":
+        if jacobian not in (None, "krylov"):
+            return f"jacobian {jacobian!r} (the native 2-D cell is matrix-free: 'krylov')"
+    elif jacobian not in (None, "analytic"):
         return f"jacobian {jacobian!r} (the native engine uses the analytic Jacobian)"
     if backend != "numba":
         return f"backend {backend!r}"
-    if dim != 1:
-        return "a 2-D grid"
+    if dim != (2 if discretization == "fv2d" else 1):
+        return f"a {dim}-D grid for discretization {discretization!r}"
     if outputs:
         return f"{outputs[0]} (written by the py-pde run path)"
+    return ""
+
+
+def _not_native_2d(jacobian, structure, thin_cell, cells) -> str:
+    """Why fv2d on CVODE does not take the native engine (one line), or ''; `cells` None: any grid."""
+    if thin_cell:
+        return "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES along z)"
+    if cells is not None and cells > NATIVE_FV2D_AUTO_CELLS:
+        return (f"a 2-D grid of {cells} cells (> {NATIVE_FV2D_AUTO_CELLS}: the py-pde path measured faster; "
+                "--engine native takes it)")
+    mode = _jacobian_mode(ENGINES["sundae"].jacobian_modes["CVODE"], "CVODE", jacobian, structure)
+    default = _linear_solver("CVODE", mode, structure)
+    if default != NATIVE_FV2D_REPEATS:
+        return f"the py-pde path's linear solver here is {default!r} (the native 2-D cell repeats {NATIVE_FV2D_REPEATS!r})"
     return ""
 
 

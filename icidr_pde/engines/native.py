@@ -27,6 +27,8 @@ class NativeEngine(Engine):
         kind = getattr(problem, "linear_solver", None)  # what the compiled problem set up (Chebyshev)
         if kind == "krylov":
             linear_solver = f"GMRES + {problem.preconditioner} preconditioner"
+        elif kind == "gmres":
+            linear_solver = "GMRES"
         elif kind == "dense":
             linear_solver = "dense LU (LAPACK)" if problem.solver == "lapack" else "dense LU"
         self.problem, self.check, self.linear_solver = problem, check, linear_solver

@@ -11,18 +11,12 @@ import numpy as np
 from scipy import sparse
 
 from . import cvode_counters
-from .base import DENSE_LU_DELTA_GAMMA, Engine, Problem, dense
+from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN, Engine, Problem, dense  # KRYLOV_EPS_LIN: its engine's setting
 from .choose import AMG_SOLVER
 from .conservative_jacobian import ConservativeDifferenceQuotients
 from .time_scale import MIN_STEP_FRACTION
 
 __all__ = ["CvodeEngine", "KRYLOV_EPS_LIN", "LINEAR_SOLVERS"]
-
-#: CVODE's Krylov tolerance factor. SUNDIALS' 0.05 is too loose for an ill-posed law: the inexact
-#: Newton solves delay the grid-scale growth (mu(I) bump2d 128^2: t* 0.11844; eps_lin 5e-4: 0.11709,
-#: 5e-5: 0.11700, 5e-6: 0.11697; docs/scaling.md, benchmarks/tstar2d_solvers.py)
-KRYLOV_EPS_LIN = 5e-5
-
 
 class _CapturedOutput:
     """Collect what scikit-sundae prints (its SUNDIALS error handler calls Python's print)."""
@@ -206,7 +200,7 @@ def _gmres(problem, rtol, atol):
     """GMRES, Jacobian-vector products by CVODE's difference quotients; preconditioned along
     the walls' normal where the scheme gives a line pattern (a thin cell)."""
     jacobian = problem.jacobian
-    kwargs = dict(linsolver="gmres", krylov_dim=20)
+    kwargs = dict(linsolver="gmres", krylov_dim=KRYLOV_DIM)
     if jacobian.line_pattern is not None:
         kwargs["precond"] = _line_preconditioner(jacobian.jac, jacobian.line_pattern, jacobian.weights,
                                                  jacobian.anchor)
@@ -219,7 +213,7 @@ def _gmres_amg(problem, rtol, atol):
     from .amg import amg_preconditioner
 
     jacobian = problem.jacobian
-    return dict(linsolver="gmres", krylov_dim=20,
+    return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
                 precond=amg_preconditioner(jacobian.jac, jacobian.fields, jacobian.weights))
 
 

@@ -2,7 +2,8 @@
 
 The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, the
 finite-volume and Chebyshev kernels printed from their numba templates
-``discretizations/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (with
+``discretizations/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (the 1-D cell's library;
+the 2-D cell's, of the law of plane flow, has the kernels of ``cartesian2d.py`` instead) (with
 ``kernel_support.c``) and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
 (``$CC``) into the kernel cache (:mod:`icidr_pde.kernel_cache`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
@@ -52,23 +53,39 @@ def _text(name: str) -> str:
     return importlib.resources.files(__package__).joinpath(name).read_text()
 
 
-def _scheme_templates() -> tuple[str, str]:
-    """The numba templates of fd and cheb, the one source of each scheme's kernels."""
+#: the templates of each kinematics' library (its schemes) and the functions of cartesian2d.py printed as C
+_TEMPLATES = {"shear_cell": ("fd.py", "cheb.py"), "plane_flow": ("cartesian2d.py",)}
+FV2D_FUNCTIONS = ("walls", "halo_into", "patch_rates")
+
+
+def _plane(kinematics) -> bool:
+    from ..rheology import PLANE_FLOW
+
+    return kinematics == PLANE_FLOW
+
+
+def _scheme_templates(kinematics=None) -> tuple[str, ...]:
+    """The numba templates of the schemes of `kinematics` (fd and cheb, or fv2d), the one source
+    of each scheme's kernels."""
     # by path: importing icidr_pde.discretizations would import py-pde
     templates = pathlib.Path(__file__).parent.parent / "discretizations" / "templates"
-    return tuple((templates / name).read_text() for name in ("fd.py", "cheb.py"))
+    names = _TEMPLATES["plane_flow" if _plane(kinematics) else "shear_cell"]
+    return tuple((templates / name).read_text() for name in names)
 
 
-def _template() -> str:
+def _template(kinematics=None) -> str:
     """What the scheme kernels' C is made of (for the key): the templates and their printer."""
-    return "\n".join([*_scheme_templates(), _text("translate.py"), _text("kernel_support.c")])
+    return "\n".join([*_scheme_templates(kinematics), _text("translate.py"), _text("kernel_support.c")])
 
 
-def _scheme_kernels() -> str:
-    """C of the fd and cheb kernels, printed from the numba templates (:mod:`.translate`)."""
+def _scheme_kernels(kinematics=None) -> str:
+    """C of the kernels of `kinematics`' schemes, printed from the numba templates (:mod:`.translate`)."""
     from .translate import translate
 
-    fd, cheb = _scheme_templates()
+    if _plane(kinematics):
+        (fv2d,) = _scheme_templates(kinematics)
+        return "\n".join([_text("kernel_support.c"), translate(fv2d, "fv2d_", names=FV2D_FUNCTIONS)])
+    fd, cheb = _scheme_templates(kinematics)
     return "\n".join([_text("kernel_support.c"), translate(fd, "fd_", {"J": "FD_BAND_AT"}),
                       translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"})])
 
@@ -124,7 +141,7 @@ def _key(rheology, kinematics, libs, index, cc) -> str:
         codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
         rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
         dilatancy.__qualname__, type(kinematics).__qualname__, inspect.getsource(type(kinematics)),
-        _template(), _text("sundials_api.h"), _text("cvode_driver.c"), codegen._module_source(__name__),
+        _template(kinematics), _text("sundials_api.h"), _text("cvode_driver.c"), codegen._module_source(__name__),
         *map(str, libs), index, cc, *LIBRARY_FLAGS])
 
 
@@ -136,8 +153,11 @@ def _source(rheology, kinematics, index, libs=()) -> str:
     return "\n".join([f"#define SUNINDEXTYPE {index}",
                       "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
                       "#define ICIDR_SPGMR" if spgmr else "",
+                      "#define ICIDR_PLANE\n#define LAW_INLINE inline __attribute__((always_inline))\n#define KERNEL_SCRATCH\n"
+                      "#define LAW_POWI law_powi"
+                      if _plane(kinematics) else "",
                       _text("sundials_api.h"),
-                      c_law_source(rheology, kinematics), _scheme_kernels(), _text("cvode_driver.c")])
+                      c_law_source(rheology, kinematics), _scheme_kernels(kinematics), _text("cvode_driver.c")])
 
 
 def library(rheology, kinematics) -> ctypes.CDLL:
@@ -182,7 +202,8 @@ def _compile(rheology, kinematics, index, cc, libdir, libs, name) -> pathlib.Pat
     except UnsupportedLaw as err:
         kernel_cache.store(name, ".unsupported", f"{err}\n".encode())
         raise NativeUnavailable(str(err)) from None
-    sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} (fd, cheb; once per installation) ...\n")
+    schemes = "fv2d" if _plane(kinematics) else "fd, cheb"
+    sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} ({schemes}; once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
     path = kernel_cache.build(name, ".so", lambda tmp: _run_compiler(  # the C text on stdin: no C file to plant
@@ -224,6 +245,7 @@ def _declare(lib) -> None:
         "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
         "icidr_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
         "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
+        "icidr_fv2d_problem": (P, [I, I, D, D, I, ptr(D), ptr(D), I, D, D, I, D]),
         "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
         "icidr_cheb_krylov": (I, [P, I, D, L, L, I, ptr(D)]),
         "icidr_krylov_counts": (None, [P, ptr(L)]),

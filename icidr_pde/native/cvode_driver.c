@@ -27,9 +27,14 @@
    so the Krylov path projects each step onto the initial mass (CVODE's projection, CVodeSetProjFn:
    the correction along c and the error estimate onto c's complement), conserving it to round-off
    as the direct solves do.
+   The 2-D cell (fv2d, a library of its own, ICIDR_PLANE: the law of plane flow): Newton-Krylov
+   as icidr_pde.engines.sundae's 'GMRES' on a thick cell: SUNDIALS' GMRES (SPGMR, its default
+   Gram-Schmidt) without a preconditioner, Krylov dimension and tolerance factor (eps_lin) given,
+   CVODE's difference-quotient products J v; the state the fields in blocks, (3, nx, nz) row-major.
    Placed after the law (icidr_pde.rheology.ccode), kernel_support.c and the scheme kernels
    printed from the numba templates discretizations/templates/fd.py and cheb.py
-   (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian);
+   (icidr_pde.native.translate: fd_rates, fd_jacobian_interleaved, cheb_rates, cheb_jacobian) or,
+   with ICIDR_PLANE, cartesian2d.py (fv2d_halo_into, fv2d_patch_rates);
    sundials_api.h declares the part of the SUNDIALS C API used here. */
 
 #include <stdlib.h>
@@ -39,12 +44,14 @@
 
 #define EXPORT __attribute__((visibility("default")))
 
-enum { KIND_FD = 0, KIND_CHEB = 1 };
+enum { KIND_FD = 0, KIND_CHEB = 1, KIND_FV2D = 2 };
 
 typedef struct {
     int kind;
-    int n;
+    int n;                /* points (fd, cheb) or cells (fv2d: nx nz) */
     double h;
+    int nx, nz;           /* fv2d: cells along x (periodic) and z */
+    double hx, hz;        /* fv2d: cell widths */
     int upwind;
     double ghost[12];
     double *params;
@@ -76,13 +83,15 @@ typedef struct {
     char message[1024];
 } Native;
 
-/* where phi and w of point i sit in the state vector: interleaved (fd) or in blocks (cheb) */
-#define PHI_AT(p, i) ((p)->kind == KIND_CHEB ? (i) : 3 * (i))
-#define W_AT(p, i) ((p)->kind == KIND_CHEB ? 2 * (p)->n + (i) : 3 * (i) + 2)
+/* where phi and w of point i sit in the state vector: interleaved (fd) or in blocks (cheb, fv2d) */
+#define PHI_AT(p, i) ((p)->kind == KIND_FD ? 3 * (i) : (i))
+#define W_AT(p, i) ((p)->kind == KIND_FD ? 3 * (i) + 2 : 2 * (p)->n + (i))
 
 /* scratch doubles a problem of n points needs: fd's fields and rates in the templates' layout */
 #define FD_WORK(n) (6 * (size_t)(n))
 #define CHEB_WORK(n) 1
+/* fv2d's patch: the whole grid with its ghost layer, (3, nx + 2, nz + 2) */
+#define FV2D_WORK(nx, nz) (3 * ((size_t)(nx) + 2) * ((size_t)(nz) + 2))
 
 /* fd: CVODE's interleaved vector y[3 i + k] (the band ordering) as the template's fields (3, n);
    cheb's vector is in blocks, the fields themselves */
@@ -95,6 +104,11 @@ static void fd_fields(int n, const double *y, double *data)
 
 static void problem_rates(Native *p, const double *y, double *out)
 {
+#ifdef ICIDR_PLANE
+    long nx = p->nx, nz = p->nz;
+    fv2d_halo_into((double *)y, 3, nx, nz, p->ghost, 3, 2, 2, p->work, 3, nx + 2, nz + 2);
+    fv2d_patch_rates(p->work, 3, nx + 2, nz + 2, p->hx, p->hz, p->upwind, p->params, p->n_params, out, 3, nx, nz);
+#else
     int n = p->n;
     if (p->kind == KIND_CHEB) {
         cheb_rates((double *)y, 3, n, p->D, n, n, p->params, p->n_params, out, 3, n);
@@ -106,12 +120,14 @@ static void problem_rates(Native *p, const double *y, double *out)
     for (int i = 0; i < n; i++)
         for (int k = 0; k < 3; k++)
             out[3 * i + k] = rates[k * n + i];
+#endif
 }
 
 /* cheb: the dense column-major Jacobian; fd: the compact band (FD_BAND_AT of kernel_support.c),
    zero outside the entries the template writes */
 static void problem_jacobian(Native *p, const double *y, double *J)
 {
+#ifndef ICIDR_PLANE
     int n = p->n;
     if (p->kind == KIND_CHEB) {
         cheb_jacobian((double *)y, 3, n, p->D, n, n, p->params, p->n_params, J, 3 * n, 3 * n);
@@ -121,6 +137,7 @@ static void problem_jacobian(Native *p, const double *y, double *J)
     memset(J, 0, sizeof(double) * FD_BAND * 3 * (size_t)n);
     fd_jacobian_interleaved(p->work, 3, n, p->ghost, 3, 2, 2, p->h, p->upwind, p->params, p->n_params, J, 3 * n,
                             3 * n);
+#endif
 }
 
 static int rhs_fn(sunrealtype t, N_Vector y, N_Vector ydot, void *user_data)
@@ -149,7 +166,7 @@ static int jac_fn(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *use
     return 0;
 }
 
-#if defined(ICIDR_SPGMR) && defined(ICIDR_BLAS)
+#if defined(ICIDR_SPGMR) && defined(ICIDR_BLAS) && !defined(ICIDR_PLANE)
 #define ICIDR_KRYLOV
 void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
 void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda, const int *ipiv,
@@ -299,6 +316,32 @@ EXPORT Native *icidr_fd_problem(int n, double h, int upwind, const double *ghost
     return p;
 }
 
+/* the 2-D cell on nx x nz cells of widths hx, hz (ghost: the walls' maps, (3, 2, 2)), integrated by
+   GMRES(max_krylov) without a preconditioner at the tolerance factor eps_lin; NULL where memory runs
+   out or the build has no SPGMR */
+EXPORT Native *icidr_fv2d_problem(int nx, int nz, double hx, double hz, int upwind, const double *ghost,
+                                  const double *params, int n_params, double lo, double hi, int max_krylov,
+                                  double eps_lin)
+{
+#if defined(ICIDR_PLANE) && defined(ICIDR_SPGMR)
+    Native *p = problem_new(KIND_FV2D, nx * nz, params, n_params, lo, hi, FV2D_WORK(nx, nz));
+    if (!p)
+        return NULL;
+    p->nx = nx;
+    p->nz = nz;
+    p->hx = hx;
+    p->hz = hz;
+    p->upwind = upwind;
+    memcpy(p->ghost, ghost, sizeof p->ghost);
+    p->krylov = 1;
+    p->max_krylov = max_krylov;
+    p->eps_lin = eps_lin;
+    return p;
+#else
+    return NULL;
+#endif
+}
+
 /* the Chebyshev problem on n points: D row-major (n, n); `lapack` chooses the dense LU */
 EXPORT Native *icidr_cheb_problem(int n, const double *D, const double *params, int n_params, double lo,
                                   double hi, int lapack, double delta_gamma)
@@ -375,7 +418,7 @@ EXPORT void icidr_cheb_jacobian(Native *p, const double *y, double *J)
 /* cheb: the band preconditioner's J_lo at y on the points z, compact band (FD_BAND_AT) */
 EXPORT void icidr_cheb_low_order_jacobian(Native *p, const double *y, const double *z, double *jb)
 {
-#ifdef ICIDR_KRYLOV
+#if defined(ICIDR_KRYLOV) && !defined(ICIDR_PLANE)
     int neq = 3 * p->n;
     cheb_low_order_jacobian((double *)y, 3, p->n, p->D, p->n, p->n, (double *)z, p->n, p->params, p->n_params, jb,
                             neq, neq);
@@ -407,7 +450,9 @@ EXPORT void icidr_kernel_times(Native *p, const double *y, int reps, double *out
         double start = seconds();
         problem_rates(p, y, f);
         double mid = seconds();
-        if (p->kind == KIND_CHEB) {
+        if (p->kind == KIND_FV2D) {
+            out[1] = 0.0;  /* no Jacobian: CVODE's products J v */
+        } else if (p->kind == KIND_CHEB) {
             problem_jacobian(p, y, J);
         } else {
             problem_jacobian(p, y, p->jb);
@@ -508,7 +553,17 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetUserData(p->cvode, p));
     CHECK(CVodeInit(p->cvode, rhs_fn, t0, p->y));
     CHECK(CVodeSStolerances(p->cvode, rtol, atol));
-    if (p->kind == KIND_CHEB && p->krylov) {
+    if (p->kind == KIND_FV2D) {
+#ifdef ICIDR_SPGMR
+        p->LS = SUNLinSol_SPGMR(p->y, SUN_PREC_NONE, p->max_krylov, p->ctx);
+        if (!p->LS) {
+            snprintf(error, error_len, "SPGMR not created");
+            goto fail;
+        }
+        CHECK(CVodeSetLinearSolver(p->cvode, p->LS, NULL));
+        CHECK(CVodeSetEpsLin(p->cvode, p->eps_lin));
+#endif
+    } else if (p->kind == KIND_CHEB && p->krylov) {
 #ifdef ICIDR_KRYLOV
         p->LS = SUNLinSol_SPGMR(p->y, SUN_PREC_LEFT, p->max_krylov, p->ctx);
         if (!p->LS) {

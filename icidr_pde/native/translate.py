@@ -14,8 +14,10 @@ The subset, what the templates use:
   ``double *a, long a_shape0, .., long a_shape{d-1}`` in C, row-major unless `storage`
   names a macro ``M(a, i, j)`` for it (a band or column-major matrix of the caller);
 * local scalars (int where every value assigned is, else double), declared at the top;
-  ``numpy.empty(shape)`` (freed at the end; no ``return`` of a value), a row ``a[k]`` of an
+  ``numpy.empty(shape)`` (``kernel_empty``, freed at the end by ``kernel_free``: the C driver
+  defines them; no ``return`` of a value), a row ``a[k]`` of an
   array, a tuple of scalars as a small local array;
+* ``a, b = x, y`` (where no x, y reads a or b), ``a, b, c = x.shape``;
 * ``for .. in range(..)``, ``if``/``elif``/``else``, ``a if c else b``, ``continue``,
   ``break``, ``+= -= *=``, ``max``/``min`` of ints, ``x.shape[k]``;
 * calls of the template's own functions (arrays passed with their shapes), of the law
@@ -222,7 +224,7 @@ class _Function:
                     self.scalars[f"{name}_shape{k}"] = "long"
                     self.emit(depth, f"{name}_shape{k} = {self.expr(s)};")
                     size.append(f"{name}_shape{k}")
-                self.emit(depth, f"{name} = malloc(sizeof(double) * {' * '.join(size)});")
+                self.emit(depth, f"{name} = kernel_empty(sizeof(double) * {' * '.join(size)});")
                 self.allocated.append(name)
                 return True
             if owner == "numpy" and attr == "dot":
@@ -260,6 +262,22 @@ class _Function:
         elif isinstance(s, ast.Assign) and len(s.targets) == 1:
             target, value = s.targets[0], s.value
             if isinstance(value, ast.Call) and self.assign_call(target, value, depth, s.lineno):
+                return
+            if isinstance(target, ast.Tuple) and isinstance(value, ast.Attribute) and value.attr == "shape" \
+                    and isinstance(value.value, ast.Name) and value.value.id in self.arrays \
+                    and len(target.elts) == self.arrays[value.value.id]:  # a, b, c = x.shape
+                for k, t in enumerate(target.elts):
+                    self.declare(t.id, "long", s.lineno)
+                    self.emit(depth, f"{t.id} = {value.value.id}_shape{k};")
+                return
+            if isinstance(target, ast.Tuple) and isinstance(value, ast.Tuple) \
+                    and len(target.elts) == len(value.elts) and all(isinstance(t, ast.Name) for t in target.elts):
+                names = {t.id for t in target.elts}  # a, b = x, y: one at a time is the same where no y reads an a
+                if any(isinstance(n, ast.Name) and n.id in names for v in value.elts for n in ast.walk(v)):
+                    raise SyntaxError(f"line {s.lineno}: a tuple assignment that reads its own targets")
+                for t, v in zip(target.elts, value.elts):
+                    self.declare(t.id, self.kind(v), s.lineno)
+                    self.emit(depth, f"{t.id} = {self.expr(v)};")
                 return
             if isinstance(target, ast.Name) and isinstance(value, ast.Tuple):  # a small local array
                 self.fixed[target.id] = str(len(value.elts))
@@ -348,18 +366,19 @@ class _Function:
                 declared.append(f"    double *{name};")
         for name, length in self.fixed.items():
             declared.append(f"    double *{name};" if length == "pointer" else f"    double {name}[{length}];")
-        frees = [f"    free({name});" for name in self.allocated]
+        frees = [f"    kernel_free({name});" for name in self.allocated]
         doc = ast.get_docstring(self.node)
         comment = f"/* {' '.join(doc.split())} */\n" if doc else ""
         return "\n".join([comment + self.signature(), "{", *declared, *self.lines, *frees, "}"]) + "\n"
 
 
-def translate(source: str, prefix: str, storage: dict | None = None) -> str:
+def translate(source: str, prefix: str, storage: dict | None = None, names=None) -> str:
     """C text of the ``@njit`` functions of the template `source` (see the module docstring),
-    each named `prefix` + its name; `storage` maps an array parameter to the C macro
-    ``M(name, i, j, ..)`` that addresses its elements (default: row-major)."""
+    each named `prefix` + its name (those in `names` only, if given: the others may use what the
+    subset has not, as a function that returns an array); `storage` maps an array parameter to the
+    C macro ``M(name, i, j, ..)`` that addresses its elements (default: row-major)."""
     tree = ast.parse(source)
-    functions = [n for n in tree.body if isinstance(n, ast.FunctionDef)]
+    functions = [n for n in tree.body if isinstance(n, ast.FunctionDef) and (names is None or n.name in names)]
     signatures = {f.name: f for f in functions}
     out = [f"/* Printed by icidr_pde.native.translate from the numba template of the scheme; do not edit. */\n"]
     prototypes = [_Function(f, prefix, signatures, storage or {}).signature() + ";" for f in functions]
