@@ -161,10 +161,12 @@ class Recorded:
 
 def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, material: dict, t_end: float,
              rtol: float, atol: float, method: str, choice: Choice, accuracy, options: dict, labels: list,
-             recorded: Recorded, outcome: Outcome, counts: tuple, y0_data, plane: dict | None = None) -> Result:
+             recorded: Recorded, outcome: Outcome, counts: tuple, y0_data, plane: dict | None = None,
+             ranks: int = 1) -> Result:
     """The Result of a run of any engine: what it recorded, how it ended, its counts (steps,
     RHS, Jacobians, LUs) and its settings (the options of the scheme, engine, linear solver
-    and Jacobian of the choice)."""
+    and Jacobian of the choice, and `ranks`: the number of MPI processes that computed it, 1
+    but for the PETSc engine under mpiexec)."""
     series = recorded.max_w_t is not None  # None: no series asked, none appended at t* either
     max_w_t, max_w = (list(recorded.max_w_t), list(recorded.max_w)) if series else ([], [])
     if outcome.blew_up and series:
@@ -187,7 +189,7 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
         wall_s=outcome.wall_s, compile_s=outcome.compile_s, cpu_s=outcome.cpu_s, n_steps=n_steps, n_rhs=n_rhs,
         n_jac=n_jac, n_lu=n_lu, scene_params=scene.parameters(), material=material,
         settings=dict(accuracy=accuracy, **options, engine=choice.engine, linear_solver=choice.linear_solver,
-                      jacobian=choice.jacobian),
+                      jacobian=choice.jacobian, ranks=int(ranks)),
         **chi_kwargs, **(plane or {}),
     )
 
@@ -632,16 +634,22 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
     cpu = _time.process_time() - cpu_start - compile_cpu
     outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu, recording.stop)
     recording.close(outcome)
+    method, ranks = settings["method"], 1
+    if choice.engine == "petsc":  # PETSc's TS integrates whatever method was asked (choose.PETSC_METHOD)
+        from .engines.choose import PETSC_METHOD
+
+        method = PETSC_METHOD
     if engine is not None:
         stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
         choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
+        method, ranks = engine.ran or method, engine.ranks
     recorded = _recorded(view, sched, out, n_done)
     result = assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,
                       z=view.z, mass=case.mass, material=case.pde.material.to_dict(), t_end=t_end,
-                      rtol=settings["rtol"], atol=settings["atol"], method=settings["method"], choice=choice,
+                      rtol=settings["rtol"], atol=settings["atol"], method=method, choice=choice,
                       accuracy=accuracy, options=case.pde.option_values(), labels=sched.labels, recorded=recorded,
                       outcome=outcome, counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu),
-                      y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data))
+                      y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data), ranks=ranks)
     return result, recorders
 
 

@@ -7,6 +7,7 @@ message without petsc4py are tested everywhere.
 """
 
 import importlib.util
+import json
 import os
 import shutil
 import subprocess
@@ -110,18 +111,110 @@ def test_bump2d_agrees_with_cvode_and_conserves_mass():
     petsc = run("icidr", "bump2d", engine="petsc", **kwargs)
     cvode = run("icidr", "bump2d", engine="pde", **kwargs)
     assert petsc.settings["engine"] == "petsc" and not petsc.blew_up
+    assert (petsc.method, petsc.settings["ranks"]) == ("PETSC-BDF", 1)  # PETSc's method, not the CVODE asked
+    assert petsc.to_dict()["settings"]["ranks"] == 1 and cvode.settings["ranks"] == 1
     assert np.allclose(petsc.max_w, cvode.max_w, rtol=1e-4, atol=1e-9)
     assert abs(petsc.mass_drift) < 1e-12
 
 
+def test_serial_runs_say_one_rank():
+    from icidr_pde import run
+
+    r = run("icidr", "shear", N=21, t_end=0.01, progress=False)
+    assert r.settings["ranks"] == 1 and r.to_dict()["settings"]["ranks"] == 1
+
+
+def _bump2d_block_grid(rheology, advection, shape, proc_sizes=None):
+    """(BlockGrid of bump2d's patches on COMM_WORLD, the scheme, its state perturbed so that
+    every upwind branch is taken)."""
+    from petsc4py import PETSc
+
+    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+    from icidr_pde.engines.petsc import BlockGrid
+    from icidr_pde.scenes2d import Bump2DScene
+
+    pde = ShearCell2DPDE(rheology, advection=advection)
+    scene = Bump2DScene()
+    grid = pde.make_grid(shape, scene.H, L=scene.L)
+    state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    state.data[1] -= 0.5
+    state.data[0] += 0.01 * np.sin(np.arange(state.data[0].size)).reshape(grid.shape)
+    return BlockGrid(PETSc, pde.patches(state), PETSc.COMM_WORLD, proc_sizes), pde, state
+
+
+def _block_grid_errors(rheology, advection, shape, proc_sizes=None):
+    """On this rank's blocks: whether the DMDA rates equal the whole-grid kernel's, and the
+    largest difference of its Jacobian rows from the whole-grid Jacobian's (relative)."""
+    blocks, pde, state = _bump2d_block_grid(rheology, advection, shape, proc_sizes)
+    y = state.data.ravel()
+    x = blocks.da.createGlobalVec()
+    blocks.scatter_in(y, x)
+    f = x.duplicate()
+    blocks.rates(x, f)
+    serial = pde.make_rates(state)(state.data).ravel()
+    same = np.array_equal(blocks.gathered(f), serial)
+    rows, cols, values = blocks.jacobian_rows(x)
+    J = pde.make_jacobian(state)(0.0, y).tocsr()
+    petsc_of = blocks.order
+    problem_of = np.argsort(petsc_of)
+    mine = np.zeros((J.shape[0], J.shape[1]))
+    np.add.at(mine, (problem_of[rows], problem_of[cols]), values)
+    own = np.unique(problem_of[rows])
+    err = np.max(np.abs(mine[own] - J[own].toarray())) / np.max(np.abs(J.data))
+    return same, err, own.size
+
+
+@needs_petsc
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+@pytest.mark.parametrize("advection", ["upwind", "central"])
+def test_dmda_rates_and_jacobian_rows_equal_the_whole_grid(rheology, advection):
+    same, err, n_rows = _block_grid_errors(rheology, advection, (16, 24))
+    assert same and err < 1e-14 and n_rows == 3 * 16 * 24
+
+
+BLOCKS_SCRIPT = """
+import json, sys
+sys.path.insert(0, sys.argv[2])
+from petsc4py import PETSc
+from test_petsc import _block_grid_errors
+out = [list(_block_grid_errors(r, a, (16, 24), split)) for r in ("icidr", "mui") for a in ("upwind", "central")
+       for split in ((2, 1), (1, 2))]
+with open(sys.argv[1] + str(PETSc.COMM_WORLD.rank), "w") as f:  # each rank its own cells
+    json.dump(out, f)
+"""
+
 MPI_SCRIPT = """
-import sys, numpy as np
+import json, sys, numpy as np
 from icidr_pde import run
 from icidr_pde.engines.petsc import rank
 r = run("icidr", "bump2d", t_end=0.3, N=(12, 12), engine="petsc", progress=False)
 if rank() == 0:
     np.save(sys.argv[1], np.asarray(r.max_w))
+    with open(sys.argv[1] + ".json", "w") as f:
+        json.dump({"ranks": r.settings["ranks"], "method": r.method}, f)
 """
+
+
+def _mpi_env():
+    return dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg")
+
+
+@needs_petsc
+@pytest.mark.skipif(shutil.which("mpiexec") is None, reason="mpiexec is not installed: the 2-rank test is skipped")
+def test_two_ranks_each_evaluate_their_own_cells(tmp_path):
+    """On 2 ranks the grid is split in blocks, along x (each block's x ghosts from the other rank)
+    or along z (one wall each); each rank's DMDA rates and Jacobian rows equal the whole grid's
+    on its own cells, and the two ranks' cells are the whole grid."""
+    script = tmp_path / "blocks.py"
+    script.write_text(BLOCKS_SCRIPT)
+    out = tmp_path / "blocks"
+    subprocess.run(["mpiexec", "-n", "2", sys.executable, str(script), str(out), str(ROOT / "tests")],
+                   env=_mpi_env(), check=True, timeout=600, capture_output=True)
+    per_rank = [json.loads((tmp_path / f"blocks{r}").read_text()) for r in (0, 1)]
+    for cases in zip(*per_rank):
+        assert all(same and err < 1e-14 for same, err, _ in cases)
+        assert sum(n for _, _, n in cases) == 3 * 16 * 24 and min(n for _, _, n in cases) > 0
 
 
 @needs_petsc
@@ -129,13 +222,12 @@ if rank() == 0:
 def test_two_ranks_agree_with_one(tmp_path):
     script = tmp_path / "two.py"
     script.write_text(MPI_SCRIPT)
-    env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg")
     results = []
     for ranks in (1, 2):
         out = tmp_path / f"w{ranks}.npy"
-        subprocess.run(["mpiexec", "-n", str(ranks), sys.executable, str(script), str(out)], env=env, check=True,
-                       timeout=600, capture_output=True)
+        subprocess.run(["mpiexec", "-n", str(ranks), sys.executable, str(script), str(out)], env=_mpi_env(),
+                       check=True, timeout=600, capture_output=True)
         results.append(np.load(out))
+        assert json.loads((tmp_path / f"w{ranks}.npy.json").read_text()) == {"ranks": ranks, "method": "PETSC-BDF"}
     assert results[0].size > 2
     assert np.allclose(results[1], results[0], rtol=1e-8, atol=0)

@@ -115,6 +115,10 @@ class Problem:
         margins: margins(y) -> numbers all positive while lo < phi < hi (the validity bounds
             of phi in the engine vector), for an engine's root finding; None: no bounds
         margins_into: margins_into(y, out), the same into `out`; None: the engine wraps `margins`
+        patches: the right-hand side on blocks of a structured grid with one ghost layer
+            (:class:`~icidr_pde.discretizations.cartesian2d.Patches`), for an engine that
+            distributes the grid (PETSc's DMDA); None: the scheme offers none or the engine's
+            ordering is permuted
     """
 
     y0: np.ndarray
@@ -124,6 +128,7 @@ class Problem:
     fun_into: Callable | None = None
     margins: Callable | None = None
     margins_into: Callable | None = None
+    patches: object = None
 
     def time_scale(self, t0: float) -> float:
         """The fastest time scale 1/rho(J) at (t0, y0) (:func:`~.time_scale.fastest_time_scale`)."""
@@ -150,7 +155,9 @@ class Engine:
       where store[k] >= 0; returns (outputs done, None or the failure (t_good, y_good, reason)).
       Here by :meth:`advance` and :meth:`value_at`; the native engine does it in C;
     * ``last_good()`` is (t, y) of the last output reached (the initial state before any);
-    * ``linear_solver`` names the solver of its Newton systems ('band LU', 'GMRES', ...).
+    * ``linear_solver`` names the solver of its Newton systems ('band LU', 'GMRES', ...);
+    * ``ran`` is the method it integrates with, where that is not the method it was given
+      (PETSc's TS type: 'PETSC-BDF'), else None; ``ranks`` the number of MPI processes (1).
 
     The step sequence does not depend on the times asked of ``advance``: both scipy's
     solvers and CVODE step past and interpolate, so output times change no number.
@@ -159,6 +166,8 @@ class Engine:
     name = ""
     methods: tuple[str, ...] = ()
     linear_solver = ""
+    ran: str | None = None
+    ranks = 1
 
     def advance(self, t_end):
         raise NotImplementedError

@@ -79,6 +79,7 @@ class StiffSolver(SolverBase):
         self.choice = choice
         self.max_step = max_step
         self.stats = StepStatistics()
+        self.patches = None  # the scheme on blocks of its grid, for PETSc (make_stepper)
         self.last_good: tuple[float, np.ndarray] | None = None
         #: the time a KeyboardInterrupt stopped the run at inside a stepper call, else None
         self.interrupted: float | None = None
@@ -117,6 +118,7 @@ class StiffSolver(SolverBase):
         spec, perm = jacobian_spec(self.pde, state, choice)  # a compiled Jacobian is loaded here
         ordering = Ordering(rhs, state.data.shape, perm, self.stats)
         validity = _validity(self.pde, state.data.shape, perm)
+        self.patches = scheme_patches(self.pde, state, choice, perm)
         self.info["compile_s"] = time.perf_counter() - start  # wall clock, unlike py-pde's profiler
         self.info["compile_cpu_s"] = time.process_time() - cpu_start
         self.info.update(method=self.method, rtol=self.rtol, atol=self.atol, jacobian=self.jacobian,
@@ -150,7 +152,16 @@ def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):
     spec, perm = jacobian_spec(pde, state, choice)  # a compiled Jacobian is loaded here
     ordering = Ordering(rhs, state.data.shape, perm, stats)
     validity = _validity(pde, state.data.shape, perm)
-    return make_problem(pde, ordering.to_engine(state.data), ordering, spec, validity), ordering
+    patches = scheme_patches(pde, state, choice, perm)
+    return make_problem(pde, ordering.to_engine(state.data), ordering, spec, validity, patches), ordering
+
+
+def scheme_patches(pde, state, choice: Choice, perm):
+    """The scheme's right-hand side on blocks of its grid (``pde.patches``) where the engine
+    distributes the grid (PETSc) in the scheme's own ordering, else None."""
+    if choice.engine != "petsc" or perm is not None or not hasattr(pde, "patches"):
+        return None
+    return pde.patches(state)
 
 
 class Ordering:
@@ -267,8 +278,9 @@ def _validity(pde, shape, perm):
     return inside, margins_into
 
 
-def make_problem(pde, y0, ordering: Ordering, spec: JacobianSpec, validity) -> Problem:
-    """The engines' Problem of a py-pde scheme in the engine's ordering."""
+def make_problem(pde, y0, ordering: Ordering, spec: JacobianSpec, validity, patches=None) -> Problem:
+    """The engines' Problem of a py-pde scheme in the engine's ordering (`patches`: the scheme's
+    right-hand side on blocks of its grid, :func:`scheme_patches`)."""
     check_state = getattr(pde, "check_state", lambda data: None)
     to_native = ordering.to_native
 
@@ -285,7 +297,7 @@ def make_problem(pde, y0, ordering: Ordering, spec: JacobianSpec, validity) -> P
             return None if inside(y) else generic_check(y)
 
     return Problem(y0=y0, fun=ordering.fun, fun_into=ordering.fun_into, jacobian=spec, check=check,
-                   margins=margins, margins_into=margins_into)
+                   margins=margins, margins_into=margins_into, patches=patches)
 
 
 class _Stepper:
@@ -314,7 +326,7 @@ class _Stepper:
         solver = self.solver
         y0 = self.ordering.to_engine(state.data)
         solver.last_good = (t_start, y0.copy())
-        problem = make_problem(solver.pde, y0, self.ordering, self.spec, self.validity)
+        problem = make_problem(solver.pde, y0, self.ordering, self.spec, self.validity, solver.patches)
         reason = problem.check(y0)
         if reason:
             self.fail(f"initial state invalid: {reason}")

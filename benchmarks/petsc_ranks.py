@@ -1,0 +1,107 @@
+"""The PETSc engine on 1 and more MPI ranks, and against another checkout of the code.
+
+iCIDR bump2d on N^2 cells to t_end, ``--engine petsc`` with its defaults, as one whole
+``mpiexec -n P`` process per line (its wall time is what the user waits for: start-up, kernel
+loading, PETSc's set-up, the run). Per rank, from PETSc's log (``-log_view``'s events): the time
+in the right-hand side (TSFunctionEval) and in the Jacobian (TSJacobianEval: the scheme's
+Jacobian where it is evaluated, and at every Newton system TS's shift I - J of the kept
+values), with their counts, the linear solves (KSPSolve) and the preconditioner applications
+(PCApply, about the GMRES iterations), and each rank's process CPU time; the slowest rank is what the
+run waits for. Ratios are against the first line (the
+first code, 1 rank), measured in the same invocation. Beside every timing the accuracy:
+max|w|(t_end), l2_velocity(t_end), the mass drift and, relative to the first line, the largest
+difference of the max|w| series.
+
+    nice -n 10 python benchmarks/petsc_ranks.py --N 64 --ranks 1 2 [--code DIR ...]
+
+``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
+exported by ``git archive COMMIT | tar -x -C DIR``; the default is this checkout.
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply")
+
+
+def child(N: int, t_end: float, out: str) -> None:
+    from petsc4py import PETSc
+
+    PETSc.Log.begin()
+    from icidr_pde import run
+
+    r = run("icidr", "bump2d", t_end=t_end, N=(N, N), engine="petsc", progress=False,
+            times=["0", str(t_end)], series_times=list(np.linspace(0, t_end, 21)[1:]))
+    info = {name: PETSc.Log.Event(name).getPerfInfo() for name in EVENTS}
+    rank = PETSc.COMM_WORLD.rank
+    record = {"rank": rank, "cpu_s": time.process_time(), **{f"{name}_s": float(info[name]["time"]) for name in EVENTS},
+              **{f"{name}_n": int(info[name]["count"]) for name in EVENTS}}
+    if rank == 0:
+        d = r.to_dict()
+        record.update(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=r.settings.get("ranks"),
+                      linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
+                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)))
+    pathlib.Path(f"{out}.{rank}").write_text(json.dumps(record))
+
+
+def one(code: str, ranks: int, N: int, t_end: float) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r")
+        env = dict(os.environ, PYTHONPATH=code, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", OMP_NUM_THREADS="1",
+                   OPENBLAS_NUM_THREADS="1")
+        start = time.perf_counter()
+        subprocess.run(["mpiexec", "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end), out],
+                       env=env, check=True)
+        whole = time.perf_counter() - start
+        per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]
+    first = per_rank[0]
+    first["process_s"] = whole
+    first["cpu_ranks_s"] = [round(p["cpu_s"], 1) for p in per_rank]
+    for name in EVENTS:
+        first[f"{name}_max_s"] = max(p[f"{name}_s"] for p in per_rank)
+        first[f"{name}_ranks_s"] = [round(p[f"{name}_s"], 3) for p in per_rank]
+    return first
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        child(int(sys.argv[2]), float(sys.argv[3]), sys.argv[4])
+        return
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--N", type=int, nargs="+", default=[64])
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--t-end", type=float, default=2.0)
+    ap.add_argument("--code", action="append", default=None, help="checkout to run (PYTHONPATH); default: this one")
+    args = ap.parse_args()
+    codes = args.code or [str(ROOT)]
+    print(f"uptime: {os.popen('uptime').read().strip()}")
+    for N in args.N:
+        base = None
+        for code in codes:
+            for ranks in args.ranks:
+                r = one(code, ranks, N, args.t_end)
+                base = base or r
+                dev = np.max(np.abs(np.array(r["series"]) - base["series"])) / np.max(np.abs(base["series"]))
+                print(f"N={N}^2 code={code} ranks={ranks} ({r['linear_solver']}, {r['method']}, settings.ranks "
+                      f"{r['ranks']}): process {r['process_s']:.1f} s ({base['process_s'] / r['process_s']:.2f}x), "
+                      f"solve {r['wall_s']:.1f} s ({base['wall_s'] / r['wall_s']:.2f}x), {r['steps']} steps, "
+                      f"{r['n_jac']} Jacobians; RHS per rank {r['TSFunctionEval_ranks_s']} s "
+                      f"({r['TSFunctionEval_n']} calls), Jacobian per rank {r['TSJacobianEval_ranks_s']} s "
+                      f"({r['TSJacobianEval_n']} calls); KSPSolve per rank {r['KSPSolve_ranks_s']} s "
+                      f"({r['PCApply_n']} preconditioner applications); process CPU per rank {r['cpu_ranks_s']} s; "
+                      f"max|w|({args.t_end:g}) {r['max_w']:.6e}, l2_velocity {r['l2']:.6e}, "
+                      f"mass drift {r['mass_drift']:.1e}, max|w| series vs first line {dev:.1e}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
