@@ -20,31 +20,16 @@ import argparse
 import json
 import os
 import pathlib
-import subprocess
 import sys
-import tempfile
-import time
 import timeit
 
-TIMES = ["0.5", "1", "2", "5", "10"]
+from sim2d_speed import TIMES, cli_run  # the same CLI process and output times as the 2-D speed benchmark
+
 QUANTITIES = ("max_w", "l2_velocity")
 
 
 def whole_process(n: int, engine: str) -> dict:
-    with tempfile.TemporaryDirectory() as tmp:
-        out = pathlib.Path(tmp) / "out.json"
-        cmd = [sys.executable, "-m", "icidr_pde.cli", "run", "--scene", "bump2d", "--rheology", "icidr",
-               "--Nx", str(n), "--Nz", str(n), "--t-end", "10", "--times", *TIMES, "--no-progress",
-               "--engine", engine, "--json", str(out)]
-        start = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.perf_counter() - start
-        stderr = proc.stderr.read().decode()
-        proc.stderr.close()
-        if os.waitstatus_to_exitcode(status) != 0:
-            raise RuntimeError(f"{' '.join(cmd)} failed:\n{stderr}")
-        result = json.loads(out.read_text())
+    wall, usage, result = cli_run(n, ["--engine", engine])
     if result["settings"]["engine"] != ("native" if engine == "native" else "sundae"):
         raise RuntimeError(f"--engine {engine} ran on {result['settings']['engine']}")
     return {"process_s": wall, "process_cpu_s": usage.ru_utime + usage.ru_stime, "solve_s": result["wall_s"],

@@ -51,13 +51,14 @@ LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind"
 RICHARDSON = pathlib.Path("data") / "sim2d" / "richardson.json"
 
 
-def whole_process(n: int, config: str) -> dict:
-    """Run one CLI process; return its wall time, peak RSS and the JSON it wrote."""
+def cli_run(n: int, options, times=TIMES):
+    """One CLI process of iCIDR bump2d on n^2 cells to t = 10 with `options`: (wall time,
+    its rusage from wait4, the JSON it wrote)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "out.json"
         cmd = [sys.executable, "-m", "icidr_pde.cli", "run", "--scene", "bump2d", "--rheology", "icidr",
-               "--Nx", str(n), "--Nz", str(n), "--t-end", "10", "--times", *TIMES, "--no-progress",
-               "--json", str(out), *CONFIGS[config]]
+               "--Nx", str(n), "--Nz", str(n), "--t-end", "10", "--times", *times, "--no-progress",
+               "--json", str(out), *options]
         start = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         _, status, usage = os.wait4(proc.pid, 0)
@@ -66,7 +67,12 @@ def whole_process(n: int, config: str) -> dict:
         proc.stderr.close()
         if os.waitstatus_to_exitcode(status) != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{stderr}")
-        result = json.loads(out.read_text())
+        return wall, usage, json.loads(out.read_text())
+
+
+def whole_process(n: int, config: str) -> dict:
+    """Run one CLI process; return its wall time, peak RSS and the JSON it wrote."""
+    wall, usage, result = cli_run(n, CONFIGS[config])
     return {"process_s": wall, "max_rss_mb": usage.ru_maxrss / 1024, "solve_s": result["wall_s"],
             "compile_s": result["compile_s"], "n_rhs": result["n_rhs"], "n_jac": result["n_jac"],
             "n_steps": result["n_steps"], "linear_solver": result["settings"]["linear_solver"],

@@ -84,6 +84,19 @@ def test_a_case_asking_for_a_live_view_is_refused():
         run_many([dict(N=21), dict(N=21, progress=True)])
 
 
+def _refused_in_one_line(command, argv, option, capsys):
+    """`command(argv)` exits 2 with one error line naming `option` and no traceback."""
+    try:
+        code = command(argv)
+    except SystemExit as stop:  # argparse's refusal
+        code = stop.code
+    assert code == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and option in errors[0], err
+    assert "Traceback" not in err
+
+
 @pytest.mark.parametrize("argv, option", [
     (["--workers", "0"], "--workers"),
     (["--workers", "two"], "--workers"),
@@ -92,15 +105,7 @@ def test_a_case_asking_for_a_live_view_is_refused():
     (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "--workers"),
 ])
 def test_tstar_refuses_bad_workers_or_scheduler_in_one_line(argv, option, capsys):
-    try:
-        code = main(["tstar", "--N", "21", "--t-end", "0.01", "--no-progress", *argv])
-    except SystemExit as stop:  # argparse's refusal
-        code = stop.code
-    assert code == 2
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if "error" in line]
-    assert len(errors) == 1 and option in errors[0], err
-    assert "Traceback" not in err
+    _refused_in_one_line(main, ["tstar", "--N", "21", "--t-end", "0.01", "--no-progress", *argv], option, capsys)
 
 
 def test_without_dask_the_options_say_which_extra_to_install(monkeypatch):
@@ -294,12 +299,5 @@ def test_the_dem_audit_as_tasks_is_the_serial_one_on_shared_base_states(client, 
 def test_the_dem_commands_refuse_bad_workers_or_scheduler_in_one_line(argv, option, tmp_path, capsys):
     from icidr_pde.dem.cli import main as dem_main
 
-    try:
-        code = dem_main([*argv, "--no-progress", "--cache", str(tmp_path), "--out", str(tmp_path)])
-    except SystemExit as stop:  # argparse's refusal
-        code = stop.code
-    assert code == 2
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if "error" in line]
-    assert len(errors) == 1 and option in errors[0], err
-    assert "Traceback" not in err
+    _refused_in_one_line(dem_main, [*argv, "--no-progress", "--cache", str(tmp_path), "--out", str(tmp_path)],
+                         option, capsys)
