@@ -32,7 +32,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg
 
-import icidr_pde.discretizations.cartesian2d as cartesian2d
+import icidr_pde.discretizations.cartesian2d_core as cartesian2d_core
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.scenes2d import Bump2DScene
 
@@ -44,9 +44,9 @@ def newton_matrix(n: int, gamma: float):
     state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
     J = pde.make_jacobian(state)(0.0, state.data.ravel())
     M = sparse.csc_matrix(sparse.identity(J.shape[0]) - gamma * J)
-    cartesian2d.THIN_CELL = 0.0
+    cartesian2d_core.THIN_CELL = 0.0
     line = pde.line_pattern(state)
-    cartesian2d.THIN_CELL = 10.0
+    cartesian2d_core.THIN_CELL = 10.0
     M_line = sparse.csc_matrix(M.multiply(line))
     return M, M_line
 

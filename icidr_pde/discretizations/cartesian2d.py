@@ -52,6 +52,7 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
+from . import cartesian2d_core
 from .cartesian2d_core import THIN_CELL, grid_shape, measures
 from .grid_size import FV2D
 from .registry import ADVECTION_SCHEMES_2D
@@ -60,7 +61,7 @@ from ..rheology.codegen import compose
 from .base import ShearCellBase
 
 
-__all__ = ["ShearCell2DPDE", "Patches", "measures"]
+__all__ = ["ShearCell2DPDE", "Patches", "measures", "THIN_CELL"]
 
 _TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
 
@@ -291,8 +292,8 @@ class ShearCell2DPDE(ShearCellBase):
         t = 2e-3/97 steps."""
         self.check_grid(state.grid)
         nx, nz = state.grid.shape
-        hx, hz = (float(np.diff(b)[0]) / n for b, n in zip(state.grid.axes_bounds, (nx, nz)))
-        if hx <= THIN_CELL * hz:
+        L, H = (float(np.diff(b)[0]) for b in state.grid.axes_bounds)
+        if not cartesian2d_core.thin_cell(nx, nz, L, H):
             return None
         cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
         P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(sparse.identity(nx), cz)))
