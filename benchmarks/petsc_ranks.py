@@ -29,6 +29,8 @@ import time
 
 import numpy as np
 
+from icidr_pde.engines.petsc import mpiexec
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply")
 
@@ -60,7 +62,8 @@ def one(code: str, ranks: int, N: int, t_end: float) -> dict:
                    OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", OMP_NUM_THREADS="1",
                    OPENBLAS_NUM_THREADS="1")
         start = time.perf_counter()
-        subprocess.run(["mpiexec", "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end), out],
+        subprocess.run([mpiexec() or "mpiexec", "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end),
+                        out],
                        env=env, check=True)
         whole = time.perf_counter() - start
         per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]

@@ -60,6 +60,15 @@ def scheme(request):
     return DISCRETIZATIONS[request.param]
 
 
+def scheme_and_law():
+    """Every scheme with every law; the second law compiles a kernel set of its own (10-16 s per
+    scheme on 2 cores), so the default run checks it on fd and the slow run on every scheme."""
+    return pytest.mark.parametrize("scheme, law", [
+        pytest.param(name, law, id=f"{name}-{law}",
+                     marks=pytest.mark.slow if law != "table1" and name != "fd" else ())
+        for name in SCHEMES for law in sorted(LAWS)], indirect=["scheme"])
+
+
 def test_registry_and_declarations(scheme):
     assert issubclass(scheme, ShearCellBase) and issubclass(scheme, PDEBase)
     assert scheme.name in DISCRETIZATIONS and scheme.default_N >= 4
@@ -87,7 +96,7 @@ def test_steady_linear_shear_is_a_fixed_point(scheme, rheology):
         assert np.max(np.abs(rate)) < 1e-12
 
 
-@pytest.mark.parametrize("law", sorted(LAWS))
+@scheme_and_law()
 @pytest.mark.parametrize("rheology", ["mui", "icidr"])
 def test_compiled_kernels_equal_numpy_implementation(scheme, rheology, law):
     pde = scheme(rheology, LAWS[law])
@@ -109,7 +118,7 @@ def test_mass_is_conserved(scheme, rheology):
     assert abs(pde.integral(rate, grid)) < 1e-14 * pde.integral(np.abs(rate), grid) * rate.size
 
 
-@pytest.mark.parametrize("law", sorted(LAWS))
+@scheme_and_law()
 @pytest.mark.parametrize("rheology", ["mui", "icidr"])
 def test_jacobian_against_finite_differences(scheme, rheology, law):
     options = [dict(zip(scheme.options, values)) for values in

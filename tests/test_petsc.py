@@ -9,7 +9,6 @@ message without petsc4py are tested everywhere.
 import importlib.util
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,12 +17,17 @@ import numpy as np
 import pytest
 
 from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+from icidr_pde.engines.petsc import mpiexec
 from icidr_pde.validation import ParameterError
 
 HAVE_PETSC = importlib.util.find_spec("petsc4py") is not None  # the [petsc] extra, not in [test]
 needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py is not installed (the [petsc] extra, a one-time "
                                  "PETSc build; CI's fresh environment has no PETSc): PETSc engine tests skipped")
 ROOT = Path(__file__).resolve().parents[1]
+#: PETSc's own MPI launcher (not the first on PATH: the [dem] extra brings MPICH's)
+MPIEXEC = mpiexec()
+needs_mpiexec = pytest.mark.skipif(HAVE_PETSC and MPIEXEC is None, reason="the mpiexec of PETSc's MPI is not "
+                                   "installed: the 2-rank tests are skipped")
 
 
 #: the tests that start PETSc in processes of their own
@@ -220,7 +224,7 @@ def _mpi_env():
 
 
 @needs_petsc
-@pytest.mark.skipif(shutil.which("mpiexec") is None, reason="mpiexec is not installed: the 2-rank test is skipped")
+@needs_mpiexec
 def test_two_ranks_each_evaluate_their_own_cells(tmp_path):
     """On 2 ranks the grid is split in blocks, along x (each block's x ghosts from the other rank)
     or along z (one wall each); each rank's DMDA rates and Jacobian rows equal the whole grid's
@@ -228,7 +232,7 @@ def test_two_ranks_each_evaluate_their_own_cells(tmp_path):
     script = tmp_path / "blocks.py"
     script.write_text(BLOCKS_SCRIPT)
     out = tmp_path / "blocks"
-    subprocess.run(["mpiexec", "-n", "2", sys.executable, str(script), str(out), str(ROOT / "tests")],
+    subprocess.run([MPIEXEC, "-n", "2", sys.executable, str(script), str(out), str(ROOT / "tests")],
                    env=_mpi_env(), check=True, timeout=600, capture_output=True)
     per_rank = [json.loads((tmp_path / f"blocks{r}").read_text()) for r in (0, 1)]
     for cases in zip(*per_rank):
@@ -237,14 +241,14 @@ def test_two_ranks_each_evaluate_their_own_cells(tmp_path):
 
 
 @needs_petsc
-@pytest.mark.skipif(shutil.which("mpiexec") is None, reason="mpiexec is not installed: the 2-rank test is skipped")
+@needs_mpiexec
 def test_two_ranks_agree_with_one(tmp_path):
     script = tmp_path / "two.py"
     script.write_text(MPI_SCRIPT)
     results = []
     for ranks in (1, 2):
         out = tmp_path / f"w{ranks}.npy"
-        subprocess.run(["mpiexec", "-n", str(ranks), sys.executable, str(script), str(out)], env=_mpi_env(),
+        subprocess.run([MPIEXEC, "-n", str(ranks), sys.executable, str(script), str(out)], env=_mpi_env(),
                        check=True, timeout=600, capture_output=True)
         results.append(np.load(out))
         assert json.loads((tmp_path / f"w{ranks}.npy.json").read_text()) == {"ranks": ranks, "method": "PETSC-BDF"}
@@ -272,3 +276,16 @@ def test_petsc_after_lammps_in_one_process_is_refused_not_aborted():
                           timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "run it in a process of its own" in proc.stdout
+
+
+@needs_petsc
+def test_ranks_started_by_another_mpis_launcher_are_refused_in_one_line(tmp_path):
+    """Under the mpiexec of another MPI (the [dem] extra's MPICH) each process would be a 1-rank
+    PETSc run of the whole grid, all writing the same JSON: refused, naming PETSc's own launcher."""
+    env = dict(_mpi_env(), PMI_SIZE="2", PMI_RANK="0")
+    run = subprocess.run([sys.executable, "-m", "icidr_pde.cli", "run", "--engine", "petsc", "--scene", "bump2d",
+                          "--N", "8", "--t-end", "0.01", "--no-progress", "--json", str(tmp_path / "r.json")],
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert "another MPI" in run.stderr and str(MPIEXEC) in run.stderr
+    assert not (tmp_path / "r.json").exists()

