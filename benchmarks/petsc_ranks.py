@@ -22,6 +22,7 @@ import argparse
 import json
 import os
 import pathlib
+import resource
 import subprocess
 import sys
 import tempfile
@@ -30,7 +31,7 @@ import time
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply")
+EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply", "PCSetUp", "PCSetUpOnBlocks", "MatMult", "TSStep")
 
 
 def child(N: int, t_end: float, out: str) -> None:
@@ -45,11 +46,15 @@ def child(N: int, t_end: float, out: str) -> None:
     rank = PETSc.COMM_WORLD.rank
     record = {"rank": rank, "cpu_s": time.process_time(), **{f"{name}_s": float(info[name]["time"]) for name in EVENTS},
               **{f"{name}_n": int(info[name]["count"]) for name in EVENTS}}
+    for name in ("TSStep", "KSPSolve"):  # MPI traffic inside the steps, and in the Krylov solves
+        record.update({f"{name}_reductions": info[name]["numReductions"], f"{name}_messages": info[name]["numMessages"],
+                       f"{name}_bytes": info[name]["messageLength"]})
     if rank == 0:
         d = r.to_dict()
         record.update(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=r.settings.get("ranks"),
                       linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
-                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)))
+                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
+                      compile_s=r.compile_s, rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
     pathlib.Path(f"{out}.{rank}").write_text(json.dumps(record))
 
 
