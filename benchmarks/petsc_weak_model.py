@@ -7,8 +7,8 @@ processes (benchmarks/petsc_ranks.py's child, PETSc's log), iCIDR bump2d to t_en
   evaluation (TSJacobianEval per call), one Newton system's preconditioner set-up (PCSetUp) and
   one Krylov iteration (KSPSolve less PCSetUp, per preconditioner application), at each size
   per cell; the steps, Newton systems and preconditioner applications per Newton system, i.e.
-  how they grow with the grid; the set-up (``compile_s``: every rank still builds the whole
-  grid's scheme and Jacobian pattern) and the peak memory per rank;
+  how they grow with the grid; the peak memory per rank (every rank still builds the whole
+  grid's scheme, state and Jacobian pattern);
 * on 2 ranks at 64^2 and 128^2: the growth of the preconditioner applications from 1 to 2
   ranks (block Jacobi: one block per rank), and the MPI reductions per step (inside TSStep)
   per Krylov iteration;
@@ -31,20 +31,25 @@ ranks, the grid sqrt(P n) cells a side:
   allreduce of a few numbers costing 2 ALPHA log2(P) (recursive doubling), and the engine's
   one reduction per step (state check and interrupts);
 * the snapshots: a gather of the whole state to every rank (24 N^2 bytes at BANDWIDTH)
-  per snapshot; the set-up and memory per rank: linear in the WHOLE grid's cells (fitted
-  to the three sizes): what is still replicated.
+  per snapshot; the memory per rank: linear in the WHOLE grid's cells (fitted to the three
+  sizes): what is still replicated.
 
 ASSUMPTIONS named, not measured: ALPHA = 2 us per message (an InfiniBand-class network; shared
 memory within a node is faster), BANDWIDTH = 10 GB/s per rank, no overlap of communication
 with computation, no load imbalance, the same time step sequence on P ranks as measured at
 that grid size's fit. The table is a model; only its inputs are measurements.
 
-    nice -n 10 python benchmarks/petsc_weak_model.py [--t-end 1] [--cells-per-rank 4096]
+    nice -n 10 python benchmarks/petsc_weak_model.py [--t-end 1] [--cells-per-rank 4096] [--json M.json]
+    python benchmarks/petsc_weak_model.py --measured M.json [--cells-per-rank 16384]   # the model again
+
+``--json`` keeps the measurements; ``--measured`` models from kept ones without running.
 """
 
 import argparse
+import json
 import math
 import os
+import pathlib
 import sys
 
 import numpy as np
@@ -56,6 +61,7 @@ ALPHA = 2e-6  # s per message (ASSUMPTION)
 BANDWIDTH = 10e9  # bytes/s per rank (ASSUMPTION)
 DOF, BYTES = 3, 8
 SIZES = (32, 64, 128)
+GMRES_RESTART = 30  # PETSc's default: beyond it (marked *) GMRES restarts, and grows faster than fitted
 RANKS = (64, 128, 256, 512, 1024)
 PRECONDITIONERS = {"bjacobi/ILU(0)": "", "gamg": "-pc_type gamg -options_left 0"}  # (the default's -sub_pc_type unused)
 
@@ -92,7 +98,6 @@ def model(name: str, one_rank: list, two: dict, n: int, t_end: float) -> None:
     q_apps = power_law(sides, [m["apps_per_solve"] for m in one_rank])
     base = max(one_rank, key=lambda m: m["N"])
     r_blocks = math.log2(two["apps_per_solve"] / base["apps_per_solve"])
-    setup_per_cell = np.polyfit([m["N"] ** 2 for m in one_rank], [m["compile_s"] for m in one_rank], 1)
     rss_per_cell = np.polyfit([m["N"] ** 2 for m in one_rank], [m["rss_mib"] for m in one_rank], 1)
     print(f"\n{name}: measured growth over {sides[0]}^2..{sides[-1]}^2 on 1 rank: steps ~ N^{q_steps:.2f}, "
           f"Newton systems per step ~ N^{q_solves:.2f}, preconditioner applications per system ~ N^{q_apps:.2f}; "
@@ -103,8 +108,8 @@ def model(name: str, one_rank: list, two: dict, n: int, t_end: float) -> None:
           f"per-rank costs at {at_n['N']}^2: RHS {at_n['rhs_s'] * 1e3:.2f} ms, Jacobian {at_n['jac_s'] * 1e3:.2f} ms, "
           f"PC set-up {at_n['setup_s'] * 1e3:.2f} ms per Newton system, Krylov iteration {at_n['iteration_s'] * 1e3:.3f} ms")
     print("| ranks P | grid | steps | PC apps/system | compute/step | halo/step | allreduce/step | step | "
-          "weak efficiency | run (t_end) | gather/snapshot | set-up/rank | memory/rank |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "weak efficiency | run (t_end) | gather/snapshot | memory/rank |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     exchange = 8 * ALPHA + DOF * BYTES * (4 * side + 4) / BANDWIDTH  # 4 edges and 4 corners, 8 messages
     reference = None
     for P in (1,) + RANKS:
@@ -122,11 +127,11 @@ def model(name: str, one_rank: list, two: dict, n: int, t_end: float) -> None:
         step = compute + halo + allreduce
         reference = reference or step
         gather = 0.0 if P == 1 else DOF * BYTES * N * N / BANDWIDTH + ALPHA * math.log2(P)
-        setup = float(np.polyval(setup_per_cell, N * N))
         rss = float(np.polyval(rss_per_cell, N * N))
-        print(f"| {P} | {N:.0f}^2 | {steps:.0f} | {apps:.1f} | {compute * 1e3:.1f} ms | {halo * 1e3:.2f} ms | "
+        restarts = "*" if apps > GMRES_RESTART else ""
+        print(f"| {P} | {N:.0f}^2 | {steps:.0f} | {apps:.1f}{restarts} | {compute * 1e3:.1f} ms | {halo * 1e3:.2f} ms | "
               f"{allreduce * 1e3:.2f} ms | {step * 1e3:.1f} ms | {reference / step:.2f} | "
-              f"{steps * step:.0f} s | {gather * 1e3:.1f} ms | {setup:.0f} s | {rss:.0f} MiB |")
+              f"{steps * step:.0f} s | {gather * 1e3:.1f} ms | {rss:.0f} MiB |")
 
 
 def main() -> None:
@@ -134,27 +139,44 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--cells-per-rank", type=int, default=64 * 64)
     ap.add_argument("--pc", choices=sorted(PRECONDITIONERS), nargs="+", default=sorted(PRECONDITIONERS))
+    ap.add_argument("--json", default=None, help="keep the measurements in this file")
+    ap.add_argument("--measured", default=None, help="model from the measurements kept by --json (no runs)")
     args = ap.parse_args()
-    print(f"uptime: {os.popen('uptime').read().strip()}")
+    if args.measured:
+        kept = json.loads(pathlib.Path(args.measured).read_text())
+        print(f"measured: {args.measured} ({kept['uptime']})")
+    else:
+        kept = {"uptime": os.popen("uptime").read().strip(), "t_end": args.t_end, "pc": {}}
+        print(f"uptime: {kept['uptime']}")
     print(f"assumptions: latency {ALPHA * 1e6:g} us per message, bandwidth {BANDWIDTH / 1e9:g} GB/s per rank; "
-          f"{args.cells_per_rank} cells per rank; iCIDR bump2d to t = {args.t_end:g}")
+          f"{args.cells_per_rank} cells per rank; iCIDR bump2d to t = {kept['t_end']:g}")
     for name in args.pc:
-        options = PRECONDITIONERS[name]
-        one_rank = []
-        for N in SIZES:
-            m = measure(options, N, 1, args.t_end)
-            one_rank.append(m)
-            print(f"measured {name} {N}^2 1 rank: process {m['process_s']:.1f} s, {m['steps']} steps, "
-                  f"{m['solves']} Newton systems, {m['apps_per_solve']:.2f} PC applications per system, "
-                  f"set-up {m['compile_s']:.2f} s, peak memory {m['rss_mib']:.0f} MiB, max|w|({args.t_end:g}) "
-                  f"{m['max_w']:.6e}", flush=True)
-        two = measure(options, SIZES[-1], 2, args.t_end)
-        print(f"measured {name} {SIZES[-1]}^2 2 ranks: process {two['process_s']:.1f} s, {two['steps']} steps, "
-              f"{two['apps_per_solve']:.2f} PC applications per system, {two['reductions_per_step']:.1f} reductions "
-              f"and {two['messages_per_step']:.0f} messages ({two['bytes_per_step'] / 1e3:.0f} kB) per step per rank, "
-              f"max|w|({args.t_end:g}) {two['max_w']:.6e}", flush=True)
-        model(name, one_rank, two, args.cells_per_rank, args.t_end)
+        if args.measured:
+            one_rank, two = kept["pc"][name]["one_rank"], kept["pc"][name]["two"]
+        else:
+            one_rank, two = run_measurements(name, args.t_end)
+            kept["pc"][name] = {"one_rank": one_rank, "two": two}
+            if args.json:
+                pathlib.Path(args.json).write_text(json.dumps(kept, indent=1))
+        model(name, one_rank, two, args.cells_per_rank, kept["t_end"])
     os.environ.pop("PETSC_OPTIONS", None)
+
+
+def run_measurements(name: str, t_end: float):
+    options = PRECONDITIONERS[name]
+    one_rank = []
+    for N in SIZES:
+        m = measure(options, N, 1, t_end)
+        one_rank.append(m)
+        print(f"measured {name} {N}^2 1 rank: process {m['process_s']:.1f} s, {m['steps']} steps, "
+              f"{m['solves']} Newton systems, {m['apps_per_solve']:.2f} PC applications per system, "
+              f"peak memory {m['rss_mib']:.0f} MiB, max|w|({t_end:g}) {m['max_w']:.6e}", flush=True)
+    two = measure(options, SIZES[-1], 2, t_end)
+    print(f"measured {name} {SIZES[-1]}^2 2 ranks: process {two['process_s']:.1f} s, {two['steps']} steps, "
+          f"{two['apps_per_solve']:.2f} PC applications per system, {two['reductions_per_step']:.1f} reductions "
+          f"and {two['messages_per_step']:.0f} messages ({two['bytes_per_step'] / 1e3:.0f} kB) per step per rank, "
+          f"max|w|({t_end:g}) {two['max_w']:.6e}", flush=True)
+    return one_rank, two
 
 
 if __name__ == "__main__":
