@@ -14,7 +14,8 @@ difference of the max|w| series.
 
     nice -n 10 python benchmarks/petsc_ranks.py --N 64 --ranks 1 2 [--code DIR ...]
 
-``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
+The launcher is the mpiexec of PETSc's own MPI (``engines.petsc.mpiexec()``), not the first on
+PATH. ``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
 exported by ``git archive COMMIT | tar -x -C DIR``; the default is this checkout.
 """
 
