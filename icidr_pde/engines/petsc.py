@@ -48,6 +48,8 @@ DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "
             "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8}
 #: PETSc's error code of an argument out of range (a grid too small for the DMDA's split)
 PETSC_ERR_ARG_OUTOFRANGE = 63
+#: the preconditioners whose blocks the ``sub_*`` defaults set up
+BLOCK_PCS = ("bjacobi", "asm")
 #: the scheme's Jacobian of f is re-evaluated after this many steps, or after a rejected step or a
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
@@ -200,8 +202,12 @@ class PetscEngine(Engine):
 
         PETSc, problem = self.PETSc, self.problem
         db = PETSc.Options()
-        for key, value in dict(DEFAULTS, **(options or {})).items():
-            if not db.hasName(key) or key in (options or {}):
+        options = options or {}
+        pc_type = options.get("pc_type") or db.getString("pc_type", DEFAULTS["pc_type"])
+        for key, value in dict(DEFAULTS, **options).items():
+            if key.startswith("sub_") and key not in options and pc_type not in BLOCK_PCS:
+                continue  # another -pc_type has no blocks: PETSc would warn of an unused option
+            if not db.hasName(key) or key in options:
                 db.setValue(key, value)
         ts = PETSc.TS().create(comm=self.comm)
         ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
