@@ -16,8 +16,9 @@ stiffness grows like 1/h^2: GMRES(20) to 1e-6 at gamma = 0.05 took 92 iterations
   built when CVODE asks for a new Jacobian; when only gamma changes, each level's operator is
   I - gamma C_l from the stored C_l = R J P, the same Galerkin operators a rebuild would give,
   for a sparse sum per level.
-* The smoother is pyamg's Gauss-Seidel (forward before, backward after the coarse correction),
-  the coarsest level is solved by LU.
+* The smoother is block Gauss-Seidel on each node's 3 x 3 block (forward before, backward after
+  the coarse correction), the coarsest level is solved by its dense inverse; the whole V-cycle is
+  one compiled call (:mod:`.amg_kernels`). pyamg builds the aggregation only.
 * With the mass weights c (c J = 0: 1 on phi, 0 on the velocity) the V-cycle's
   output z is corrected by a multiple of a fixed vector q (c q = 1) so that c z = c r: then
   c P^-1 = c, the Krylov vectors keep c . v = 0, and the Newton corrections keep the mass to
@@ -28,7 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import sparse
-from scipy.sparse.linalg import splu
+
+from .amg_kernels import set_gamma, vcycle
 
 __all__ = ["AmgHierarchy", "amg_preconditioner"]
 
@@ -37,64 +39,107 @@ MAX_COARSE = 50
 
 
 class AmgHierarchy:
-    """Smoothed-aggregation hierarchy of M = I - gamma J on `fields` x cells unknowns.
+    """Aggregation hierarchy of M = I - gamma J on `fields` x cells unknowns, V-cycle compiled.
 
     Args:
         J: the sparse Jacobian, unknowns field-major (all cells of field 0, then field 1, ...)
-        fields: the number of fields per cell (the block size of the nodal aggregation)
+        fields: the number of fields per cell (the block size of the nodal aggregation; 3)
         gamma: the step coefficient the aggregation is built for
+
+    Each level's C_l = R_l ... R_0 J P_0 ... P_l is kept as 3 x 3 blocks (one block row a node,
+    every diagonal block present) in the arrays of :mod:`.amg_kernels`, the operators
+    I - gamma C_l beside them.
     """
 
     def __init__(self, J, fields: int, gamma: float):
         import pyamg
 
+        if fields != 3:
+            raise ValueError(f"AmgHierarchy: `fields` must be 3 (phi, u, w of a cell), got {fields}")
         n = J.shape[0]
         cells = n // fields
         # node-major position k = fields * cell + field holds field-major unknown order[k]
         self.order = (np.arange(n) % fields) * cells + np.arange(n) // fields
         self.position = np.argsort(self.order)
-        Jn = sparse.csr_matrix(J)[self.order][:, self.order].tocsr()
-        M = sparse.bsr_matrix(sparse.identity(n, format="csr") - gamma * Jn, blocksize=(fields, fields))
+        J = sparse.coo_matrix(J)
+        J.sum_duplicates()
+        fine = _blocks(J.row % cells, J.col % cells, J.row // cells, J.col // cells, J.data, cells)
+        C0 = sparse.bsr_matrix((fine[2], fine[1], fine[0]), shape=(n, n))
+        M = sparse.bsr_matrix((-gamma * fine[2], fine[1], fine[0]), shape=(n, n)) + sparse.identity(n, format="bsr")
         B = np.kron(np.ones((cells, 1)), np.eye(fields))
-        ml = pyamg.smoothed_aggregation_solver(M, B=B, smooth=None, max_coarse=MAX_COARSE,
-                                               improve_candidates=None, keep=False)
+        ml = pyamg.smoothed_aggregation_solver(sparse.bsr_matrix(M, blocksize=(3, 3)), B=B, smooth=None,
+                                               max_coarse=MAX_COARSE, improve_candidates=None, keep=False)
         self.P = [sparse.csr_matrix(level.P) for level in ml.levels[:-1]]
         self.R = [sparse.csr_matrix(level.R) for level in ml.levels[:-1]]
-        self.C = [Jn]  # the Galerkin products R J P of each level
+        levels, C = [fine], C0.tocsr()
         for P, R in zip(self.P, self.R):
-            self.C.append((R @ self.C[-1] @ P).tocsr())
-        self.eye = [sparse.identity(C.shape[0], format="csr") for C in self.C]
+            C = (R @ C @ P).tocoo()
+            C.sum_duplicates()
+            m = C.shape[0] // 3
+            levels.append(_blocks(C.row // 3, C.col // 3, C.row % 3, C.col % 3, C.data, m))
+            C = C.tocsr()
+        self.nodes = np.cumsum([0] + [level[0].size - 1 for level in levels]).astype(np.int64)
+        self.ptr = np.concatenate([levels[0][0][:1]] + [level[0][1:] + start for level, start in
+                                   zip(levels, np.cumsum([0] + [level[1].size for level in levels[:-1]]))])
+        self.col = np.concatenate([level[1] + first for level, first in zip(levels, self.nodes)])
+        self.C = np.concatenate([level[2] for level in levels])
+        self.diag = np.concatenate([level[3] + self.ptr[first] for level, first in zip(levels, self.nodes)])
+        self.A = np.empty_like(self.C)
+        self.Dinv = np.empty((self.nodes[-1], 3, 3))
+        self.agg = np.zeros(self.nodes[-1], dtype=np.int64)
+        self.Pb = np.zeros((self.nodes[-1], 3, 3))
+        for level, P in enumerate(self.P):  # tentative prolongators: one block a fine row
+            Pb = sparse.bsr_matrix(P, blocksize=(3, 3))
+            Pb.sort_indices()
+            if not np.all(np.diff(Pb.indptr) == 1):
+                raise ValueError("AmgHierarchy: a tentative prolongator has a row with other than one block")
+            lo, hi = self.nodes[level], self.nodes[level + 1]
+            self.agg[lo:hi] = Pb.indices + self.nodes[level + 1]
+            self.Pb[lo:hi] = Pb.data
+        self.x = np.zeros((self.nodes[-1], 3))
+        self.b = np.zeros((self.nodes[-1], 3))
         self.gamma = None
         self.at(gamma)
 
     @property
     def sizes(self) -> list[int]:
         """The number of unknowns on each level, finest first."""
-        return [C.shape[0] for C in self.C]
+        return [3 * int(m) for m in np.diff(self.nodes)]
+
+    def level(self, level: int, operator: str = "A") -> sparse.bsr_matrix:
+        """Level `level`'s I - gamma C_l ('A') or C_l ('C') as a BSR matrix of node-major unknowns."""
+        lo, hi = self.nodes[level], self.nodes[level + 1]
+        k0, k1 = self.ptr[lo], self.ptr[hi]
+        n = 3 * (hi - lo)
+        return sparse.bsr_matrix((getattr(self, operator)[k0:k1], self.col[k0:k1] - lo, self.ptr[lo:hi + 1] - k0),
+                                 shape=(n, n))
 
     def at(self, gamma: float):
-        """Set every level's operator to I - gamma C_l (and factor the coarsest)."""
+        """Set every level's operator to I - gamma C_l (and invert the coarsest)."""
         if gamma == self.gamma:
             return
-        self.A = [(eye - gamma * C).tocsr() for eye, C in zip(self.eye, self.C)]
-        self.coarse = splu(self.A[-1].tocsc())
+        set_gamma(gamma, self.C, self.A, self.diag, self.Dinv)
+        self.coarse_inv = np.linalg.inv(self.level(len(self.nodes) - 2).toarray())
         self.gamma = gamma
 
-    def vcycle(self, r):
-        """One V-cycle on M z = r (field-major vectors), zero initial guess."""
-        return self._cycle(0, np.asarray(r, dtype=float)[self.order])[self.position]
+    def vcycle(self, r, out=None):
+        """One V-cycle on M z = r (field-major vectors), zero initial guess; z into `out` if given."""
+        z = np.empty(self.nodes[1] * 3) if out is None else out
+        vcycle(np.asarray(r, dtype=float), z, self.nodes, self.ptr, self.col, self.A, self.Dinv, self.agg, self.Pb,
+               self.coarse_inv, self.x, self.b)
+        return z
 
-    def _cycle(self, level, b):
-        from pyamg.relaxation.relaxation import gauss_seidel
 
-        if level == len(self.A) - 1:
-            return self.coarse.solve(b)
-        A = self.A[level]
-        x = np.zeros_like(b)
-        gauss_seidel(A, x, b, sweep="forward")
-        x += self.P[level] @ self._cycle(level + 1, self.R[level] @ (b - A @ x))
-        gauss_seidel(A, x, b, sweep="backward")
-        return x
+def _blocks(rows, cols, rin, cin, values, m):
+    """3 x 3 block rows of m nodes from entries (block row, block column, row and column in the
+    block, value), unique positions: (ptr, block columns, blocks, position of the diagonal
+    blocks), a zero diagonal block added where the entries have none."""
+    keys = np.concatenate([rows.astype(np.int64) * m + cols, np.arange(m, dtype=np.int64) * (m + 1)])
+    unique = np.unique(keys)
+    data = np.zeros((unique.size, 3, 3))
+    data[np.searchsorted(unique, keys[:rows.size]), rin, cin] = values
+    ptr = np.searchsorted(unique // m, np.arange(m + 1)).astype(np.int64)
+    return ptr, (unique % m).astype(np.int64), data, np.searchsorted(unique, np.arange(m, dtype=np.int64) * (m + 1))
 
 
 def amg_preconditioner(jac, fields: int, weights=None):
@@ -125,9 +170,8 @@ def amg_preconditioner(jac, fields: int, weights=None):
             jnew[0] = 0
 
     def solve(t, y, yp, r, z, gamma, delta, lr):
-        out = saved["hierarchy"].vcycle(r)
+        saved["hierarchy"].vcycle(r, out=z)
         if weights is not None:  # sums, not BLAS dot products: OpenBLAS's threads stall a loaded machine
-            out[support] += np.sum(c * (r[support] - out[support])) * q
-        z[:] = out
+            z[support] += np.sum(c * (r[support] - z[support])) * q
 
     return CVODEPrecond(setup, solve, side="left")
