@@ -62,30 +62,36 @@ class AmgHierarchy:
         self.order = (np.arange(n) % fields) * cells + np.arange(n) // fields
         self.position = np.argsort(self.order)
         J = sparse.coo_matrix(J)
-        J.sum_duplicates()
-        fine = _blocks(J.row % cells, J.col % cells, J.row // cells, J.col // cells, J.data, cells)
-        C0 = sparse.bsr_matrix((fine[2], fine[1], fine[0]), shape=(n, n))
-        M = sparse.bsr_matrix((-gamma * fine[2], fine[1], fine[0]), shape=(n, n)) + sparse.identity(n, format="bsr")
+        node = 3 * (np.arange(n) % cells) + np.arange(n) // cells  # the node-major index of each unknown
+        fine = _blocks(sparse.csr_matrix((J.data, (node[J.row], node[J.col])), shape=(n, n)))
+        C = sparse.bsr_matrix(fine, blocksize=(3, 3))
+        M = sparse.bsr_matrix((-gamma * fine.data, fine.indices, fine.indptr), shape=(n, n)) + \
+            sparse.identity(n, format="bsr")
         B = np.kron(np.ones((cells, 1)), np.eye(fields))
         ml = pyamg.smoothed_aggregation_solver(sparse.bsr_matrix(M, blocksize=(3, 3)), B=B, smooth=None,
                                                max_coarse=MAX_COARSE, improve_candidates=None, keep=False)
         self.P = [sparse.csr_matrix(level.P) for level in ml.levels[:-1]]
         self.R = [sparse.csr_matrix(level.R) for level in ml.levels[:-1]]
-        levels, C = [fine], C0.tocsr()
+        levels, C = [fine], C.tocsr()
         for P, R in zip(self.P, self.R):
-            C = (R @ C @ P).tocoo()
-            C.sum_duplicates()
-            m = C.shape[0] // 3
-            levels.append(_blocks(C.row // 3, C.col // 3, C.row % 3, C.col % 3, C.data, m))
-            C = C.tocsr()
+            C = (R @ C @ P).tocsr()
+            levels.append(_blocks(C))
+        levels = [(level.indptr, level.indices, level.data) for level in levels]
         self.nodes = np.cumsum([0] + [level[0].size - 1 for level in levels]).astype(np.int64)
-        self.ptr = np.concatenate([levels[0][0][:1]] + [level[0][1:] + start for level, start in
-                                   zip(levels, np.cumsum([0] + [level[1].size for level in levels[:-1]]))])
-        self.col = np.concatenate([level[1] + first for level, first in zip(levels, self.nodes)])
-        self.C = np.concatenate([level[2] for level in levels])
-        self.diag = np.concatenate([level[3] + self.ptr[first] for level, first in zip(levels, self.nodes)])
-        self.A = np.empty_like(self.C)
-        self.Dinv = np.empty((self.nodes[-1], 3, 3))
+        rows = np.concatenate([np.repeat(np.arange(first, first + level[0].size - 1), np.diff(level[0]))
+                               for level, first in zip(levels, self.nodes)])
+        cols = np.concatenate([level[1] + first for level, first in zip(levels, self.nodes)])
+        blocks = np.concatenate([level[2] for level in levels])
+        split = {}
+        for name, part in (("l", cols < rows), ("u", cols > rows)):
+            split[name + "ptr"] = np.searchsorted(rows[part], np.arange(self.nodes[-1] + 1)).astype(np.int64)
+            split[name + "col"] = np.ascontiguousarray(cols[part])
+            split["C" + name.upper()] = np.ascontiguousarray(blocks[part])
+        self.lptr, self.lcol, self.CL = split["lptr"], split["lcol"], split["CL"]
+        self.uptr, self.ucol, self.CU = split["uptr"], split["ucol"], split["CU"]
+        self.CD = np.ascontiguousarray(blocks[cols == rows])
+        self.L, self.U, self.D = np.empty_like(self.CL), np.empty_like(self.CU), np.empty_like(self.CD)
+        self.Dinv = np.empty_like(self.CD)
         self.agg = np.zeros(self.nodes[-1], dtype=np.int64)
         self.Pb = np.zeros((self.nodes[-1], 3, 3))
         for level, P in enumerate(self.P):  # tentative prolongators: one block a fine row
@@ -109,37 +115,55 @@ class AmgHierarchy:
     def level(self, level: int, operator: str = "A") -> sparse.bsr_matrix:
         """Level `level`'s I - gamma C_l ('A') or C_l ('C') as a BSR matrix of node-major unknowns."""
         lo, hi = self.nodes[level], self.nodes[level + 1]
-        k0, k1 = self.ptr[lo], self.ptr[hi]
-        n = 3 * (hi - lo)
-        return sparse.bsr_matrix((getattr(self, operator)[k0:k1], self.col[k0:k1] - lo, self.ptr[lo:hi + 1] - k0),
-                                 shape=(n, n))
+        parts = (self.L, self.D, self.U) if operator == "A" else (self.CL, self.CD, self.CU)
+        rows, cols, blocks = [], [], []
+        for ptr, col, part in ((self.lptr, self.lcol, parts[0]), (None, None, parts[1]),
+                               (self.uptr, self.ucol, parts[2])):
+            if ptr is None:
+                rows.append(np.arange(lo, hi))
+                cols.append(np.arange(lo, hi))
+                blocks.append(part[lo:hi])
+            else:
+                rows.append(np.repeat(np.arange(lo, hi), np.diff(ptr[lo:hi + 1])))
+                cols.append(col[ptr[lo]:ptr[hi]])
+                blocks.append(part[ptr[lo]:ptr[hi]])
+        rows, cols, blocks = (np.concatenate(a) for a in (rows, cols, blocks))
+        first = np.lexsort((cols, rows))
+        m = hi - lo
+        return sparse.bsr_matrix((blocks[first], cols[first] - lo, np.searchsorted(rows[first] - lo, np.arange(m + 1))),
+                                 shape=(3 * m, 3 * m))
 
     def at(self, gamma: float):
         """Set every level's operator to I - gamma C_l (and invert the coarsest)."""
         if gamma == self.gamma:
             return
-        set_gamma(gamma, self.C, self.A, self.diag, self.Dinv)
+        set_gamma(gamma, self.CL, self.CD, self.CU, self.L, self.D, self.U, self.Dinv)
         self.coarse_inv = np.linalg.inv(self.level(len(self.nodes) - 2).toarray())
         self.gamma = gamma
 
     def vcycle(self, r, out=None):
         """One V-cycle on M z = r (field-major vectors), zero initial guess; z into `out` if given."""
         z = np.empty(self.nodes[1] * 3) if out is None else out
-        vcycle(np.asarray(r, dtype=float), z, self.nodes, self.ptr, self.col, self.A, self.Dinv, self.agg, self.Pb,
-               self.coarse_inv, self.x, self.b)
+        vcycle(np.asarray(r, dtype=float), z, self.nodes, self.lptr, self.lcol, self.L, self.uptr, self.ucol, self.U,
+               self.Dinv, self.agg, self.Pb, self.coarse_inv, self.x, self.b)
         return z
 
 
-def _blocks(rows, cols, rin, cin, values, m):
-    """3 x 3 block rows of m nodes from entries (block row, block column, row and column in the
-    block, value), unique positions: (ptr, block columns, blocks, position of the diagonal
-    blocks), a zero diagonal block added where the entries have none."""
-    keys = np.concatenate([rows.astype(np.int64) * m + cols, np.arange(m, dtype=np.int64) * (m + 1)])
-    unique = np.unique(keys)
-    data = np.zeros((unique.size, 3, 3))
-    data[np.searchsorted(unique, keys[:rows.size]), rin, cin] = values
-    ptr = np.searchsorted(unique // m, np.arange(m + 1)).astype(np.int64)
-    return ptr, (unique % m).astype(np.int64), data, np.searchsorted(unique, np.arange(m, dtype=np.int64) * (m + 1))
+def _blocks(A) -> sparse.bsr_matrix:
+    """A (node-major unknowns) as sorted 3 x 3 blocks, every diagonal block stored (zero where A
+    has none: the sweeps divide by it)."""
+    B = sparse.bsr_matrix(A, blocksize=(3, 3))
+    B.sum_duplicates()
+    B.sort_indices()
+    m = B.shape[0] // 3
+    rows = np.repeat(np.arange(m), np.diff(B.indptr))
+    missing = np.setdiff1d(np.arange(m), rows[B.indices == rows])
+    if missing.size:
+        rows, cols = np.concatenate([rows, missing]), np.concatenate([B.indices, missing])
+        first = np.lexsort((cols, rows))
+        data = np.concatenate([B.data, np.zeros((missing.size, 3, 3))])[first]
+        B = sparse.bsr_matrix((data, cols[first], np.searchsorted(rows[first], np.arange(m + 1))), shape=B.shape)
+    return B
 
 
 def amg_preconditioner(jac, fields: int, weights=None):
@@ -158,6 +182,8 @@ def amg_preconditioner(jac, fields: int, weights=None):
     saved = {}
     if weights is not None:  # c z = c r by a multiple of q on the support of c (c q = 1)
         support = np.flatnonzero(weights)
+        if support.size and np.all(np.diff(support) == 1):  # a slice: no copies of the vectors
+            support = slice(support[0], support[-1] + 1)
         c = np.asarray(weights, dtype=float)[support]
         q = c / np.sum(c * c)
 

@@ -1,17 +1,21 @@
 """Compiled V-cycle of :mod:`icidr_pde.engines.amg`: all levels in one call.
 
 The levels' operators are 3 x 3 block-sparse rows (one block row a cell or an aggregate, the
-cell's fields phi, u, w its three unknowns), concatenated level after level: ``ptr`` (one
-entry per node of all levels, and one more) points into ``col`` (the global node index of each
-block, i.e. already offset by its level's first node) and ``A`` (the blocks); ``diag`` is the
-position of each row's diagonal block and ``Dinv`` its inverse. Node ``i`` of a level that is
-not the coarsest belongs to coarse node ``agg[i]`` (global) with prolongation block ``Pb[i]``
-(the tentative prolongator has one block per fine row), R = P^T. The coarsest level is solved
-by its dense inverse. Work vectors ``x``, ``b`` hold (node, field) for every level.
+cell's fields phi, u, w its three unknowns), concatenated level after level and split into the
+blocks left of the diagonal (``lptr``, ``lcol``, ``L``), the diagonal blocks (``D``, inverted in
+``Dinv``) and the blocks right of it (``uptr``, ``ucol``, ``U``): ``lptr`` has one entry per
+node of all levels and one more, pointing into ``lcol`` (the global node index of each block,
+i.e. already offset by its level's first node) and ``L``; the same for U. A forward sweep from
+zero reads L alone, the residual after it U alone, a backward sweep both, each as one stream.
+Node ``i`` of a level that is not the coarsest belongs to coarse node ``agg[i]`` (global) with
+prolongation block ``Pb[i]`` (the tentative prolongator has one block per fine row), R = P^T.
+The coarsest level is solved by its dense inverse. Work vectors ``x``, ``b`` hold (node, field)
+for every level.
 
 Why one call: the per-level work of the V-cycle through scipy and pyamg (three Gauss-Seidel and
 three matrix-vector calls a level, array allocations) cost ~2.5 s of Python overhead in the
-32 s of a 128^2 run (docs/scaling.md), and the block sweeps are written here anyway.
+32 s of a 128^2 run (docs/scaling.md); the sweeps are bound by reading the blocks, hence the
+split into streams.
 """
 
 import numpy as np
@@ -41,47 +45,52 @@ def _inv3(a, out):
 
 
 @njit(cache=True)
-def set_gamma(gamma, C, A, diag, Dinv):
-    """A = I - gamma C block by block (the identity on the diagonal blocks), Dinv their inverses."""
-    for k in range(C.shape[0]):
+def set_gamma(gamma, CL, CD, CU, L, D, U, Dinv):
+    """L, D, U = the blocks of I - gamma C (the identity on the diagonal blocks), Dinv = D^-1."""
+    for k in range(CL.shape[0]):
         for p in range(3):
             for q in range(3):
-                A[k, p, q] = -gamma * C[k, p, q]
-    for i in range(diag.size):
-        d = diag[i]
+                L[k, p, q] = -gamma * CL[k, p, q]
+    for k in range(CU.shape[0]):
         for p in range(3):
-            A[d, p, p] += 1.0
-        _inv3(A[d], Dinv[i])
+            for q in range(3):
+                U[k, p, q] = -gamma * CU[k, p, q]
+    for i in range(CD.shape[0]):
+        for p in range(3):
+            for q in range(3):
+                D[i, p, q] = (1.0 if p == q else 0.0) - gamma * CD[i, p, q]
+        _inv3(D[i], Dinv[i])
 
 
 @njit(cache=True)
-def _sweep(lo, hi, step, ptr, col, A, Dinv, x, b, lower_only):
-    """One block Gauss-Seidel sweep over nodes lo, lo + step, ... (not hi); with lower_only the
-    initial x is zero and only the blocks already updated in this sweep are read."""
-    i = lo
-    while i != hi:
-        s0 = b[i, 0]
-        s1 = b[i, 1]
-        s2 = b[i, 2]
-        for k in range(ptr[i], ptr[i + 1]):
-            j = col[k]
-            if j == i or (lower_only and j > i):
-                continue
-            x0 = x[j, 0]
-            x1 = x[j, 1]
-            x2 = x[j, 2]
-            s0 -= A[k, 0, 0] * x0 + A[k, 0, 1] * x1 + A[k, 0, 2] * x2
-            s1 -= A[k, 1, 0] * x0 + A[k, 1, 1] * x1 + A[k, 1, 2] * x2
-            s2 -= A[k, 2, 0] * x0 + A[k, 2, 1] * x1 + A[k, 2, 2] * x2
-        D = Dinv[i]
-        x[i, 0] = D[0, 0] * s0 + D[0, 1] * s1 + D[0, 2] * s2
-        x[i, 1] = D[1, 0] * s0 + D[1, 1] * s1 + D[1, 2] * s2
-        x[i, 2] = D[2, 0] * s0 + D[2, 1] * s1 + D[2, 2] * s2
-        i += step
+def _subtract(i, ptr, col, B, x, s):
+    """s -= sum over row i's blocks of B of B x."""
+    s0 = s[0]
+    s1 = s[1]
+    s2 = s[2]
+    for k in range(ptr[i], ptr[i + 1]):
+        j = col[k]
+        x0 = x[j, 0]
+        x1 = x[j, 1]
+        x2 = x[j, 2]
+        s0 -= B[k, 0, 0] * x0 + B[k, 0, 1] * x1 + B[k, 0, 2] * x2
+        s1 -= B[k, 1, 0] * x0 + B[k, 1, 1] * x1 + B[k, 1, 2] * x2
+        s2 -= B[k, 2, 0] * x0 + B[k, 2, 1] * x1 + B[k, 2, 2] * x2
+    s[0] = s0
+    s[1] = s1
+    s[2] = s2
 
 
 @njit(cache=True)
-def vcycle(r, z, nodes, ptr, col, A, Dinv, agg, Pb, coarse_inv, x, b):
+def _solve_diagonal(i, Dinv, s, x):
+    D = Dinv[i]
+    x[i, 0] = D[0, 0] * s[0] + D[0, 1] * s[1] + D[0, 2] * s[2]
+    x[i, 1] = D[1, 0] * s[0] + D[1, 1] * s[1] + D[1, 2] * s[2]
+    x[i, 2] = D[2, 0] * s[0] + D[2, 1] * s[1] + D[2, 2] * s[2]
+
+
+@njit(cache=True)
+def vcycle(r, z, nodes, lptr, lcol, L, uptr, ucol, U, Dinv, agg, Pb, coarse_inv, x, b):
     """z = one V(1,1) cycle on (I - gamma J) z = r from zero: forward block Gauss-Seidel, the
     residual restricted, the coarse correction prolongated, backward block Gauss-Seidel.
 
@@ -90,44 +99,41 @@ def vcycle(r, z, nodes, ptr, col, A, Dinv, agg, Pb, coarse_inv, x, b):
     """
     levels = nodes.size - 1
     cells = nodes[1]
+    s = np.empty(3)
     for c in range(cells):
         for f in range(3):
             b[c, f] = r[f * cells + c]
     for level in range(levels - 1):
         lo, hi = nodes[level], nodes[level + 1]
-        _sweep(lo, hi, 1, ptr, col, A, Dinv, x, b, True)
+        for i in range(lo, hi):  # forward sweep from zero: the blocks left of the diagonal
+            s[0] = b[i, 0]
+            s[1] = b[i, 1]
+            s[2] = b[i, 2]
+            _subtract(i, lptr, lcol, L, x, s)
+            _solve_diagonal(i, Dinv, s, x)
         for m in range(hi, nodes[level + 2]):
             b[m, 0] = 0.0
             b[m, 1] = 0.0
             b[m, 2] = 0.0
         for i in range(lo, hi):
-            # after a forward sweep from zero, row i's residual is what the blocks above the
+            # after a forward sweep from zero, row i's residual is what the blocks right of the
             # diagonal (not yet updated when x_i was) contribute
-            s0 = 0.0
-            s1 = 0.0
-            s2 = 0.0
-            for k in range(ptr[i], ptr[i + 1]):
-                j = col[k]
-                if j <= i:
-                    continue
-                x0 = x[j, 0]
-                x1 = x[j, 1]
-                x2 = x[j, 2]
-                s0 -= A[k, 0, 0] * x0 + A[k, 0, 1] * x1 + A[k, 0, 2] * x2
-                s1 -= A[k, 1, 0] * x0 + A[k, 1, 1] * x1 + A[k, 1, 2] * x2
-                s2 -= A[k, 2, 0] * x0 + A[k, 2, 1] * x1 + A[k, 2, 2] * x2
+            s[0] = 0.0
+            s[1] = 0.0
+            s[2] = 0.0
+            _subtract(i, uptr, ucol, U, x, s)
             m = agg[i]
             P = Pb[i]
-            b[m, 0] += P[0, 0] * s0 + P[1, 0] * s1 + P[2, 0] * s2
-            b[m, 1] += P[0, 1] * s0 + P[1, 1] * s1 + P[2, 1] * s2
-            b[m, 2] += P[0, 2] * s0 + P[1, 2] * s1 + P[2, 2] * s2
+            b[m, 0] += P[0, 0] * s[0] + P[1, 0] * s[1] + P[2, 0] * s[2]
+            b[m, 1] += P[0, 1] * s[0] + P[1, 1] * s[1] + P[2, 1] * s[2]
+            b[m, 2] += P[0, 2] * s[0] + P[1, 2] * s[1] + P[2, 2] * s[2]
     lo = nodes[levels - 1]
     n = 3 * (nodes[levels] - lo)
     for p in range(n):
-        s = 0.0
+        acc = 0.0
         for q in range(n):
-            s += coarse_inv[p, q] * b[lo + q // 3, q % 3]
-        x[lo + p // 3, p % 3] = s
+            acc += coarse_inv[p, q] * b[lo + q // 3, q % 3]
+        x[lo + p // 3, p % 3] = acc
     for level in range(levels - 2, -1, -1):
         lo, hi = nodes[level], nodes[level + 1]
         for i in range(lo, hi):
@@ -139,7 +145,13 @@ def vcycle(r, z, nodes, ptr, col, A, Dinv, agg, Pb, coarse_inv, x, b):
             x[i, 0] += P[0, 0] * x0 + P[0, 1] * x1 + P[0, 2] * x2
             x[i, 1] += P[1, 0] * x0 + P[1, 1] * x1 + P[1, 2] * x2
             x[i, 2] += P[2, 0] * x0 + P[2, 1] * x1 + P[2, 2] * x2
-        _sweep(hi - 1, lo - 1, -1, ptr, col, A, Dinv, x, b, False)
+        for i in range(hi - 1, lo - 1, -1):  # backward sweep
+            s[0] = b[i, 0]
+            s[1] = b[i, 1]
+            s[2] = b[i, 2]
+            _subtract(i, lptr, lcol, L, x, s)
+            _subtract(i, uptr, ucol, U, x, s)
+            _solve_diagonal(i, Dinv, s, x)
     for c in range(cells):
         for f in range(3):
             z[f * cells + c] = x[c, f]
