@@ -34,7 +34,7 @@ from .amg_kernels import set_gamma, vcycle
 
 __all__ = ["AmgHierarchy", "amg_preconditioner"]
 
-#: the coarsest level's size in cells (pyamg's max_coarse): solved by a sparse LU
+#: the coarsest level's size in unknowns (pyamg's max_coarse): solved by its dense inverse
 MAX_COARSE = 50
 
 
@@ -152,8 +152,7 @@ class AmgHierarchy:
 def _blocks(A) -> sparse.bsr_matrix:
     """A (node-major unknowns) as sorted 3 x 3 blocks, every diagonal block stored (zero where A
     has none: the sweeps divide by it)."""
-    B = sparse.bsr_matrix(A, blocksize=(3, 3))
-    B.sum_duplicates()
+    B = sparse.bsr_matrix(A, blocksize=(3, 3))  # A canonical: no duplicate blocks
     B.sort_indices()
     m = B.shape[0] // 3
     rows = np.repeat(np.arange(m), np.diff(B.indptr))

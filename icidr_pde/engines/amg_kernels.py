@@ -62,12 +62,9 @@ def set_gamma(gamma, CL, CD, CU, L, D, U, Dinv):
         _inv3(D[i], Dinv[i])
 
 
-@njit(cache=True)
-def _subtract(i, ptr, col, B, x, s):
-    """s -= sum over row i's blocks of B of B x."""
-    s0 = s[0]
-    s1 = s[1]
-    s2 = s[2]
+@njit(cache=True, fastmath=True)
+def _subtract(i, ptr, col, B, x, s0, s1, s2):
+    """(s0, s1, s2) minus the sum over row i's blocks of B of B x (scalars: kept in registers)."""
     for k in range(ptr[i], ptr[i + 1]):
         j = col[k]
         x0 = x[j, 0]
@@ -76,20 +73,17 @@ def _subtract(i, ptr, col, B, x, s):
         s0 -= B[k, 0, 0] * x0 + B[k, 0, 1] * x1 + B[k, 0, 2] * x2
         s1 -= B[k, 1, 0] * x0 + B[k, 1, 1] * x1 + B[k, 1, 2] * x2
         s2 -= B[k, 2, 0] * x0 + B[k, 2, 1] * x1 + B[k, 2, 2] * x2
-    s[0] = s0
-    s[1] = s1
-    s[2] = s2
+    return s0, s1, s2
 
 
-@njit(cache=True)
-def _solve_diagonal(i, Dinv, s, x):
-    D = Dinv[i]
-    x[i, 0] = D[0, 0] * s[0] + D[0, 1] * s[1] + D[0, 2] * s[2]
-    x[i, 1] = D[1, 0] * s[0] + D[1, 1] * s[1] + D[1, 2] * s[2]
-    x[i, 2] = D[2, 0] * s[0] + D[2, 1] * s[1] + D[2, 2] * s[2]
+@njit(cache=True, fastmath=True)
+def _solve_diagonal(i, Dinv, s0, s1, s2, x):
+    x[i, 0] = Dinv[i, 0, 0] * s0 + Dinv[i, 0, 1] * s1 + Dinv[i, 0, 2] * s2
+    x[i, 1] = Dinv[i, 1, 0] * s0 + Dinv[i, 1, 1] * s1 + Dinv[i, 1, 2] * s2
+    x[i, 2] = Dinv[i, 2, 0] * s0 + Dinv[i, 2, 1] * s1 + Dinv[i, 2, 2] * s2
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)
 def vcycle(r, z, nodes, lptr, lcol, L, uptr, ucol, U, Dinv, agg, Pb, coarse_inv, x, b):
     """z = one V(1,1) cycle on (I - gamma J) z = r from zero: forward block Gauss-Seidel, the
     residual restricted, the coarse correction prolongated, backward block Gauss-Seidel.
@@ -99,18 +93,14 @@ def vcycle(r, z, nodes, lptr, lcol, L, uptr, ucol, U, Dinv, agg, Pb, coarse_inv,
     """
     levels = nodes.size - 1
     cells = nodes[1]
-    s = np.empty(3)
     for c in range(cells):
         for f in range(3):
             b[c, f] = r[f * cells + c]
     for level in range(levels - 1):
         lo, hi = nodes[level], nodes[level + 1]
         for i in range(lo, hi):  # forward sweep from zero: the blocks left of the diagonal
-            s[0] = b[i, 0]
-            s[1] = b[i, 1]
-            s[2] = b[i, 2]
-            _subtract(i, lptr, lcol, L, x, s)
-            _solve_diagonal(i, Dinv, s, x)
+            s0, s1, s2 = _subtract(i, lptr, lcol, L, x, b[i, 0], b[i, 1], b[i, 2])
+            _solve_diagonal(i, Dinv, s0, s1, s2, x)
         for m in range(hi, nodes[level + 2]):
             b[m, 0] = 0.0
             b[m, 1] = 0.0
@@ -118,15 +108,11 @@ def vcycle(r, z, nodes, lptr, lcol, L, uptr, ucol, U, Dinv, agg, Pb, coarse_inv,
         for i in range(lo, hi):
             # after a forward sweep from zero, row i's residual is what the blocks right of the
             # diagonal (not yet updated when x_i was) contribute
-            s[0] = 0.0
-            s[1] = 0.0
-            s[2] = 0.0
-            _subtract(i, uptr, ucol, U, x, s)
+            s0, s1, s2 = _subtract(i, uptr, ucol, U, x, 0.0, 0.0, 0.0)
             m = agg[i]
-            P = Pb[i]
-            b[m, 0] += P[0, 0] * s[0] + P[1, 0] * s[1] + P[2, 0] * s[2]
-            b[m, 1] += P[0, 1] * s[0] + P[1, 1] * s[1] + P[2, 1] * s[2]
-            b[m, 2] += P[0, 2] * s[0] + P[1, 2] * s[1] + P[2, 2] * s[2]
+            b[m, 0] += Pb[i, 0, 0] * s0 + Pb[i, 1, 0] * s1 + Pb[i, 2, 0] * s2
+            b[m, 1] += Pb[i, 0, 1] * s0 + Pb[i, 1, 1] * s1 + Pb[i, 2, 1] * s2
+            b[m, 2] += Pb[i, 0, 2] * s0 + Pb[i, 1, 2] * s1 + Pb[i, 2, 2] * s2
     lo = nodes[levels - 1]
     n = 3 * (nodes[levels] - lo)
     for p in range(n):
@@ -138,20 +124,16 @@ def vcycle(r, z, nodes, lptr, lcol, L, uptr, ucol, U, Dinv, agg, Pb, coarse_inv,
         lo, hi = nodes[level], nodes[level + 1]
         for i in range(lo, hi):
             m = agg[i]
-            P = Pb[i]
             x0 = x[m, 0]
             x1 = x[m, 1]
             x2 = x[m, 2]
-            x[i, 0] += P[0, 0] * x0 + P[0, 1] * x1 + P[0, 2] * x2
-            x[i, 1] += P[1, 0] * x0 + P[1, 1] * x1 + P[1, 2] * x2
-            x[i, 2] += P[2, 0] * x0 + P[2, 1] * x1 + P[2, 2] * x2
+            x[i, 0] += Pb[i, 0, 0] * x0 + Pb[i, 0, 1] * x1 + Pb[i, 0, 2] * x2
+            x[i, 1] += Pb[i, 1, 0] * x0 + Pb[i, 1, 1] * x1 + Pb[i, 1, 2] * x2
+            x[i, 2] += Pb[i, 2, 0] * x0 + Pb[i, 2, 1] * x1 + Pb[i, 2, 2] * x2
         for i in range(hi - 1, lo - 1, -1):  # backward sweep
-            s[0] = b[i, 0]
-            s[1] = b[i, 1]
-            s[2] = b[i, 2]
-            _subtract(i, lptr, lcol, L, x, s)
-            _subtract(i, uptr, ucol, U, x, s)
-            _solve_diagonal(i, Dinv, s, x)
+            s0, s1, s2 = _subtract(i, lptr, lcol, L, x, b[i, 0], b[i, 1], b[i, 2])
+            s0, s1, s2 = _subtract(i, uptr, ucol, U, x, s0, s1, s2)
+            _solve_diagonal(i, Dinv, s0, s1, s2, x)
     for c in range(cells):
         for f in range(3):
             z[f * cells + c] = x[c, f]
