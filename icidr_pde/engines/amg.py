@@ -3,9 +3,10 @@
 CVODE's BDF solves (I - gamma J) x = r at every Newton iteration. On the 2-D cell GMRES without a
 preconditioner needs more iterations per solve the finer the grid (the momentum diffusion's
 stiffness grows like 1/h^2: GMRES(20) to 1e-6 at gamma = 0.05 took 92 iterations at 64^2, 258 at
-128^2). One V-cycle of algebraic multigrid built by pyamg (aggregation,
+128^2). One V-cycle of algebraic multigrid (the aggregation by pyamg,
 :func:`pyamg.smoothed_aggregation_solver`) on I - gamma J as GMRES's left preconditioner takes
-19, 28, 42 iterations at 64^2, 128^2, 256^2 (docs/scaling.md).
+18 and 31 iterations at 64^2 and 128^2 (and in CVODE's runs to t = 10 6.9, 10.3, 13.9 GMRES
+iterations per Newton iteration at 64^2, 128^2, 256^2: docs/scaling.md).
 
 * The aggregation is nodal: the fields (phi, u, w) of one cell are one 3 x 3 block of a BSR matrix,
   with the three constant fields as near-null space, so a cell's unknowns are aggregated together
