@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
+from ..validation import ParameterError
 from .amg_kernels import set_gamma, vcycle
 
 __all__ = ["AmgHierarchy", "amg_preconditioner"]
@@ -56,7 +57,7 @@ class AmgHierarchy:
         import pyamg
 
         if fields != 3:
-            raise ValueError(f"AmgHierarchy: `fields` must be 3 (phi, u, w of a cell), got {fields}")
+            raise ParameterError(f"`fields` must be 3 (phi, u, w of a cell: the V-cycle's 3 x 3 blocks), got {fields!r}")
         n = J.shape[0]
         cells = n // fields
         # node-major position k = fields * cell + field holds field-major unknown order[k]
@@ -99,7 +100,7 @@ class AmgHierarchy:
             Pb = sparse.bsr_matrix(P, blocksize=(3, 3))
             Pb.sort_indices()
             if not np.all(np.diff(Pb.indptr) == 1):
-                raise ValueError("AmgHierarchy: a tentative prolongator has a row with other than one block")
+                raise RuntimeError("AmgHierarchy: a tentative prolongator has a row with other than one block")
             lo, hi = self.nodes[level], self.nodes[level + 1]
             self.agg[lo:hi] = Pb.indices + self.nodes[level + 1]
             self.Pb[lo:hi] = Pb.data
