@@ -12,10 +12,11 @@ prolongation block ``Pb[i]`` (the tentative prolongator has one block per fine r
 The coarsest level is solved by its dense inverse. Work vectors ``x``, ``b`` hold (node, field)
 for every level.
 
-Why one call: the per-level work of the V-cycle through scipy and pyamg (three Gauss-Seidel and
+Why one call: the per-level work of the V-cycle through scipy and pyamg (two Gauss-Seidel and
 three matrix-vector calls a level, array allocations) cost ~2.5 s of Python overhead in the
-32 s of a 128^2 run (docs/scaling.md); the sweeps are bound by reading the blocks, hence the
-split into streams.
+32 s of a 128^2 run (docs/scaling.md). The split into L and U lets each pass read only the
+blocks it needs, without a test per block (storing the blocks in float32 to read half the
+bytes did not change a run's time: not kept).
 """
 
 import numpy as np
