@@ -21,7 +21,11 @@ the solve (JSON ``wall_s``), peak resident memory of the process (wait4's ru_max
 Prints a table and the ratio baseline/fast measured in this run; writes
 data/benchmarks/sim2d_speed.json.
 
-    nice -n 10 python benchmarks/sim2d_speed.py [--sizes 32 64] [--fast-only 128 256]
+    nice -n 10 python benchmarks/sim2d_speed.py [--sizes 32 64] [--fast-only 128 256] [--amg-only 512 1024]
+
+On the --amg-only grids (512^2 and above) the fast path is GMRES + AMG, GMRES alone is the
+baseline (stopped after --timeout seconds), and the reference is GMRES + AMG at rtol 1e-7
+(none with --no-amg-reference).
 """
 
 import argparse
@@ -31,6 +35,7 @@ import pathlib
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 TIMES = ["0.5", "1", "2", "5", "10"]
@@ -44,6 +49,7 @@ CONFIGS = {
     "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
     "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11", "--engine", "pde"],
     "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10", "--engine", "pde"],  # cheaper, for 256^2
+    "reference-amg": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10", "--jacobian", "amg", "--engine", "pde"],
 }
 LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind",
           "fast-amg": "CVODE, GMRES + AMG, central",
@@ -51,9 +57,10 @@ LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind"
 RICHARDSON = pathlib.Path("data") / "sim2d" / "richardson.json"
 
 
-def cli_run(n: int, options, times=TIMES):
+def cli_run(n: int, options, times=TIMES, timeout: float | None = None):
     """One CLI process of iCIDR bump2d on n^2 cells to t = 10 with `options`: (wall time,
-    its rusage from wait4, the JSON it wrote)."""
+    its rusage from wait4, the JSON it wrote); TimeoutError if it runs longer than `timeout`
+    seconds (the process is then stopped)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "out.json"
         cmd = [sys.executable, "-m", "icidr_pde.cli", "run", "--scene", "bump2d", "--rheology", "icidr",
@@ -61,19 +68,36 @@ def cli_run(n: int, options, times=TIMES):
                "--json", str(out), *options]
         start = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
+        stderr = []
+        reader = threading.Thread(target=lambda: stderr.append(proc.stderr.read().decode()), daemon=True)
+        reader.start()
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if timeout is not None and time.perf_counter() - start > timeout:
+                proc.kill()
+                os.wait4(proc.pid, 0)
+                raise TimeoutError(f"{' '.join(cmd)} ran longer than {timeout:.0f} s")
+            time.sleep(0.2)
         wall = time.perf_counter() - start
-        stderr = proc.stderr.read().decode()
+        reader.join()
+        stderr = "".join(stderr)
         proc.stderr.close()
         if os.waitstatus_to_exitcode(status) != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{stderr}")
         return wall, usage, json.loads(out.read_text())
 
 
-def whole_process(n: int, config: str) -> dict:
-    """Run one CLI process; return its wall time, peak RSS and the JSON it wrote."""
-    wall, usage, result = cli_run(n, CONFIGS[config])
-    return {"process_s": wall, "max_rss_mb": usage.ru_maxrss / 1024, "solve_s": result["wall_s"],
+def whole_process(n: int, config: str, timeout: float | None = None) -> dict | None:
+    """Run one CLI process; return its wall time, peak RSS and the JSON it wrote (None: it did
+    not finish within `timeout` seconds and was stopped)."""
+    try:
+        wall, usage, result = cli_run(n, CONFIGS[config], timeout=timeout)
+    except TimeoutError:
+        return None
+    return {"process_s": wall, "process_cpu_s": usage.ru_utime + usage.ru_stime, "max_rss_mb": usage.ru_maxrss / 1024,
+            "solve_s": result["wall_s"],
             "compile_s": result["compile_s"], "n_rhs": result["n_rhs"], "n_jac": result["n_jac"],
             "n_steps": result["n_steps"], "linear_solver": result["settings"]["linear_solver"],
             **{q: result[q] for q in QUANTITIES}}
@@ -96,22 +120,46 @@ def grid_error(run: dict) -> float | None:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64])
+    parser.add_argument("--sizes", type=int, nargs="*", default=[32, 64])
     parser.add_argument("--fast-only", type=int, nargs="*", default=[128, 256],
                         help="grids timed with the fast path only (the baseline takes > 10 min at 128^2)")
+    parser.add_argument("--amg-only", type=int, nargs="*", default=[],
+                        help="grids timed with GMRES + AMG and GMRES alone (within --timeout), the reference "
+                             "(rtol 1e-7) with AMG: for 512^2 and above")
+    parser.add_argument("--timeout", type=float, default=1200.0,
+                        help="seconds after which GMRES alone on an --amg-only grid is stopped (reported as not finished)")
+    parser.add_argument("--no-amg-reference", action="store_true",
+                        help="no reference run on the --amg-only grids (error then '–'; the grid error stays)")
+    parser.add_argument("--configs", nargs="+", choices=tuple(LABELS),
+                        help="time only these configurations (default: all of each grid's kind)")
     parser.add_argument("--json", default="data/benchmarks/sim2d_speed.json")
     args = parser.parse_args()
     rows = []
-    for n in args.sizes + args.fast_only:
-        ref = whole_process(n, "reference" if n not in args.fast_only else "reference-fast-only")
-        row = {"N": n, "reference": ref}
-        configs = ("fast", "fast-upwind", "fast-amg") + (() if n in args.fast_only else ("baseline",))
-        for config in configs:
-            row[config] = whole_process(n, config)
-            row[config]["error"] = error(row[config], ref) if config != "fast-upwind" else None
-            row[config]["grid_error"] = grid_error(row[config])
+    for n in args.sizes + args.fast_only + args.amg_only:
+        if n in args.amg_only:
+            reference, configs = "reference-amg", ("fast-amg", "fast")
+        elif n in args.fast_only:
+            reference, configs = "reference-fast-only", ("fast", "fast-upwind", "fast-amg")
+        else:
+            reference, configs = "reference", ("fast", "fast-upwind", "fast-amg", "baseline")
+        configs = tuple(c for c in configs if args.configs is None or c in args.configs)
+        row = {"N": n, "reference_config": reference}
+        for config in configs:  # the reference after them: the fast paths first where a grid may not finish
+            row[config] = whole_process(n, config, timeout=args.timeout if n in args.amg_only and config == "fast" else None)
+            if row[config] is None:
+                print(f"{n}^2 {config}: not finished within {args.timeout:.0f} s", flush=True)
+                row[config] = {"not_finished_within_s": args.timeout}
+                continue
             print(f"{n}^2 {config}: {row[config]['process_s']:.1f} s process, {row[config]['solve_s']:.2f} s solve, "
-                  f"{row[config]['max_rss_mb']:.0f} MB, error {row[config]['error'] or 0:.1e}, "
+                  f"{row[config]['max_rss_mb']:.0f} MB", flush=True)
+        skip = n in args.amg_only and args.no_amg_reference
+        ref = row["reference"] = None if skip else whole_process(n, reference)
+        for config in configs:
+            if "not_finished_within_s" in row[config]:
+                continue
+            row[config]["error"] = error(row[config], ref) if config != "fast-upwind" and ref else None
+            row[config]["grid_error"] = grid_error(row[config])
+            print(f"{n}^2 {config}: error {row[config]['error'] or 0:.1e}, "
                   f"grid error {row[config]['grid_error'] or 0:.1e}", flush=True)
         rows.append(row)
     print("\niCIDR bump2d to t = 10 (error: largest relative error of max_w, max_phi_dev, l2_velocity at "
@@ -123,11 +171,15 @@ def main():
             if config not in row:
                 continue
             r = row[config]
-            ratio = r["solve_s"] / row["fast"]["solve_s"]
+            if "not_finished_within_s" in r:
+                print(f"| {row['N']}² | {label} | > {r['not_finished_within_s']:.0f} | – | – | – | – | – |")
+                continue
+            fast = row.get("fast", {}).get("solve_s")
+            ratio = f"{r['solve_s'] / fast:.1f}" if fast else "–"
             err = "–" if r["error"] is None else f"{r['error']:.1e}"
             gerr = "–" if r["grid_error"] is None else f"{r['grid_error']:.1%}"
             print(f"| {row['N']}² | {label} | {r['process_s']:.1f} | {r['solve_s']:.2f} | {r['max_rss_mb']:.0f} | "
-                  f"{err} | {gerr} | {ratio:.1f} |")
+                  f"{err} | {gerr} | {ratio} |")
     path = pathlib.Path(args.json)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
