@@ -26,6 +26,10 @@ ANCHOR_TSTAR_CHEB_201 = 0.010581191657354078
 SWEEP = dict(rheology="mui", scene="shear", t_end=20.0, method="BDF", backend="numpy")
 
 
+#: one worker under pytest-xdist: the module's fixtures are built once, not once per worker
+pytestmark = pytest.mark.xdist_group("local_cluster")
+
+
 @pytest.fixture(scope="module")
 def client():
     with cluster(workers=2) as c:

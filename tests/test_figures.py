@@ -22,6 +22,10 @@ from icidr_pde.movies.registry import PAPER_SETTINGS
 from icidr_pde.rheology import ICIDR, Material
 
 
+#: one worker under pytest-xdist: the module's fixtures are built once, not once per worker
+pytestmark = pytest.mark.xdist_group("figures")
+
+
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
     out = tmp_path_factory.mktemp("figures")

@@ -20,6 +20,10 @@ from icidr_pde.rheology import Material
 NAMES_2D = ("polar2d", "bump2d", "tstar2d")
 
 
+#: one worker under pytest-xdist: the module's fixtures are built once, not once per worker
+pytestmark = pytest.mark.xdist_group("figures2d")
+
+
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
     out = tmp_path_factory.mktemp("figures2d")

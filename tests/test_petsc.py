@@ -326,8 +326,11 @@ def _cli_on_ranks(tmp_path, ranks, argv, **popen):
 @needs_mpiexec
 @pytest.mark.parametrize("ranks, argv, named", [
     (2, ["--N", "2"], "`--N` must be an integer >= 4 (or a pair (Nx, Nz)); got 2"),
-    (2, ["--N", "8", "--t-end", "-1"], "`--t-end` must be a finite number > 0; got -1"),
-    (2, ["--N", "8", "--json", "missing/out.json"], "`--json` 'missing/out.json' directory 'missing' does not exist"),
+    # the serial run path's checks, said by rank 0 alone: one each way in the default run
+    pytest.param(2, ["--N", "8", "--t-end", "-1"], "`--t-end` must be a finite number > 0; got -1",
+                 marks=pytest.mark.slow),
+    pytest.param(2, ["--N", "8", "--json", "missing/out.json"],
+                 "`--json` 'missing/out.json' directory 'missing' does not exist", marks=pytest.mark.slow),
     (2, ["--N", "x"], "argument --N: must be an integer >= 1; got 'x'"),
     # 5 ranks cannot split 4 x 4 cells into blocks of 1 x 1 (PETSc's DMDA: 5 x 1 or 1 x 5)
     (5, ["--N", "4"], "`--N` must be a grid that 5 MPI ranks can split into blocks of at least 1 x 1 cells "
@@ -351,7 +354,7 @@ def test_bad_input_on_many_ranks_is_one_line_and_status_2_on_each(tmp_path, rank
 
 @needs_petsc
 @needs_mpiexec
-@pytest.mark.parametrize("sent", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("sent", [signal.SIGTERM, pytest.param(signal.SIGINT, marks=pytest.mark.slow)])
 def test_signal_under_mpiexec_keeps_what_was_computed(tmp_path, sent):
     """SIGTERM or SIGINT to mpiexec once the integration has started: every rank stops after the
     same step, rank 0 writes the JSON of what was computed (the time reached, the reason, the

@@ -55,6 +55,10 @@ def test_lammps_per_atom_virial_of_a_two_disk_contact():
     np.testing.assert_allclose(W, [expected, expected], rtol=1e-10)
 
 
+#: one worker under pytest-xdist: the module's fixtures are built once, not once per worker
+pytestmark = pytest.mark.xdist_group("lammps_pipeline")
+
+
 @pytest.fixture(scope="module")
 def sheared():
     """Shear 30 time units, then sample every 0.5 for 60 (profiles, stress, torque)."""

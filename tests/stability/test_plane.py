@@ -7,6 +7,10 @@ from stability import plane
 from stability.symbols import M, Psi, phi, rho
 
 
+#: one worker under pytest-xdist: the module's fixtures are built once, not once per worker
+pytestmark = pytest.mark.xdist_group("plane_symbols")
+
+
 @pytest.fixture(scope="module")
 def plane_checks():
     return {c.equation: c for c in plane.checks()}

@@ -46,6 +46,7 @@ def test_quarter_law_steady_state_is_7_2_with_mu_of_psi():
     np.testing.assert_allclose(c * (gdot / 2) / p, Material().mu(psi), rtol=1e-12)
 
 
+@pytest.mark.slow  # a whole symbolic report of the quarter law: ~30 s
 def test_quarter_law_conditions_hold_but_Y_is_negative_under_strong_compaction():
     """(4.3)-(4.5) proved by sympy; Y < 0 for p >> P, and every state of the grid where the symbol
     (1-D or 2-D) is not negative has c = Y/||S|| < 0."""

@@ -113,6 +113,7 @@ def test_beyond_phi_c_the_law_is_the_intermediate_regime_one():
         np.testing.assert_allclose(got(pv, Iv, 0.3), want_v, rtol=1e-12, atol=1e-14 * np.abs(want_v).max())
 
 
+@pytest.mark.slow  # two scipy-BDF runs with a law compiled for them alone: ~35 s
 def test_shear_cell_far_from_phi_c_is_icidrs():
     """phi0 = 0.78, gamma-dot = 1/30: omega ~ 4e-4, and the run's max|w| is iCIDR's to that order."""
     from icidr_pde import run
