@@ -184,14 +184,19 @@ def test_fallback_says_why_in_one_line(capsys):
 
 
 def test_law_without_a_c_form_falls_back():
-    """The scalar flow-rule solve (icidr-blended-quarter) has no C form here: the py-pde path runs it."""
-    from icidr_pde.api import run
-
+    """The scalar flow-rule solve (icidr-blended-quarter) has no C form here: the native engine says so."""
     from icidr_pde.rheology import get_rheology
     from icidr_pde.native.build import library
 
     with pytest.raises(NativeUnavailable, match="scalar flow-rule solve"):
         library(get_rheology("icidr-blended-quarter"), __import__("icidr_pde.rheology").rheology.SHEAR_CELL)
+
+
+@pytest.mark.slow  # compiles the law's numba kernels for this run alone: ~15 s
+def test_law_without_a_c_form_runs_on_the_pde_path():
+    """auto then takes the py-pde path (SUNDIALS through scikit-sundae) and runs it to t_end."""
+    from icidr_pde.api import run
+
     result = run("icidr-blended-quarter", "shear", 11, 0.05, engine="auto")
     assert result.settings["engine"] == "sundae" and result.t_final == 0.05
 

@@ -29,10 +29,11 @@ def _execute(path):
     return book
 
 
-# the workbench notebook takes ~70 s even in draft mode (its symbolic checks of four laws): kept
-# to the slow run so that the default run stays within CI's ten minutes on 2 cores; the workbench
-# itself is tested in tests/workbench/
-SLOW_NOTEBOOKS = {"workbench.ipynb"}
+# the workbench notebook takes ~70 s even in draft mode (its symbolic checks of four laws), the 2-D
+# one ~20-30 s (its runs of both rheologies): kept to the slow run so that the default run stays
+# within CI's ten minutes on 2 cores; what they show is tested in tests/workbench/ and by the 2-D
+# tests (test_figures2d.py, test_sim2d_fields.py, test_cartesian2d.py)
+SLOW_NOTEBOOKS = {"workbench.ipynb", "6_two_dimensional.ipynb"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.name in SLOW_NOTEBOOKS else p
