@@ -64,7 +64,7 @@ class AmgHierarchy:
         self.order = (np.arange(n) % fields) * cells + np.arange(n) // fields
         self.position = np.argsort(self.order)
         J = sparse.coo_matrix(J)
-        node = 3 * (np.arange(n) % cells) + np.arange(n) // cells  # the node-major index of each unknown
+        node = self.position  # the node-major index of each field-major unknown
         fine = _blocks(sparse.csr_matrix((J.data, (node[J.row], node[J.col])), shape=(n, n)))
         C = sparse.bsr_matrix(fine, blocksize=(3, 3))
         M = sparse.bsr_matrix((-gamma * fine.data, fine.indices, fine.indptr), shape=(n, n)) + \

@@ -17,7 +17,6 @@ or when phi leaves (0, phi_c). The failure carries the last accepted time t* and
 from __future__ import annotations
 
 import dataclasses
-
 import time
 
 import numpy as np
