@@ -23,7 +23,7 @@ from icidr_pde.api import run
 from icidr_pde.engines import sundae
 
 TIMES = ["0.5", "1", "2", "5", "10"]
-SOLVERS = ("krylov", "amg")
+SOLVERS = ("krylov", "amg", "fourier")
 
 
 def _counting():
@@ -56,6 +56,8 @@ def measure(n: int, jacobian: str, last: dict) -> dict:
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
+    parser.add_argument("--solvers", nargs="+", default=list(SOLVERS), choices=SOLVERS,
+                        help="Jacobian modes, the first the baseline of the ratios")
     parser.add_argument("--json", default="data/benchmarks/amg2d.json")
     args = parser.parse_args()
     last = _counting()
@@ -65,7 +67,7 @@ def main():
           "P set-ups (J) | P solves | mass drift | max|w| difference | peak RSS [MB] | solve ratio |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for n in args.sizes:
-        pair = [measure(n, jacobian, last) for jacobian in SOLVERS]
+        pair = [measure(n, jacobian, last) for jacobian in args.solvers]
         base = pair[0]
         for r in pair:
             r["max_w_difference"] = max(abs(r["max_w"][t] / base["max_w"][t] - 1) for t in TIMES)
@@ -78,7 +80,7 @@ def main():
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps({"rows": rows, "command": "nice -n 10 python benchmarks/amg2d.py --sizes "
-                               + " ".join(map(str, args.sizes))}, indent=1))
+                               + " ".join(map(str, args.sizes)) + " --solvers " + " ".join(args.solvers)}, indent=1))
     tmp.replace(path)
 
 

@@ -247,7 +247,8 @@ def add_run_parser(subparsers):
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="Jacobian of the implicit solves (default: the method's best: analytic for "
                         "BDF/Radau/CVODE, banded-fd for LSODA; on 2-D grids CVODE's GMRES: 'krylov' "
-                        "unpreconditioned, 'amg' preconditioned by algebraic multigrid)")
+                        "unpreconditioned, 'amg' preconditioned by algebraic multigrid, 'fourier' by the x-averaged "
+                        "Jacobian, exactly inverted by the FFT in x)")
     for key, (defaults, valid) in DISCRETIZATION_OPTIONS.items():
         p.add_argument(f"--{key}", choices=valid, default=None,
                        help="option of " + ", ".join(f"{name} (default {value})" for name, value in defaults.items()))

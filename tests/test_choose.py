@@ -21,7 +21,8 @@ def test_scheme_structures_are_what_the_schemes_offer():
 @pytest.mark.parametrize("method, jacobian, scheme, expected", [
     ("CVODE", None, "fd", ("sundae", "analytic", "band LU")),
     ("CVODE", None, "cheb", ("sundae", "analytic", "dense LU (LAPACK)")),
-    ("CVODE", None, "fv2d", ("sundae", "krylov", "GMRES (line preconditioner in thin cells)")),
+    ("CVODE", None, "fv2d", ("sundae", "fourier", "GMRES + x-Fourier preconditioner")),
+    ("CVODE", "krylov", "fv2d", ("sundae", "krylov", "GMRES (line preconditioner in thin cells)")),
     ("CVODE", "banded-fd", "fd", ("sundae", "banded-fd", "band LU")),
     ("CVODE", "sparse", "fv2d", ("sundae", "sparse", "SuperLU_MT")),
     ("BDF", None, "fd", ("scipy", "analytic", "SuperLU")),

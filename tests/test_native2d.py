@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from icidr_pde import run
-from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, JacobianStructure, choose
+from icidr_pde.engines.choose import FOURIER_SOLVER, NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, choose
 from icidr_pde.scenes2d import Bump2DScene, Scene2D
 from icidr_pde.native.fv2d import Fv2dCase
 
@@ -121,7 +121,7 @@ def test_mui_t_star_is_the_pde_paths():
     assert native.t_star == pytest.approx(pde.t_star, rel=1e-3)
 
 
-def test_choose_takes_native_for_thick_cells_only_while_pde_runs_plain_gmres():
+def test_choose_takes_native_for_thick_cells_up_to_its_measured_size():
     fv2d = dict(method="CVODE", discretization="fv2d", structure=SCHEME_STRUCTURES["fv2d"], dim=2)
     assert choose(**fv2d).engine == "native" and choose(**fv2d).linear_solver == "GMRES"
     assert choose(**fv2d, jacobian="krylov").engine == "native"
@@ -136,9 +136,9 @@ def test_choose_takes_native_for_thick_cells_only_while_pde_runs_plain_gmres():
     assert choose(**fv2d, cells=limit + 1, request="native", thin_cell=True).engine == "sundae"
     assert choose(**fv2d, jacobian="sparse").engine == "sundae"
     assert choose(**dict(fv2d, method="BDF")).engine == "scipy"
-    # a py-pde default other than the GMRES the native problem repeats (a preconditioned one): not replaced
-    other = choose(**dict(fv2d, structure=JacobianStructure(sparse=True)))
-    assert other.engine == "sundae" and "py-pde path's linear solver" in other.reason
+    # beyond it, the py-pde path's default: GMRES preconditioned by the x-averaged Jacobian
+    assert (large.jacobian, large.linear_solver) == ("fourier", FOURIER_SOLVER)
+    assert choose(**fv2d, cells=limit + 1, jacobian="krylov").jacobian == "krylov"
 
 
 def test_thin_cell_runs_on_the_pde_path():

@@ -45,13 +45,13 @@ ENGINES = {
     "scipy": EngineEntry("scipy", "ScipyEngine", {"BDF": ("analytic", "sparse-fd", "colored-fd", "none"),
                                                   "Radau": ("analytic", "sparse-fd", "colored-fd", "none"),
                                                   "LSODA": ("banded-fd", "analytic", "none")}),
-    "sundae": EngineEntry("sundae", "CvodeEngine", {"CVODE": ("analytic", "banded-fd", "krylov", "amg", "sparse", "none")}),
+    "sundae": EngineEntry("sundae", "CvodeEngine", {"CVODE": ("analytic", "banded-fd", "krylov", "amg", "fourier", "sparse", "none")}),
     "native": EngineEntry("native", "NativeEngine", {"CVODE": ("analytic",)}),
     "petsc": EngineEntry("petsc", "PetscEngine", {"PETSC-BDF": ("sparse",)}),
 }
 #: every method a run can take, each by the first engine above that has it
 METHODS = tuple(dict.fromkeys(m for entry in ENGINES.values() for m in entry.methods))
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "amg", "sparse", "none")
+JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "amg", "fourier", "sparse", "none")
 
 
 def engine_class(name: str):

@@ -33,6 +33,7 @@ from scipy import sparse
 
 from ..validation import ParameterError
 from .amg_kernels import set_gamma, vcycle
+from .precond import mass_keeping_precond
 
 __all__ = ["AmgHierarchy", "amg_preconditioner"]
 
@@ -178,27 +179,16 @@ def amg_preconditioner(jac, fields: int, weights=None):
     J and the aggregation are rebuilt when CVODE asks for a new Jacobian (jok false), the level
     operators whenever gamma changes. With `weights` the output keeps c z = c r (module notes).
     """
-    from sksundae.cvode import CVODEPrecond
-
     saved = {}
-    if weights is not None:  # c z = c r by a multiple of q on the support of c (c q = 1)
-        support = np.flatnonzero(weights)
-        if support.size and np.all(np.diff(support) == 1):  # a slice: no copies of the vectors
-            support = slice(support[0], support[-1] + 1)
-        c = np.asarray(weights, dtype=float)[support]
-        q = c / np.sum(c * c)
 
-    def setup(t, y, yp, jok, jnew, gamma):
+    def setup(t, y, gamma, jok):
         if not jok or "hierarchy" not in saved:
             saved["hierarchy"] = AmgHierarchy(jac(t, np.array(y)), fields, gamma)
-            jnew[0] = 1
-        else:
-            saved["hierarchy"].at(gamma)
-            jnew[0] = 0
+            return True
+        saved["hierarchy"].at(gamma)
+        return False
 
-    def solve(t, y, yp, r, z, gamma, delta, lr):
+    def solve(r, z):
         saved["hierarchy"].vcycle(r, out=z)
-        if weights is not None:  # sums, not BLAS dot products: OpenBLAS's threads stall a loaded machine
-            z[support] += np.sum(c * (r[support] - z[support])) * q
 
-    return CVODEPrecond(setup, solve, side="left")
+    return mass_keeping_precond(setup, solve, weights)

@@ -84,6 +84,8 @@ class JacobianSpec:
     line_pattern: the couplings along z of a thin 2-D cell, for GMRES's line preconditioner.
     fields: the unknowns per cell of 'amg' (the blocks of its nodal aggregation; the unknowns are
     field-major), with `jac` the analytic sparse Jacobian its hierarchy is built from.
+    shape: (fields, Nx, Nz) of the unknowns of 'fourier' (field-major, x periodic), with `jac` the
+    analytic sparse Jacobian whose x-average it inverts.
     """
 
     mode: str
@@ -95,6 +97,7 @@ class JacobianSpec:
     anchor: np.ndarray | None = None
     line_pattern: object = None
     fields: int | None = None
+    shape: tuple[int, int, int] | None = None
 
 
 @dataclass

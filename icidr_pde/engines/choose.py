@@ -14,7 +14,8 @@ from ..validation import ParameterError, choice as checked_choice
 from . import ENGINES, METHODS
 
 __all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
-           "NATIVE_FV2D_REPEATS", "NATIVE_FV2D_AUTO_CELLS"]
+           "NATIVE_FV2D_AUTO_CELLS",
+           "AMG_SOLVER", "FOURIER_SOLVER", "PRECONDITIONED"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
 #: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
@@ -25,6 +26,11 @@ PETSC_METHOD = "PETSC-BDF"
 
 #: the linear solver of Jacobian mode 'amg' (:mod:`icidr_pde.engines.amg`)
 AMG_SOLVER = "GMRES + AMG preconditioner"
+#: the linear solver of Jacobian mode 'fourier' (:mod:`icidr_pde.engines.xfourier`)
+FOURIER_SOLVER = "GMRES + x-Fourier preconditioner"
+#: the Jacobian modes of GMRES with a preconditioner built from the analytic sparse Jacobian of the
+#: 2-D cell -> what preconditions
+PRECONDITIONED = {"amg": "algebraic multigrid", "fourier": "the x-average of the Jacobian, FFT in x"}
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
 
@@ -34,7 +40,7 @@ class JacobianStructure:
     """What a scheme's Jacobian offers: a banded ordering (`banded`) and the analytic Jacobian
     in it (`band_jac`), a sparse pattern (`sparse`; else dense), a line preconditioner pattern
     where the cell is thin (`line`, 2-D cells), an analytic sparse Jacobian of fields on a 2-D grid
-    for the algebraic multigrid preconditioner (`amg`)."""
+    for the algebraic multigrid and the x-Fourier preconditioners (`amg`; modes 'amg', 'fourier')."""
 
     banded: bool = False
     band_jac: bool = False
@@ -55,13 +61,11 @@ class JacobianStructure:
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
 #: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
 NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d": "GMRES"}
-#: the py-pde path's default linear solver on the 2-D cell that the native fv2d problem repeats in C
-#: (unpreconditioned GMRES on a thick cell) and was measured against (docs/engines.md): where the
-#: py-pde default becomes another solver, the native engine is no longer taken for fv2d by 'auto'
-NATIVE_FV2D_REPEATS = "GMRES (line preconditioner in thin cells)"
-#: the largest grid (cells) on which 'auto' takes the native engine for fv2d: where it measured no
-#: slower whole-process than the py-pde path (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any
-NATIVE_FV2D_AUTO_CELLS = 96 * 96
+#: the largest grid (cells) on which 'auto' takes the native engine for fv2d (unpreconditioned GMRES
+#: in C, no py-pde or numba to import) rather than the py-pde path's default, GMRES with the
+#: x-Fourier preconditioner: where the native engine measured faster whole-process
+#: (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any grid
+NATIVE_FV2D_AUTO_CELLS = 64 * 64
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
@@ -104,10 +108,10 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         cells: the cells of a 2-D grid (Nx Nz), if known
 
     The native engine is taken ('auto', 'native') for fd and cheb with CVODE and the analytic
-    Jacobian, and for fv2d with CVODE on a thick cell while the py-pde path's default there is
-    :data:`NATIVE_FV2D_REPEATS` (the native problem is that solver in C), by 'auto' up to
-    :data:`NATIVE_FV2D_AUTO_CELLS` cells (beyond, the py-pde path measured faster), by 'native' on
-    any grid; never with the outputs only the py-pde run path writes.
+    Jacobian, and for fv2d with CVODE on a thick cell (matrix-free GMRES, 'krylov' or no Jacobian
+    asked), by 'auto' up to :data:`NATIVE_FV2D_AUTO_CELLS` cells (beyond, the py-pde path's
+    preconditioned default measured faster), by 'native' on any grid; never with the outputs only
+    the py-pde run path writes.
     """
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
@@ -117,12 +121,14 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     if request != "pde":
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
         if not reason and discretization == "fv2d":
-            reason = _not_native_2d(jacobian, structure, thin_cell, cells if request == "auto" else None)
+            reason = _not_native_2d(thin_cell, cells if request == "auto" else None)
         if not reason:
             mode = "krylov" if discretization == "fv2d" else "analytic"
             return Choice("native", mode, NATIVE_SCHEMES[discretization])
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure)
+    if mode == "fourier" and jacobian is None and thin_cell:  # x-coupling weak: the line preconditioner
+        mode = "krylov"
     return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
 
 
@@ -156,17 +162,13 @@ def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
     return ""
 
 
-def _not_native_2d(jacobian, structure, thin_cell, cells) -> str:
+def _not_native_2d(thin_cell, cells) -> str:
     """Why fv2d on CVODE does not take the native engine (one line), or ''; `cells` None: any grid."""
     if thin_cell:
-        return "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES along z)"
+        return "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES)"
     if cells is not None and cells > NATIVE_FV2D_AUTO_CELLS:
         return (f"a 2-D grid of {cells} cells (> {NATIVE_FV2D_AUTO_CELLS}: the py-pde path measured faster; "
                 "--engine native takes it)")
-    mode = _jacobian_mode(ENGINES["sundae"].jacobian_modes["CVODE"], "CVODE", jacobian, structure)
-    default = _linear_solver("CVODE", mode, structure)
-    if default != NATIVE_FV2D_REPEATS:
-        return f"the py-pde path's linear solver here is {default!r} (the native 2-D cell repeats {NATIVE_FV2D_REPEATS!r})"
     return ""
 
 
@@ -182,10 +184,13 @@ def _jacobian_mode(valid, method, jacobian, structure) -> str:
         if jacobian is not None:
             raise ParameterError("`jacobian`='banded-fd' needs a discretization with a banded "
                                  "ordering (finite differences); use 'analytic' or 'none'")
-        # no banded ordering: Krylov where the Jacobian is sparse (2-D), else dense analytic (Chebyshev)
+        # no banded ordering: Krylov where the Jacobian is sparse (2-D), preconditioned by the
+        # x-average of the analytic one where there is one (the 2-D cell), else dense analytic (Chebyshev)
         mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
-    if mode == "amg" and not structure.amg:
-        raise ParameterError("`jacobian`='amg' (GMRES preconditioned by algebraic multigrid) needs the "
+        if mode == "krylov" and structure.amg and "fourier" in valid:
+            mode = "fourier"
+    if mode in PRECONDITIONED and not structure.amg:
+        raise ParameterError(f"`jacobian`={mode!r} (GMRES preconditioned by {PRECONDITIONED[mode]}) needs the "
                              "analytic sparse Jacobian of a 2-D grid (discretization fv2d); use 'krylov' "
                              "or 'analytic'")
     if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
@@ -200,7 +205,7 @@ def _linear_solver(method, mode, structure) -> str:
         if mode == "analytic":
             return "band LU" if structure.band_jac else "dense LU (LAPACK)"
         return {"banded-fd": "band LU", "krylov": "GMRES (line preconditioner in thin cells)" if structure.line else "GMRES",
-                "amg": AMG_SOLVER,
+                "amg": AMG_SOLVER, "fourier": FOURIER_SOLVER,
                 "sparse": "SuperLU_MT", "none": "dense LU"}[mode]
     if method == "LSODA":
         return "band LU (LSODA)" if mode == "banded-fd" else "dense LU (LSODA)"

@@ -49,7 +49,8 @@ class StiffSolver(SolverBase):
             differences with well-scaled increments, :mod:`icidr_pde.engines.colored_fd`, BDF/Radau),
             'banded-fd' (LSODA/CVODE banded differences on the interleaved ordering),
             'krylov' (CVODE's GMRES, matrix-free), 'amg' (the same GMRES preconditioned by
-            algebraic multigrid on the analytic sparse Jacobian, 2-D), 'sparse' (CVODE's SuperLU_MT with the
+            algebraic multigrid on the analytic sparse Jacobian, 2-D), 'fourier' (preconditioned by
+            the inverse of the x-averaged Jacobian's Newton matrix, x-periodic 2-D), 'sparse' (CVODE's SuperLU_MT with the
             analytic Jacobian on the scheme's pattern) or 'none' (dense differences, for
             comparison only); None picks the method's best on the scheme
             (:func:`~icidr_pde.engines.choose.choose`)
@@ -92,8 +93,9 @@ class StiffSolver(SolverBase):
 
     def _choose(self, state) -> Choice:
         if self.choice is None:
+            thin = getattr(self.pde, "line_pattern", lambda state: None)(state) is not None
             self.choice = choose(method=self.method, jacobian=self._asked, request="pde",
-                                 structure=JacobianStructure.of(self.pde, state))
+                                 structure=JacobianStructure.of(self.pde, state), thin_cell=thin)
         return self.choice
 
     def check_memory(self, state) -> None:
@@ -244,6 +246,11 @@ def jacobian_spec(pde, state, choice: Choice):
     if mode == "amg":  # GMRES preconditioned by multigrid on the cells' blocks of fields
         return JacobianSpec(mode, jac=pde.make_jacobian(state), weights=_cell_mass(state),
                             fields=state.data.shape[0]), None
+    if mode == "fourier":  # GMRES preconditioned by the x-average of J, diagonal in x-Fourier space
+        if not state.grid.periodic[0]:
+            raise ParameterError("`jacobian`='fourier' needs a grid periodic in x (the 2-D cell); use 'amg' or 'krylov'")
+        return JacobianSpec(mode, jac=pde.make_jacobian(state), weights=_cell_mass(state),
+                            shape=state.data.shape), None
     weights, anchor = conserved(pde, state, None)
     line = getattr(pde, "line_pattern", lambda state: None)(state) if mode == "krylov" else None
     if line is not None:  # a thin cell: GMRES preconditioned along the walls' normal

@@ -12,7 +12,7 @@ from scipy import sparse
 
 from . import cvode_counters
 from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN, Engine, Problem, dense  # KRYLOV_EPS_LIN: its engine's setting
-from .choose import AMG_SOLVER
+from .choose import AMG_SOLVER, FOURIER_SOLVER
 from .conservative_jacobian import ConservativeDifferenceQuotients
 from .time_scale import MIN_STEP_FRACTION
 
@@ -57,7 +57,8 @@ class CvodeEngine(Engine):
     above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
     the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
     analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md); 'amg'
-    preconditions that GMRES by one algebraic-multigrid V-cycle (:mod:`.amg`).
+    preconditions that GMRES by one algebraic-multigrid V-cycle (:mod:`.amg`), 'fourier' by the
+    exact inverse of the x-averaged Jacobian's Newton matrix (:mod:`.xfourier`).
     SUNDIALS' messages are captured into the failure reason. The minimum step is relative
     to the problem's fastest time scale (:func:`fastest_time_scale`).
     """
@@ -91,7 +92,7 @@ class CvodeEngine(Engine):
         self.solver = CVODE(self._rhsfn(problem), **kwargs)
         start = self.solver.init_step(t0, problem.y0)
         self.counters = cvode_counters.attach(self.solver, start.nfev)
-        if problem.jacobian.mode in ("krylov", "amg") and self.counters is not None:
+        if problem.jacobian.mode in ("krylov", "amg", "fourier") and self.counters is not None:
             self.counters.set_eps_lin(KRYLOV_EPS_LIN)
         if kwargs.get("linsolver") == "lapackdense" and self.counters is not None:
             # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
@@ -217,6 +218,16 @@ def _gmres_amg(problem, rtol, atol):
                 precond=amg_preconditioner(jacobian.jac, jacobian.fields, jacobian.weights))
 
 
+def _gmres_fourier(problem, rtol, atol):
+    """GMRES, Jacobian-vector products by CVODE's difference quotients, left-preconditioned by the
+    inverse of I - gamma A, A the x-average of the analytic sparse Jacobian (:mod:`.xfourier`)."""
+    from .xfourier import xfourier_preconditioner
+
+    jacobian = problem.jacobian
+    return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
+                precond=xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights))
+
+
 def _superlu(problem, rtol, atol):
     """SuperLU_MT on the fixed pattern, analytic values."""
     values = _pattern_values(problem.jacobian.jac, problem.jacobian.sparsity)
@@ -230,6 +241,7 @@ def _superlu(problem, rtol, atol):
 #: linear solver named by :func:`icidr_pde.engines.choose.choose` -> scikit-sundae's options
 LINEAR_SOLVERS = {"band LU": _band_lu, "dense LU (LAPACK)": _dense_lapack, "dense LU": _dense_quotients,
                   "GMRES": _gmres, "GMRES (line preconditioner in thin cells)": _gmres, AMG_SOLVER: _gmres_amg,
+                  FOURIER_SOLVER: _gmres_fourier,
                   "SuperLU_MT": _superlu}
 
 
