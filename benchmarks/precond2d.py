@@ -1,7 +1,7 @@
 """Preconditioners of CVODE's Newton matrix M = I - gamma J for the 2-D cell, against N.
 
 J is the analytic sparse Jacobian (:meth:`ShearCell2DPDE.make_jacobian`) of iCIDR bump2d at
-t = 0 on N^2 cells, gamma a typical BDF step coefficient (``--gamma``, default 0.05: the
+t = 0 on N^2 cells (``--time T``: at the state the default run reaches at t = T), gamma a typical BDF step coefficient (``--gamma``, default 0.05: the
 steps of bump2d to t = 10 are 0.01-0.2). For each preconditioner: the set-up time (one
 factorisation, CPU time of this process: wall times on a loaded machine mean little), its fill (nnz of the factors over nnz(M)), and GMRES(20) (scipy) on
 M x = b (b random, fixed seed) to a relative residual 1e-6: iterations and solve time.
@@ -16,12 +16,14 @@ M x = b (b random, fixed seed) to a relative residual 1e-6: iterations and solve
   (the 3 fields of a cell one BSR block, constant fields as near-null space), and the one CVODE
   uses (``--jacobian amg``, :class:`icidr_pde.engines.amg.AmgHierarchy`: nodal aggregation,
   unsmoothed prolongators, one block Gauss-Seidel sweep on the cells' 3 x 3 blocks before and
-  after, compiled).
+  after, compiled);
+* the x-Fourier preconditioner (``--jacobian fourier``, :class:`icidr_pde.engines.xfourier.XFourierPreconditioner`:
+  the exact inverse of I - gamma A, A the x-average of J, by the FFT in x and banded LUs in z).
 
-Only the z-line and the last AMG are wired into the integrator; ``--amg-only`` measures the
+Only the z-line, the last AMG and the x-Fourier are wired into the integrator; ``--amg-only`` measures the
 AMG rows alone (SuperLU's factors at 256^2 would take ~2 GB).
 
-    nice -n 5 python benchmarks/precond2d.py [--sizes 64 128 256] [--amg-only]
+    nice -n 5 python benchmarks/precond2d.py [--sizes 64 128 256] [--amg-only] [--time 0.5]
 """
 
 import argparse
@@ -38,12 +40,17 @@ from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.scenes2d import Bump2DScene
 
 
-def newton_matrix(n: int, gamma: float):
+def newton_matrix(n: int, gamma: float, t: float = 0.0):
     pde = ShearCell2DPDE("icidr")
     grid = pde.make_grid((n, n), 30.0)
     scene = Bump2DScene()
     state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
-    J = pde.make_jacobian(state)(0.0, state.data.ravel())
+    if t > 0:
+        from icidr_pde import run
+
+        r = run("icidr", "bump2d", (n, n), t, [f"{t:g}"], series_times=[])
+        state = pde.make_state(grid, r.phi[-1], r.u[-1], r.w[-1])
+    J = pde.make_jacobian(state)(t, state.data.ravel())
     M = sparse.csc_matrix(sparse.identity(J.shape[0]) - gamma * J)
     cartesian2d_core.THIN_CELL = 0.0
     line = pde.line_pattern(state)
@@ -97,11 +104,22 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
     setup = time.process_time() - start
     rows.append({"N": n, "preconditioner": "AMG as wired (--jacobian amg)", "setup_s": setup,
                  "fill": sum(h.level(level).count_nonzero() for level in range(len(h.sizes))) / M.nnz, **gmres_with(M, h.vcycle, b)})
-    return rows
+    return rows + [fourier_row(n, gamma, J)]
 
 
-def measure(n: int, gamma: float, amg_only: bool = False) -> list[dict]:
-    M, M_line = newton_matrix(n, gamma)
+def fourier_row(n: int, gamma: float, J) -> dict:
+    """The x-Fourier preconditioner as wired; fill: its banded factors' entries over nnz(M)."""
+    from icidr_pde.engines.xfourier import XFourierPreconditioner
+
+    start = time.process_time()
+    P = XFourierPreconditioner(J, (3, n, n), gamma)
+    setup = time.process_time() - start
+    return {"N": n, "preconditioner": "x-Fourier as wired (--jacobian fourier)", "setup_s": setup,
+            "fill": P.lu.size / J.nnz, **gmres_with(sparse.identity(J.shape[0]) - gamma * J, P.solve, np.random.default_rng(1).standard_normal(J.shape[0]))}
+
+
+def measure(n: int, gamma: float, amg_only: bool = False, t: float = 0.0) -> list[dict]:
+    M, M_line = newton_matrix(n, gamma, t)
     b = np.random.default_rng(1).standard_normal(M.shape[0])
     rows = [{"N": n, "preconditioner": "none", "setup_s": 0.0, "fill": 1.0, **gmres_with(M, lambda v: v, b)}]
     if amg_only:
@@ -122,14 +140,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256])
     parser.add_argument("--gamma", type=float, default=0.05)
-    parser.add_argument("--amg-only", action="store_true", help="no preconditioner and the AMG rows only")
+    parser.add_argument("--amg-only", action="store_true", help="no preconditioner, the AMG and x-Fourier rows only")
+    parser.add_argument("--time", type=float, default=0.0, help="the Jacobian at the state of the run at this time")
     parser.add_argument("--json", default="data/benchmarks/precond2d.json")
     args = parser.parse_args()
     rows = []
     print("| grid | preconditioner | set-up [s] | fill | GMRES(20) iterations | solve [s] |")
     print("| --- | --- | --- | --- | --- | --- |")
     for n in args.sizes:
-        for r in measure(n, args.gamma, args.amg_only):
+        for r in measure(n, args.gamma, args.amg_only, args.time):
             rows.append(r)
             iters = f"{r['iterations']}" + ("" if r["converged"] else " (not converged)")
             print(f"| {n}² | {r['preconditioner']} | {r['setup_s']:.3f} | {r['fill']:.1f} | {iters} | {r['solve_s']:.3f} |",
@@ -137,9 +156,9 @@ def main():
     path = pathlib.Path(args.json)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"gamma": args.gamma, "rows": rows,
+    tmp.write_text(json.dumps({"gamma": args.gamma, "time": args.time, "rows": rows,
                                "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"
-                                          + (" --amg-only" if args.amg_only else "")},
+                                          + (" --amg-only" if args.amg_only else "") + f" --time {args.time:g}"},
                               indent=1))
     tmp.replace(path)
 

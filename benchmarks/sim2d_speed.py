@@ -1,18 +1,20 @@
 """Speed of the 2-D shear cell: iCIDR on bump2d to t = 10, whole process and solve.
 
-For each grid N^2 (default 32, 64; 128 and 256 with the fast path only) runs, as separate whole
-processes of the command line (imports, kernel loading or compilation included),
+For each grid N^2 (default 32, 64; 128 and 256 without the baseline; --large grids with the
+default alone) runs, as separate whole processes of the command line (imports, kernel loading or
+compilation included), all on the py-pde path (``--engine pde``; 'auto' takes the native engine
+to 64^2: benchmarks/native2d_speed.py compares the two),
 
-* the fast path: ``--method CVODE`` (SUNDIALS BDF, matrix-free GMRES Krylov solver) with the
-  2-D default advection (central, second order);
-* the same with ``--advection upwind`` (first order, the default before issue 23);
-* the same with ``--jacobian amg`` (GMRES preconditioned by one algebraic-multigrid V-cycle on
-  I - gamma J, :mod:`icidr_pde.engines.amg`);
+* the default: ``--method CVODE`` (SUNDIALS BDF) with GMRES preconditioned by the x-averaged
+  Jacobian (:mod:`icidr_pde.engines.xfourier`), the 2-D default advection (central, second order);
+* GMRES without a preconditioner (``--jacobian krylov``, the default before it);
+* the default with ``--advection upwind`` (first order, the default before issue 23);
+* GMRES preconditioned by one algebraic-multigrid V-cycle (``--jacobian amg``, :mod:`icidr_pde.engines.amg`);
 * the baseline: ``--method BDF --jacobian colored-fd`` (scipy's BDF with a sparse
   finite-difference Jacobian, colored, well-scaled increments, SuperLU);
 
-and a reference on the same grid (CVODE, rtol 1e-8, atol 1e-11; 1e-7, 1e-10 on the
---fast-only grids) for the accuracy figure
+and a reference on the same grid (the default at rtol 1e-8, atol 1e-11; 1e-7, 1e-10 on the
+--fast-only and --large grids, none with --no-large-reference) for the accuracy figure
 beside each timing: the largest error of max_w, max_phi_dev and l2_velocity at
 t = 0.5, 1, 2, 5, 10 relative to the reference value (the time-integration error), and the
 grid error: the largest relative error of max_w at those times against the Richardson
@@ -21,11 +23,9 @@ the solve (JSON ``wall_s``), peak resident memory of the process (wait4's ru_max
 Prints a table and the ratio baseline/fast measured in this run; writes
 data/benchmarks/sim2d_speed.json.
 
-    nice -n 10 python benchmarks/sim2d_speed.py [--sizes 32 64] [--fast-only 128 256] [--amg-only 512 1024]
+    nice -n 10 python benchmarks/sim2d_speed.py [--sizes 32 64] [--fast-only 128 256] [--large 512 1024]
 
-On the --amg-only grids (512^2 and above) the fast path is GMRES + AMG, GMRES alone is the
-baseline (stopped after --timeout seconds), and the reference is GMRES + AMG at rtol 1e-7
-(none with --no-amg-reference).
+A run longer than --timeout seconds is stopped and reported as not finished.
 """
 
 import argparse
@@ -44,15 +44,15 @@ QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 #: benchmarks/native2d_speed.py compares the two)
 CONFIGS = {
     "fast": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--engine", "pde"],
+    "fast-gmres": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--jacobian", "krylov", "--engine", "pde"],
     "fast-upwind": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--advection", "upwind", "--engine", "pde"],
     "fast-amg": ["--method", "CVODE", "--rtol", "1e-5", "--atol", "1e-8", "--jacobian", "amg", "--engine", "pde"],
     "baseline": ["--method", "BDF", "--jacobian", "colored-fd", "--rtol", "1e-5", "--atol", "1e-8"],
     "reference": ["--method", "CVODE", "--rtol", "1e-8", "--atol", "1e-11", "--engine", "pde"],
     "reference-fast-only": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10", "--engine", "pde"],  # cheaper, for 256^2
-    "reference-amg": ["--method", "CVODE", "--rtol", "1e-7", "--atol", "1e-10", "--jacobian", "amg", "--engine", "pde"],
 }
-LABELS = {"fast": "CVODE, GMRES, central", "fast-upwind": "CVODE, GMRES, upwind",
-          "fast-amg": "CVODE, GMRES + AMG, central",
+LABELS = {"fast": "CVODE, GMRES + x-Fourier, central", "fast-gmres": "CVODE, GMRES alone, central",
+          "fast-upwind": "CVODE, GMRES + x-Fourier, upwind", "fast-amg": "CVODE, GMRES + AMG, central",
           "baseline": "scipy BDF, colored sparse FD J"}
 RICHARDSON = pathlib.Path("data") / "sim2d" / "richardson.json"
 
@@ -123,37 +123,36 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="*", default=[32, 64])
     parser.add_argument("--fast-only", type=int, nargs="*", default=[128, 256],
                         help="grids timed with the fast path only (the baseline takes > 10 min at 128^2)")
-    parser.add_argument("--amg-only", type=int, nargs="*", default=[],
-                        help="grids timed with GMRES + AMG and GMRES alone (within --timeout), the reference "
-                             "(rtol 1e-7) with AMG: for 512^2 and above")
+    parser.add_argument("--large", type=int, nargs="*", default=[],
+                        help="grids timed with the default alone (and its reference at rtol 1e-7): 512^2 and above")
     parser.add_argument("--timeout", type=float, default=1200.0,
-                        help="seconds after which GMRES alone on an --amg-only grid is stopped (reported as not finished)")
-    parser.add_argument("--no-amg-reference", action="store_true",
-                        help="no reference run on the --amg-only grids (error then '–'; the grid error stays)")
+                        help="seconds after which a run is stopped (reported as not finished)")
+    parser.add_argument("--no-large-reference", action="store_true",
+                        help="no reference run on the --large grids (error then '–'; the grid error stays)")
     parser.add_argument("--configs", nargs="+", choices=tuple(LABELS),
                         help="time only these configurations (default: all of each grid's kind)")
     parser.add_argument("--json", default="data/benchmarks/sim2d_speed.json")
     args = parser.parse_args()
     rows = []
-    for n in args.sizes + args.fast_only + args.amg_only:
-        if n in args.amg_only:
-            reference, configs = "reference-amg", ("fast-amg", "fast")
+    for n in args.sizes + args.fast_only + args.large:
+        if n in args.large:
+            reference, configs = "reference-fast-only", ("fast",)
         elif n in args.fast_only:
-            reference, configs = "reference-fast-only", ("fast", "fast-upwind", "fast-amg")
+            reference, configs = "reference-fast-only", ("fast", "fast-gmres", "fast-upwind", "fast-amg")
         else:
-            reference, configs = "reference", ("fast", "fast-upwind", "fast-amg", "baseline")
+            reference, configs = "reference", ("fast", "fast-gmres", "fast-upwind", "fast-amg", "baseline")
         configs = tuple(c for c in configs if args.configs is None or c in args.configs)
         row = {"N": n, "reference_config": reference}
         for config in configs:  # the reference after them: the fast paths first where a grid may not finish
-            row[config] = whole_process(n, config, timeout=args.timeout if n in args.amg_only and config == "fast" else None)
+            row[config] = whole_process(n, config, timeout=args.timeout)
             if row[config] is None:
                 print(f"{n}^2 {config}: not finished within {args.timeout:.0f} s", flush=True)
                 row[config] = {"not_finished_within_s": args.timeout}
                 continue
             print(f"{n}^2 {config}: {row[config]['process_s']:.1f} s process, {row[config]['solve_s']:.2f} s solve, "
                   f"{row[config]['max_rss_mb']:.0f} MB", flush=True)
-        skip = n in args.amg_only and args.no_amg_reference
-        ref = row["reference"] = None if skip else whole_process(n, reference)
+        skip = n in args.large and args.no_large_reference
+        ref = row["reference"] = None if skip else whole_process(n, reference, timeout=args.timeout)
         for config in configs:
             if "not_finished_within_s" in row[config]:
                 continue
@@ -164,21 +163,21 @@ def main():
         rows.append(row)
     print("\niCIDR bump2d to t = 10 (error: largest relative error of max_w, max_phi_dev, l2_velocity at "
           "t = 0.5 ... 10 against CVODE rtol 1e-8 on the same grid)")
-    print("| grid | method | process [s] | solve [s] | peak RSS [MB] | error | grid error max_w | solve ratio |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| grid | method | process [s] | process CPU [s] | solve [s] | peak RSS [MB] | error | grid error max_w | solve ratio |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for row in rows:
         for config, label in LABELS.items():
-            if config not in row:
+            if config not in row or row[config] is None:
                 continue
             r = row[config]
             if "not_finished_within_s" in r:
-                print(f"| {row['N']}² | {label} | > {r['not_finished_within_s']:.0f} | – | – | – | – | – |")
+                print(f"| {row['N']}² | {label} | > {r['not_finished_within_s']:.0f} | – | – | – | – | – | – |")
                 continue
             fast = row.get("fast", {}).get("solve_s")
             ratio = f"{r['solve_s'] / fast:.1f}" if fast else "–"
             err = "–" if r["error"] is None else f"{r['error']:.1e}"
             gerr = "–" if r["grid_error"] is None else f"{r['grid_error']:.1%}"
-            print(f"| {row['N']}² | {label} | {r['process_s']:.1f} | {r['solve_s']:.2f} | {r['max_rss_mb']:.0f} | "
+            print(f"| {row['N']}² | {label} | {r['process_s']:.1f} | {r['process_cpu_s']:.1f} | {r['solve_s']:.2f} | {r['max_rss_mb']:.0f} | "
                   f"{err} | {gerr} | {ratio} |")
     path = pathlib.Path(args.json)
     path.parent.mkdir(parents=True, exist_ok=True)

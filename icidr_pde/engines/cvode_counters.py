@@ -29,7 +29,7 @@ _COUNTERS = {"steps": "CVodeGetNumSteps", "rhs": "CVodeGetNumRhsEvals", "lu": "C
              "newton_iterations": "CVodeGetNumNonlinSolvIters",
              "newton_failures": "CVodeGetNumNonlinSolvConvFails",
              "linear_iterations": "CVodeGetNumLinIters", "preconditioner_setups": "CVodeGetNumPrecEvals",
-             "preconditioner_solves": "CVodeGetNumPrecSolves"}
+             "preconditioner_solves": "CVodeGetNumPrecSolves", "linear_failures": "CVodeGetNumLinConvFails"}
 
 
 def _library():
