@@ -33,7 +33,7 @@ from scipy import sparse
 
 from ..validation import ParameterError
 from .amg_kernels import set_gamma, vcycle
-from .precond import mass_keeping_precond
+from .precond import jacobian_precond
 
 __all__ = ["AmgHierarchy", "amg_preconditioner"]
 
@@ -151,6 +151,8 @@ class AmgHierarchy:
                self.Dinv, self.agg, self.Pb, self.coarse_inv, self.x, self.b)
         return z
 
+    solve = vcycle  # the preconditioner's application (engines.precond.jacobian_precond)
+
 
 def _blocks(A) -> sparse.bsr_matrix:
     """A (node-major unknowns) as sorted 3 x 3 blocks, every diagonal block stored (zero where A
@@ -179,16 +181,4 @@ def amg_preconditioner(jac, fields: int, weights=None):
     J and the aggregation are rebuilt when CVODE asks for a new Jacobian (jok false), the level
     operators whenever gamma changes. With `weights` the output keeps c z = c r (module notes).
     """
-    saved = {}
-
-    def setup(t, y, gamma, jok):
-        if not jok or "hierarchy" not in saved:
-            saved["hierarchy"] = AmgHierarchy(jac(t, np.array(y)), fields, gamma)
-            return True
-        saved["hierarchy"].at(gamma)
-        return False
-
-    def solve(r, z):
-        saved["hierarchy"].vcycle(r, out=z)
-
-    return mass_keeping_precond(setup, solve, weights)
+    return jacobian_precond(jac, lambda J, gamma: AmgHierarchy(J, fields, gamma), weights)

@@ -9,7 +9,34 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mass_keeping_precond"]
+__all__ = ["mass_keeping_precond", "jacobian_precond"]
+
+
+def jacobian_precond(jac, build, weights=None):
+    """CVODE's left preconditioner built from the analytic Jacobian.
+
+    Args:
+        jac: the analytic sparse Jacobian jac(t, y)
+        build: build(J, gamma) -> an inverse of I - gamma J, or its approximation, with methods
+            ``at(gamma)`` (the same J at another gamma) and ``solve(r, out)`` (z into `out`)
+        weights: the mass weights c (c J = 0), or None (:func:`mass_keeping_precond`)
+
+    J, and what is built from it, is rebuilt when CVODE asks for a new Jacobian (jok false);
+    otherwise only gamma is updated.
+    """
+    saved = {}
+
+    def setup(t, y, gamma, jok):
+        if not jok or "inverse" not in saved:
+            saved["inverse"] = build(jac(t, np.array(y)), gamma)
+            return True
+        saved["inverse"].at(gamma)
+        return False
+
+    def solve(r, z):
+        saved["inverse"].solve(r, out=z)
+
+    return mass_keeping_precond(setup, solve, weights)
 
 
 def mass_keeping_precond(setup, solve, weights=None):

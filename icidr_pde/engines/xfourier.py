@@ -31,7 +31,7 @@ from scipy import sparse
 from scipy.linalg import lapack
 
 from ..validation import ParameterError
-from .precond import mass_keeping_precond
+from .precond import jacobian_precond
 
 __all__ = ["XFourierPreconditioner", "xfourier_preconditioner"]
 
@@ -113,16 +113,23 @@ class XFourierPreconditioner:
 
 
 @njit(cache=True)
+def _coupling(row, col, fields, nx, nz):
+    """(q, q' - q, dx) of the coupling of unknown `row` to unknown `col` (class notes)."""
+    f_row, cell = divmod(row, nx * nz)
+    x_row, z_row = divmod(cell, nz)
+    f_col, cell = divmod(col, nx * nz)
+    x_col, z_col = divmod(cell, nz)
+    q = fields * z_row + f_row
+    return q, fields * z_col + f_col - q, (x_col - x_row + nx // 2) % nx - nx // 2
+
+
+@njit(cache=True)
 def _reach(indptr, indices, fields, nx, nz, out):
     """out = (largest |band offset| along z, largest |x offset|) of the CSC pattern's couplings."""
     for col in range(indptr.size - 1):
-        f_col, cell = divmod(col, nx * nz)
-        x_col, z_col = divmod(cell, nz)
         for e in range(indptr[col], indptr[col + 1]):
-            f_row, cell = divmod(indices[e], nx * nz)
-            x_row, z_row = divmod(cell, nz)
-            dx = (x_col - x_row + nx // 2) % nx - nx // 2
-            out[0] = max(out[0], abs(fields * (z_col - z_row) + f_col - f_row))
+            _, band, dx = _coupling(indices[e], col, fields, nx, nz)
+            out[0] = max(out[0], abs(band))
             out[1] = max(out[1], abs(dx))
 
 
@@ -130,14 +137,9 @@ def _reach(indptr, indices, fields, nx, nz, out):
 def _x_average(indptr, indices, data, fields, nx, nz, band, reach, out):
     """out[q, band + q' - q, reach + dx] += J / Nx over the CSC entries (module and class notes)."""
     for col in range(indptr.size - 1):
-        f_col, cell = divmod(col, nx * nz)
-        x_col, z_col = divmod(cell, nz)
         for e in range(indptr[col], indptr[col + 1]):
-            f_row, cell = divmod(indices[e], nx * nz)
-            x_row, z_row = divmod(cell, nz)
-            dx = (x_col - x_row + nx // 2) % nx - nx // 2
-            q = fields * z_row + f_row
-            out[q, band + fields * z_col + f_col - q, reach + dx] += data[e] / nx
+            q, offset, dx = _coupling(indices[e], col, fields, nx, nz)
+            out[q, band + offset, reach + dx] += data[e] / nx
 
 
 @njit(cache=True)
@@ -174,16 +176,4 @@ def xfourier_preconditioner(jac, shape, weights=None):
     The x-average is rebuilt when CVODE asks for a new Jacobian (jok false), the factors whenever
     gamma changes. With `weights` the output keeps c z = c r (module notes).
     """
-    saved = {}
-
-    def setup(t, y, gamma, jok):
-        if not jok or "inverse" not in saved:
-            saved["inverse"] = XFourierPreconditioner(jac(t, np.array(y)), shape, gamma)
-            return True
-        saved["inverse"].at(gamma)
-        return False
-
-    def solve(r, z):
-        saved["inverse"].solve(r, out=z)
-
-    return mass_keeping_precond(setup, solve, weights)
+    return jacobian_precond(jac, lambda J, gamma: XFourierPreconditioner(J, shape, gamma), weights)
