@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 
 from icidr_pde.api import run
 from icidr_pde.outputs import write_json
-from icidr_pde.studies.sim2d import QUANTITIES, SETTINGS, TIMES
+from icidr_pde.studies.sim2d import QUANTITIES, SETTINGS, SOLVER_2D, TIMES
 
 DATA = pathlib.Path("data") / "sim2d"
 SIZES = (64, 96, 128)
@@ -48,7 +48,7 @@ def main() -> int:
            "command": "python benchmarks/richardson2d.py"}
     for scheme, path in STUDIES.items():
         study = json.loads(path.read_text())["runs"]
-        r96 = run("icidr", "bump2d", (96, 96), float(TIMES[-1]), list(TIMES), advection=scheme, **SETTINGS).to_dict()
+        r96 = run("icidr", "bump2d", (96, 96), float(TIMES[-1]), list(TIMES), advection=scheme, **SOLVER_2D, **SETTINGS).to_dict()
         runs = {"64": study["64"], "96": r96, "128": study["128"]}
         rows = {}
         for q in QUANTITIES:
