@@ -19,6 +19,9 @@ from icidr_pde.engines.xfourier import XFourierPreconditioner
 from icidr_pde.scenes2d import Bump2DScene
 from icidr_pde.validation import ParameterError
 
+#: one worker under pytest-xdist: the preconditioner's kernels compile once, not on both workers at once
+pytestmark = pytest.mark.xdist_group("xfourier")
+
 #: gammas of CVODE's steps on the 2-D cell (0.01-0.2) and beyond, where the band LU pivots
 GAMMAS = (0.01, 0.2, 2.0)
 
