@@ -18,6 +18,10 @@ from icidr_pde.engines.choose import AMG_SOLVER, SCHEME_STRUCTURES, choose
 from icidr_pde.scenes2d import Bump2DScene
 from icidr_pde.validation import ParameterError
 
+#: one worker under pytest-xdist: the AMG kernels (and the 2-D rates they precondition) compile once,
+#: not on both workers at the same time
+pytestmark = pytest.mark.xdist_group("amg")
+
 TIMES = ["0.5", "1", "2", "5", "10"]
 
 

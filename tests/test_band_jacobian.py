@@ -8,6 +8,10 @@ from icidr_pde.case import build_case
 
 from .oracles import oracle_rhs
 
+#: one worker under pytest-xdist: the banded Jacobian kernels compile once, not on both workers at the
+#: same time
+pytestmark = pytest.mark.xdist_group("band_jacobian")
+
 
 @pytest.mark.parametrize("rheology, scene, advection", [("icidr", "sine", "upwind"), ("mui", "shear", "upwind"),
                                                          ("icidr", "shear", "central")])

@@ -17,6 +17,10 @@ from icidr_pde.discretizations.fd import ShearCellPDE
 from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
 from .oracles import oracle_rhs
 
+#: one worker under pytest-xdist: the 2-D kernels of each law and advection compile once, not on both
+#: workers at the same time
+pytestmark = pytest.mark.xdist_group("cartesian2d")
+
 H = L = 30.0
 
 

@@ -52,22 +52,25 @@ def test_a_sweep_as_tasks_gives_the_serial_t_star_bit_for_bit(client, serial_swe
 
 def test_tstar_on_a_scheduler_writes_the_serial_mapping(client, serial_sweep, tmp_path, capsys):
     out = tmp_path / "tstar.json"
-    code = main(["tstar", "--discretization", "cheb", "--N", "101,201", "--t-end", "20",
+    # N = 101 only: the N = 201 task is the sweep test's
+    code = main(["tstar", "--discretization", "cheb", "--N", "101", "--t-end", "20",
                  "--scheduler", client.scheduler.address, "--json", str(out)])
     assert code == 0
-    assert json.loads(out.read_text()) == {str(n): r["t_star"] for n, r in serial_sweep["cheb"].items()}
+    assert json.loads(out.read_text()) == {"101": serial_sweep["cheb"][101]["t_star"]}
     assert "dask dashboard: http" in capsys.readouterr().err
 
 
 def test_run_many_returns_results_in_order_with_failures_as_values(client):
-    cases = [dict(rheology="mui", scene="shear", N=201, t_end=0.05, discretization="cheb", method="BDF",
+    """A blow-up, a finished run and a failure, in the order given; the runs are the serial ones
+    (the anchor t* of Chebyshev N = 201 as a task: the sweep test above)."""
+    cases = [dict(rheology="mui", scene="shear", N=101, t_end=0.05, discretization="cheb", method="BDF",
                   rtol=1e-6, atol=1e-9, engine="pde"),
              dict(rheology="icidr", discretization="cheb", N=21, t_end=0.01, method="BDF", backend="numpy"),
              dict(rheology="no-such-law", N=21, t_end=0.01)]
     results = run_many(cases, client=client)
     assert [type(r) for r in results] == [Result, Result, TaskError]
     blown, finished, error = results
-    assert blown.blew_up and blown.t_star == pytest.approx(ANCHOR_TSTAR_CHEB_201, rel=1e-9)
+    assert blown.blew_up and 0 < blown.t_star < 0.05
     assert not finished.blew_up and finished.t_final == 0.01
     assert error.case == cases[2] and "no-such-law" in error.error and "Traceback" in error.traceback
     serial = run_many(cases[:2])

@@ -17,6 +17,10 @@ import pytest
 from icidr_pde import cli, kernel_cache
 from icidr_pde.rheology import codegen
 
+#: one worker under pytest-xdist: the module fixture (a native library compiled in a cache of its own)
+#: is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("kernel_cache_trust")
+
 OTHER_UID = 65534  # nobody: a second user, for the files a test plants
 
 

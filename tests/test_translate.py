@@ -14,6 +14,10 @@ from icidr_pde.native import FdCase, NativeUnavailable
 from icidr_pde.native.cheb import ChebCase
 from icidr_pde.native.translate import translate
 
+#: one worker under pytest-xdist: each law's numba kernels, the reference of the C text, compile once,
+#: not on both workers at the same time
+pytestmark = pytest.mark.xdist_group("native_translate")
+
 try:
     FdCase("icidr", "shear", 9).problem()
 except NativeUnavailable as err:  # no gcc or no SUNDIALS libraries: the py-pde path is tested elsewhere

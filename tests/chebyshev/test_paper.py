@@ -12,7 +12,8 @@ from icidr_pde.cli import main as cli_main
 PAPER_T_STAR = 0.01052  # fig 4(a) caption: Chebyshev N_z = 201 becomes non-convergent
 
 
-@pytest.mark.parametrize("atol", [1e-9, 1e-6])
+# atol 1e-6 in the slow run: the same t* within 5 % at the looser absolute tolerance
+@pytest.mark.parametrize("atol", [1e-9, pytest.param(1e-6, marks=pytest.mark.slow)])
 def test_chebyshev_N201_fails_at_the_papers_tstar(atol):
     # BDF at rtol 1e-6 (ode15s-like); the failure is the integrator's step-size underflow
     res = failure_time("mui", "shear", "cheb", 201, 0.1, method="BDF", rtol=1e-6, atol=atol)

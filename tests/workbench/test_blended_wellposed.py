@@ -25,6 +25,7 @@ def steady_P(psi, gdot):
     return gdot**2 * p_itm / (gdot**2 + psi**2 * p_itm)
 
 
+@pytest.mark.slow  # one report deciding (4.3) and (4.5) by sympy's simplification: 14-40 s on 2 cores
 def test_every_condition_holds_and_the_report_says_well_posed():
     # one report: it decides (4.3)-(4.5) and Y > 0 itself (each a symbolic simplification of ~20 s)
     report = wb.law_report("icidr-blended", with_curves=False)
@@ -50,6 +51,29 @@ def test_yield_increases_with_I_and_is_positive_from_strong_dilation_to_strong_c
     pv = r * steady_P(psi, g)
     Iv = g / np.sqrt(pv)
     assert np.all(Y_I(pv, Iv) > 0) and np.all(Y_n(pv, Iv) > 0)
+
+
+@pytest.mark.parametrize("psi", [0.3, 0.05, 0.0])
+def test_43_vanishes_and_45_is_negative_from_strong_dilation_to_strong_compaction(psi):
+    """(4.3) dY/dp - I/(2p) dY/dI = f + I df/dI to round-off, and (4.5) df/dp - I/(2p) df/dI < 0, by sympy's
+    derivatives of the law's Y and f on the grid of the (4.4) test; the symbol of the workbench's state grid
+    is negative in 1-D and 2-D (the whole report, which decides (4.3) and (4.5) by sympy, is in the slow run)."""
+    rheology = get_rheology("icidr-blended")
+    Y, f = rheology.symbolic_yield(symbolic_material=True)
+    p = pressure_symbol()
+    Y, f = (e.subs({s.M: 0.3, s.Psi: psi}) for e in (Y, f))
+    terms = [sp.diff(Y, p), -s.I / (2 * p) * sp.diff(Y, s.I), -f, -s.I * sp.diff(f, s.I)]
+    terms = [sp.lambdify((p, s.I), t, "numpy") for t in terms]
+    c45 = sp.lambdify((p, s.I), sp.diff(f, p) - s.I / (2 * p) * sp.diff(f, s.I), "numpy")
+    g, r = np.meshgrid(np.logspace(-8, 8, 161), np.logspace(-12, 12, 97))
+    pv = r * steady_P(psi, g)
+    Iv = g / np.sqrt(pv)
+    values = np.array([np.broadcast_to(t(pv, Iv), pv.shape) for t in terms])
+    assert np.all(np.abs(values.sum(axis=0)) <= 1e-9 * np.abs(values).sum(axis=0))
+    assert np.all(c45(pv, Iv) < 0)
+    if psi == 0.3:
+        grid = wb.symbol_grid(rheology).to_json()
+        assert grid["one_d"]["well_posed"] is True and grid["two_d"]["well_posed"] is True
 
 
 def _pressure_by_polyroots(phi, div_u, norm_S):

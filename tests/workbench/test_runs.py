@@ -12,7 +12,9 @@ from icidr_pde.cli import main
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "half_rate_law.py"
 
 
-@pytest.mark.parametrize("discretization", ["fd", "cheb"])
+# on Chebyshev too in the slow run (~7 s of compilation of the law on that scheme for this test alone);
+# the default run checks the law on finite volumes
+@pytest.mark.parametrize("discretization", ["fd", pytest.param("cheb", marks=pytest.mark.slow)])
 def test_blended_runs_beyond_phi_c_where_icidr_cannot(discretization):
     """phi0 = 0.83 > phi_c: iCIDR's pressure (4.12) is infinite there (rejected, naming phi0); the blended
     law runs, conserves mass, and the shear-cell perturbation decays."""
