@@ -104,10 +104,10 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
     setup = time.process_time() - start
     rows.append({"N": n, "preconditioner": "AMG as wired (--jacobian amg)", "setup_s": setup,
                  "fill": sum(h.level(level).count_nonzero() for level in range(len(h.sizes))) / M.nnz, **gmres_with(M, h.vcycle, b)})
-    return rows + [fourier_row(n, gamma, J)]
+    return rows + [fourier_row(n, gamma, J, M, b)]
 
 
-def fourier_row(n: int, gamma: float, J) -> dict:
+def fourier_row(n: int, gamma: float, J, M, b) -> dict:
     """The x-Fourier preconditioner as wired; fill: its banded factors' entries over nnz(M)."""
     from icidr_pde.engines.xfourier import XFourierPreconditioner
 
@@ -115,7 +115,7 @@ def fourier_row(n: int, gamma: float, J) -> dict:
     P = XFourierPreconditioner(J, (3, n, n), gamma)
     setup = time.process_time() - start
     return {"N": n, "preconditioner": "x-Fourier as wired (--jacobian fourier)", "setup_s": setup,
-            "fill": P.lu.size / J.nnz, **gmres_with(sparse.identity(J.shape[0]) - gamma * J, P.solve, np.random.default_rng(1).standard_normal(J.shape[0]))}
+            "fill": P.lu.size / M.nnz, **gmres_with(M, P.solve, b)}
 
 
 def measure(n: int, gamma: float, amg_only: bool = False, t: float = 0.0) -> list[dict]:

@@ -126,9 +126,7 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
             mode = "krylov" if discretization == "fv2d" else "analytic"
             return Choice("native", mode, NATIVE_SCHEMES[discretization])
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
-    mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure)
-    if mode == "fourier" and jacobian is None and thin_cell:  # x-coupling weak: the line preconditioner
-        mode = "krylov"
+    mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure, thin_cell)
     return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
 
 
@@ -172,9 +170,10 @@ def _not_native_2d(thin_cell, cells) -> str:
     return ""
 
 
-def _jacobian_mode(valid, method, jacobian, structure) -> str:
+def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
     """The Jacobian mode: the one asked for (checked against the method's and the scheme's),
-    else the method's best on this structure."""
+    else the method's best on this structure (on a thin 2-D cell, whose x-coupling is weak, GMRES
+    with the line preconditioner rather than the x-Fourier one)."""
     if jacobian is not None and jacobian not in valid:
         raise ParameterError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
     mode = valid[0] if jacobian is None else jacobian
@@ -187,7 +186,7 @@ def _jacobian_mode(valid, method, jacobian, structure) -> str:
         # no banded ordering: Krylov where the Jacobian is sparse (2-D), preconditioned by the
         # x-average of the analytic one where there is one (the 2-D cell), else dense analytic (Chebyshev)
         mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
-        if mode == "krylov" and structure.amg and "fourier" in valid:
+        if mode == "krylov" and structure.amg and "fourier" in valid and not thin_cell:
             mode = "fourier"
     if mode in PRECONDITIONED and not structure.amg:
         raise ParameterError(f"`jacobian`={mode!r} (GMRES preconditioned by {PRECONDITIONED[mode]}) needs the "

@@ -13,7 +13,7 @@ depends on x it is the exact inverse of an approximation whose error is the coef
 departure from their x-average, which does not grow with the grid: on iCIDR bump2d GMRES(20)
 to 1e-6 at gamma = 0.05 takes 4-6 iterations at 64^2 and 128^2 from t = 0.5 on (the bump has
 spread; 21 and 30 at t = 0.1, 40 and 71 at t = 0 where the bump is sharpest), against 51 and
-113 without a preconditioner (benchmarks/precond2d.py).
+113 without a preconditioner (benchmarks/precond2d.py --amg-only --time 0, 0.1, 0.5).
 
 * The factors are rebuilt from the averaged coefficients whenever gamma changes (Nx / 2 + 1
   banded LUs), the average whenever CVODE asks for a new Jacobian.
