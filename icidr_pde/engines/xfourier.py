@@ -26,7 +26,7 @@ spread; 21 and 30 at t = 0.1, 40 and 71 at t = 0 where the bump is sharpest), ag
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy import sparse
 from scipy.linalg import lapack
 
@@ -142,13 +142,14 @@ def _x_average(indptr, indices, data, fields, nx, nz, band, reach, out):
             out[q, band + offset, reach + dx] += data[e] / nx
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _band_solve(lu, reciprocal, pivots, kl, ku, b):
     """b[k] = A_k^-1 b[k] for LAPACK's banded LU factors (zgbtrf) of each A_k, `reciprocal` the
-    inverses of U's diagonal: zgbtrs, no transpose."""
+    inverses of U's diagonal: zgbtrs, no transpose. The wave numbers are independent: numba's
+    threads share them (NUMBA_NUM_THREADS)."""
     modes, m = b.shape
     kd = kl + ku
-    for k in range(modes):
+    for k in prange(modes):
         x = b[k]
         a = lu[k]
         for j in range(m - 1):  # L: row interchanges and the unit lower band
