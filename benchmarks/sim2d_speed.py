@@ -158,8 +158,9 @@ def main():
                 continue
             row[config]["error"] = error(row[config], ref) if config != "fast-upwind" and ref else None
             row[config]["grid_error"] = grid_error(row[config])
-            print(f"{n}^2 {config}: error {row[config]['error'] or 0:.1e}, "
-                  f"grid error {row[config]['grid_error'] or 0:.1e}", flush=True)
+            err, gerr = (row[config][k] for k in ("error", "grid_error"))
+            print(f"{n}^2 {config}: error {'none (no reference)' if err is None else f'{err:.1e}'}, "
+                  f"grid error {'none' if gerr is None else f'{gerr:.1e}'}", flush=True)
         rows.append(row)
     print("\niCIDR bump2d to t = 10 (error: largest relative error of max_w, max_phi_dev, l2_velocity at "
           "t = 0.5 ... 10 against CVODE rtol 1e-8 on the same grid)")
