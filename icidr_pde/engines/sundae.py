@@ -101,12 +101,7 @@ class CvodeEngine(Engine):
         self.t, self.y, self.njev = t0, np.array(problem.y0), 0
 
     def _rhsfn(self, problem):
-        fun_into = problem.fun_into
-        if fun_into is None:
-            fun = problem.fun
-
-            def fun_into(t, y, yp):
-                yp[:] = fun(t, y)
+        fun_into = _into(problem)
 
         def rhsfn(t, y, yp):
             try:
@@ -219,13 +214,28 @@ def _gmres_amg(problem, rtol, atol):
 
 
 def _gmres_fourier(problem, rtol, atol):
-    """GMRES, Jacobian-vector products by CVODE's difference quotients, left-preconditioned by the
-    inverse of I - gamma A, A the x-average of the analytic sparse Jacobian (:mod:`.xfourier`)."""
+    """GMRES, Jacobian-vector products by difference quotients with a small increment
+    (:mod:`.jacobian_vector`), left-preconditioned by the inverse of I - gamma A, A the x-average
+    of the analytic sparse Jacobian (:mod:`.xfourier`)."""
+    from .jacobian_vector import difference_jtimes
     from .xfourier import xfourier_preconditioner
 
     jacobian = problem.jacobian
     return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
-                precond=xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights))
+                precond=xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights),
+                jactimes=difference_jtimes(_into(problem), len(problem.y0)))
+
+
+def _into(problem):
+    """fun_into(t, y, out) of `problem` (wrapping its `fun` where it has none)."""
+    if problem.fun_into is not None:
+        return problem.fun_into
+    fun = problem.fun
+
+    def fun_into(t, y, out):
+        out[:] = fun(t, y)
+
+    return fun_into
 
 
 def _superlu(problem, rtol, atol):
