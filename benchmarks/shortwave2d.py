@@ -8,7 +8,7 @@ a_k(t) = || rfft_x(f - <f>_x)[k, :] ||_2 over z, and the growth rate
 log(a_k(t1) / a_k(t0)) / (t1 - t0) between the first and last snapshot. The bump itself lives in
 k <= 8; the integration error seeds every k at about the tolerance, so a positive rate at large k
 is a growth the run resolves, not the initial condition. The steps the run took are printed with
-it: at 1024^2 the short waves limit CVODE's step (docs/scaling.md).
+it (docs/scaling.md).
 
     nice -n 5 python benchmarks/shortwave2d.py --sizes 256 512 [--advection central upwind] [--json F]
 """
@@ -16,6 +16,7 @@ it: at 1024^2 the short waves limit CVODE's step (docs/scaling.md).
 import argparse
 import json
 import pathlib
+import sys
 
 import numpy as np
 
@@ -62,9 +63,8 @@ def main():
     if args.json:
         path = pathlib.Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"rows": rows, "command": "python benchmarks/shortwave2d.py "
-                                    + " ".join(f"--{k.replace('_', '-')} {' '.join(map(str, v)) if isinstance(v, list) else v}"
-                                               for k, v in vars(args).items() if v is not None)}, indent=1))
+        command = "python benchmarks/shortwave2d.py " + " ".join(sys.argv[1:])
+        path.write_text(json.dumps({"rows": rows, "command": command}, indent=1))
 
 
 if __name__ == "__main__":
