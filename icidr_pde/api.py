@@ -189,7 +189,7 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
         wall_s=outcome.wall_s, compile_s=outcome.compile_s, cpu_s=outcome.cpu_s, n_steps=n_steps, n_rhs=n_rhs,
         n_jac=n_jac, n_lu=n_lu, scene_params=scene.parameters(), material=material,
         settings=dict(accuracy=accuracy, **options, engine=choice.engine, linear_solver=choice.linear_solver,
-                      jacobian=choice.jacobian, ranks=int(ranks)),
+                      jacobian=choice.jacobian, max_order=choice.max_order, ranks=int(ranks)),
         **chi_kwargs, **(plane or {}),
     )
 
@@ -207,6 +207,7 @@ def run(
     rtol: float | None = None,
     atol: float | None = None,
     jacobian: str | None = None,
+    max_order: int | None = None,
     material: Material | None = None,
     advection: str | None = None,
     progress: bool = False,
@@ -239,6 +240,10 @@ def run(
         method: 'BDF', 'Radau', 'LSODA' (scipy) or 'CVODE' (SUNDIALS, the fast path)
         rtol, atol: integrator tolerances
         jacobian: 'analytic', 'sparse-fd', 'banded-fd' or 'none' (None: the method's default)
+        max_order: the highest BDF order (1-5) of CVODE and PETSc; None: 2 on the 2-D cell (A-stable:
+            no advected wave that the continuum damps is amplified), 5 on the 1-D cells (their
+            spectrum lies inside BDF5's stability sector); a higher order on the 2-D cell, or scipy's
+            BDF/LSODA there (no cap), is run with a warning (:func:`~icidr_pde.engines.choose.time_order`)
         material: laws and parameters (default Table 1)
         advection: 'upwind' or 'central' (an option of 'fd'; None: the scheme's default)
         progress: show a progress bar (tqdm.auto; see :class:`~icidr_pde.progress.TimeBar`)
@@ -285,9 +290,11 @@ def run(
                                         ("a wall-clock limit", max_wall)) if value]
     ask = dict(method=settings["method"], jacobian=jacobian, discretization=settings["discretization"],
                structure=SCHEME_STRUCTURES.get(settings["discretization"], JacobianStructure()), request=engine,
-               outputs=outputs, backend=backend, dim=2 if two_d else 1,
+               outputs=outputs, backend=backend, dim=2 if two_d else 1, max_order=max_order,
                **(_plane_grid(scene, settings["N"], scene_params) if two_d else {}))
     choice = choose(**ask)
+    if choice.warning:
+        sys.stderr.write(f"icidr-pde: warning: {choice.warning}\n")
     if choice.engine == "native":
         from .native import NativeUnavailable
 
@@ -573,14 +580,14 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
 
     def make_engine():
         return NativeEngine("CVODE", problem, 0.0, case.y0, rtol=settings["rtol"], atol=settings["atol"],
-                            check=case.check_state, linear_solver=choice.linear_solver)
+                            check=case.check_state, linear_solver=choice.linear_solver, max_order=choice.max_order)
 
     out, n_done, failure, engine, _ = _drive(view, make_engine, sched, t_end, bar)
     wall, cpu = _time.perf_counter() - start, _time.process_time() - cpu_start
     outcome = _outcome(view, engine, out, n_done, failure, t_end, wall, compile_s, cpu)
     counts = problem.counts()
     if engine is not None:  # the linear solver the compiled problem set up
-        choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
+        choice = choice.solved_by(engine.linear_solver)
     recorded = _recorded(view, sched, out, n_done)
     return assemble(rheology=case.rheology.name, scene=case.scene, discretization=case.discretization, N=case.N,
                     z=case.z, mass=case.mass, material=case.rheology.material.to_dict(), t_end=t_end,
@@ -627,7 +634,8 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
 
     def make_engine():
         return engine_class(choice.engine)(settings["method"], problem, 0.0, rtol=settings["rtol"],
-                                           atol=settings["atol"], linear_solver=choice.linear_solver)
+                                           atol=settings["atol"], linear_solver=choice.linear_solver,
+                                           max_order=choice.max_order)
 
     out, n_done, failure, engine, recording = _drive(view, make_engine, sched, t_end, bar, recorders)
     wall = _time.perf_counter() - start - compile_s
@@ -641,7 +649,7 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
         method = PETSC_METHOD
     if engine is not None:
         stats.n_steps, stats.n_jac, stats.n_lu = engine.counts()
-        choice = Choice(choice.engine, choice.jacobian, engine.linear_solver, choice.reason)
+        choice = choice.solved_by(engine.linear_solver)
         method, ranks = engine.ran or method, engine.ranks
     recorded = _recorded(view, sched, out, n_done)
     result = assemble(rheology=case.pde.rheology.name, scene=case.scene, discretization=case.pde.name, N=case.N,

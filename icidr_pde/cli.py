@@ -249,6 +249,9 @@ def add_run_parser(subparsers):
                         "BDF/Radau/CVODE, banded-fd for LSODA; on 2-D grids CVODE's GMRES: 'krylov' "
                         "unpreconditioned, 'amg' preconditioned by algebraic multigrid, 'fourier' by the x-averaged "
                         "Jacobian, exactly inverted by the FFT in x)")
+    p.add_argument("--max-order", type=positive_int, default=None,
+                   help="highest BDF order of CVODE and PETSc, 1-5 (default: 2 on 2-D grids, A-stable: no "
+                        "advected wave is amplified; 5 in 1-D; a higher order in 2-D runs with a warning)")
     for key, (defaults, valid) in DISCRETIZATION_OPTIONS.items():
         p.add_argument(f"--{key}", choices=valid, default=None,
                        help="option of " + ", ".join(f"{name} (default {value})" for name, value in defaults.items()))
@@ -316,7 +319,8 @@ def cmd_run(args) -> int:
     with interrupt_signals() as signals:
         try:
             options = dict(accuracy=args.accuracy, discretization=args.discretization, method=args.method,
-                           rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, advection=args.advection,
+                           rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, max_order=args.max_order,
+                           advection=args.advection,
                            progress=not (args.no_progress or quiet), save=args.save, movie=args.movie, **scene_params)
             from .api import run
 

@@ -116,6 +116,8 @@ class ShearCell2DPDE(ShearCellBase):
     options = {"advection": ADVECTION_SCHEMES_2D}
     kinematics = PLANE_FLOW
     dim = 2
+    #: waves advected along the periodic x: eigenvalues near the imaginary axis (engines.choose.time_order)
+    advected_waves = True
     grid_limit = FV2D
     max_N = FV2D.max_N
     memory_note = FV2D.memory_note

@@ -145,8 +145,10 @@ class Engine:
         name: the engine's key in :data:`icidr_pde.engines.ENGINES` (named in a run's settings)
         methods: the method names the engine implements
 
-    ``Engine(method, problem, t0, *, rtol, atol, max_step, first_step)`` starts an
-    integration of the :class:`Problem` at (t0, problem.y0). Then:
+    ``Engine(method, problem, t0, *, rtol, atol, max_step, first_step, max_order)`` starts an
+    integration of the :class:`Problem` at (t0, problem.y0), a BDF method taking orders up to
+    `max_order` (:func:`~icidr_pde.engines.choose.time_order`; an engine whose method has no such
+    knob ignores it, and the choice warns where that is known to amplify). Then:
 
     * ``advance(t_end)`` takes accepted steps until the engine has passed t_end (or reached
       it); every accepted state is checked by ``problem.check``. Returns None, or

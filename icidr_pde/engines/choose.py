@@ -8,13 +8,13 @@ asked for and not taken, why (one line). Light: numpy is not even needed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from ..validation import ParameterError, choice as checked_choice
+from ..validation import ParameterError, choice as checked_choice, integer
 from . import ENGINES, METHODS
 
 __all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
-           "NATIVE_FV2D_AUTO_CELLS",
+           "NATIVE_FV2D_AUTO_CELLS", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order",
            "AMG_SOLVER", "FOURIER_SOLVER", "PRECONDITIONED"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
@@ -31,6 +31,13 @@ FOURIER_SOLVER = "GMRES + x-Fourier preconditioner"
 #: the Jacobian modes of GMRES with a preconditioner built from the analytic sparse Jacobian of the
 #: 2-D cell -> what preconditions
 PRECONDITIONED = {"amg": "algebraic multigrid", "fourier": "the x-average of the Jacobian, FFT in x"}
+#: the highest order of CVODE's BDF (and of scipy's); orders 3-5 are A(alpha)-stable only, with
+#: alpha = 86.0, 73.4, 51.8 degrees: eigenvalues closer to the imaginary axis than that are amplified
+#: at some steps (central advection: h omega ~ 1-2.5 for BDF5; docs/sim2d.md, "Time integration")
+BDF_MAX_ORDER = 5
+#: the highest A-stable BDF order (Dahlquist's second barrier): no mode that the continuum damps is
+#: amplified at any step
+A_STABLE_ORDER = 2
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
 
@@ -40,13 +47,17 @@ class JacobianStructure:
     """What a scheme's Jacobian offers: a banded ordering (`banded`) and the analytic Jacobian
     in it (`band_jac`), a sparse pattern (`sparse`; else dense), a line preconditioner pattern
     where the cell is thin (`line`, 2-D cells), an analytic sparse Jacobian of fields on a 2-D grid
-    for the algebraic multigrid and the x-Fourier preconditioners (`amg`; modes 'amg', 'fourier')."""
+    for the algebraic multigrid and the x-Fourier preconditioners (`amg`; modes 'amg', 'fourier'),
+    waves advected along a periodic direction (`advected`: the 2-D cell), whose eigenvalues lie
+    near the imaginary axis, outside the A(alpha) sectors of BDF orders 3-5, so that only an
+    A-stable order (<= :data:`A_STABLE_ORDER`) is stable at every step size."""
 
     banded: bool = False
     band_jac: bool = False
     sparse: bool = False
     line: bool = False
     amg: bool = False
+    advected: bool = False
 
     @classmethod
     def of(cls, pde, state) -> "JacobianStructure":
@@ -55,7 +66,8 @@ class JacobianStructure:
         sparsity = getattr(pde, "jacobian_sparsity", lambda state: None)(state)
         return cls(banded=ordering is not None, band_jac=ordering is not None and hasattr(pde, "make_band_jacobian"),
                    sparse=sparsity is not None, line=hasattr(pde, "line_pattern"),
-                   amg=sparsity is not None and getattr(pde, "dim", 1) == 2 and hasattr(pde, "make_jacobian"))
+                   amg=sparsity is not None and getattr(pde, "dim", 1) == 2 and hasattr(pde, "make_jacobian"),
+                   advected=getattr(pde, "advected_waves", False))
 
 
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
@@ -69,18 +81,26 @@ NATIVE_FV2D_AUTO_CELLS = 64 * 64
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
-                     "fv2d": JacobianStructure(sparse=True, line=True, amg=True)}
+                     "fv2d": JacobianStructure(sparse=True, line=True, amg=True, advected=True)}
 
 
 @dataclass(frozen=True)
 class Choice:
     """engine (a key of :data:`~icidr_pde.engines.ENGINES`), jacobian (a Jacobian mode),
-    linear_solver (of the Newton systems), reason (why 'native' was not taken, else '')."""
+    linear_solver (of the Newton systems), reason (why 'native' was not taken, else ''),
+    max_order (the highest BDF order the engine may take), warning (a setting asked for that is
+    known to amplify modes the continuum damps, and the stable alternative; else '')."""
 
     engine: str
     jacobian: str
     linear_solver: str
     reason: str = ""
+    max_order: int = BDF_MAX_ORDER
+    warning: str = ""
+
+    def solved_by(self, linear_solver: str) -> "Choice":
+        """The same choice, its linear solver named as the engine set it up."""
+        return replace(self, linear_solver=linear_solver)
 
     @property
     def memory_mode(self) -> str:
@@ -91,7 +111,7 @@ class Choice:
 def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
            discretization: str | None = None, request: str = "auto", outputs=(), backend: str = "numba",
            dim: int = 1, native_unavailable: str | None = None, thin_cell: bool = False,
-           cells: int | None = None) -> Choice:
+           cells: int | None = None, max_order: int | None = None) -> Choice:
     """The engine, Jacobian and linear solver of a run.
 
     Args:
@@ -106,6 +126,8 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
         thin_cell: a 2-D cell with hx > THIN_CELL hz (the py-pde path preconditions its GMRES along z)
         cells: the cells of a 2-D grid (Nx Nz), if known
+        max_order: the highest BDF order asked for (1-5), None: the scheme's stable one
+            (:func:`time_order`)
 
     The native engine is taken ('auto', 'native') for fd and cheb with CVODE and the analytic
     Jacobian, and for fv2d with CVODE on a thick cell (matrix-free GMRES, 'krylov' or no Jacobian
@@ -115,29 +137,62 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     """
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
+    order, warning = time_order(method, structure, max_order, request)
     reason = ""
     if request == "petsc" or method == PETSC_METHOD:
-        return _petsc_choice(jacobian, structure)
+        return _petsc_choice(jacobian, structure, order, warning)
     if request != "pde":
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
         if not reason and discretization == "fv2d":
             reason = _not_native_2d(thin_cell, cells if request == "auto" else None)
         if not reason:
             mode = "krylov" if discretization == "fv2d" else "analytic"
-            return Choice("native", mode, NATIVE_SCHEMES[discretization])
+            return Choice("native", mode, NATIVE_SCHEMES[discretization], max_order=order, warning=warning)
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure, thin_cell)
-    return Choice(engine, mode, _linear_solver(method, mode, structure), reason)
+    return Choice(engine, mode, _linear_solver(method, mode, structure), reason, order, warning)
 
 
-def _petsc_choice(jacobian, structure) -> Choice:
+def time_order(method: str, structure: JacobianStructure, asked: int | None = None,
+               request: str = "auto") -> tuple[int, str]:
+    """The highest BDF order of a run and, where the settings are known to amplify modes the
+    continuum damps, a warning naming the stable alternative (else '').
+
+    A scheme whose waves are advected along a periodic direction (``structure.advected``, the
+    2-D cell) has eigenvalues i U xi near the imaginary axis; BDF orders 3-5 are not A-stable and
+    amplify them at h U xi ~ 1-2.5, whatever the tolerance (a tighter one moves h U xi into the worst
+    band), so such a scheme takes :data:`A_STABLE_ORDER` unless another order is asked. Elsewhere
+    the spectrum lies inside BDF5's A(alpha) sector (1-D cells: within 45.3 degrees of the negative
+    real axis, alpha = 51.8; tests/test_time_order.py) and the order is CVODE's
+    :data:`BDF_MAX_ORDER`. scipy's BDF and LSODA cannot be capped: on an advected scheme they are
+    warned about; Radau IIA is L-stable.
+    """
+    if asked is not None:
+        asked = integer("max_order", asked, 1, BDF_MAX_ORDER)
+    order = asked if asked is not None else (A_STABLE_ORDER if structure.advected else BDF_MAX_ORDER)
+    if not structure.advected:
+        return order, ""
+    if order > A_STABLE_ORDER:
+        return order, (f"max_order {order} amplifies short advected waves that the continuum damps (BDF orders "
+                       f"3-5 are not A-stable); max_order {A_STABLE_ORDER}, the default here, is stable at "
+                       "every step (docs/sim2d.md, 'Time integration')")
+    if method in ("BDF", "LSODA") and request != "petsc":
+        return order, (f"method {method!r} takes BDF orders up to {BDF_MAX_ORDER}, which amplify short "
+                       "advected waves that the continuum damps; 'CVODE' (max order "
+                       f"{A_STABLE_ORDER} here) or 'Radau' (L-stable) is stable at every step "
+                       "(docs/sim2d.md, 'Time integration')")
+    return order, ""
+
+
+def _petsc_choice(jacobian, structure, max_order, warning) -> Choice:
     """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + block Jacobi/ILU by default)."""
     if not structure.sparse:
         raise ParameterError("`engine`='petsc' needs a discretization with a sparse Jacobian (fv2d, the "
                              "2-D cell); got a dense one")
     if jacobian not in (None, "sparse"):
         raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
-    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC bjacobi")
+    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC bjacobi",
+                  max_order=max_order, warning=warning)
 
 
 def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:

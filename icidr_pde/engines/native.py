@@ -23,7 +23,7 @@ class NativeEngine(Engine):
     name = "native"
     methods = ("CVODE",)
 
-    def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver=""):
+    def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver="", max_order=5):
         kind = getattr(problem, "linear_solver", None)  # what the compiled problem set up (Chebyshev)
         if kind == "krylov":
             linear_solver = f"GMRES + {problem.preconditioner} preconditioner"
@@ -32,7 +32,7 @@ class NativeEngine(Engine):
         elif kind == "dense":
             linear_solver = "dense LU (LAPACK)" if problem.solver == "lapack" else "dense LU"
         self.problem, self.check, self.linear_solver = problem, check, linear_solver
-        problem.start(y0, rtol=rtol, atol=atol, t0=t0)
+        problem.start(y0, rtol=rtol, atol=atol, t0=t0, max_order=max_order)
 
     def advance_outputs(self, times, store, max_w, states, measure=None):
         """CVODE through `times`, max|w| into `max_w` (computed in C: `measure` is not used),

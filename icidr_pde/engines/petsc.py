@@ -132,7 +132,7 @@ class PetscEngine(Engine):
     methods = ("PETSC-BDF",)
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="", options=None):
+                 linear_solver="", options=None, max_order=2):
         PETSc = _petsc()
         if problem.jacobian.mode != "sparse":
             raise ValueError(f"the PETSc engine takes a 'sparse' Jacobian; got {problem.jacobian.mode!r}")
@@ -151,6 +151,7 @@ class PetscEngine(Engine):
             self.order = self.grid.order
             self.grid.scatter_in(problem.y0, self.x)
         self._pattern(problem.jacobian.sparsity, n)
+        self.max_order = int(max_order)  # TSBDF's order
         self.ts = self._make_ts(t0, rtol, atol, max_step, first_step, options)
         self.linear_solver = "PETSc TS {} + SNES {} + KSP {} + PC {}".format(
             self.ts.getType(), self.ts.getSNES().getType(), self.ts.getSNES().getKSP().getType(),
@@ -204,6 +205,9 @@ class PetscEngine(Engine):
         db = PETSc.Options()
         options = options or {}
         pc_type = options.get("pc_type") or db.getString("pc_type", DEFAULTS["pc_type"])
+        if (options.get("ts_type") or db.getString("ts_type", DEFAULTS["ts_type"])) == "bdf":
+            # the run's setting, set on every run (the options database outlives a run)
+            options = dict(options, ts_bdf_order=self.max_order)
         for key, value in dict(DEFAULTS, **options).items():
             if key.startswith("sub_") and key not in options and pc_type not in BLOCK_PCS:
                 continue  # another -pc_type has no blocks: PETSc would warn of an unused option

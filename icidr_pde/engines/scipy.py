@@ -19,7 +19,7 @@ class ScipyEngine(Engine):
     methods = ("BDF", "Radau", "LSODA")
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver=""):
+                 linear_solver="", max_order=5):  # scipy's BDF and LSODA have no order cap: choose warns
         options = dict(rtol=rtol, atol=atol, max_step=max_step)
         if first_step is not None:
             options["first_step"] = first_step

@@ -357,7 +357,8 @@ class _Stepper:
         engine_name = solver.choice.engine
         self.engine = engine_class(engine_name)(solver.method, problem, t_start, rtol=solver.rtol, atol=solver.atol,
                                                 max_step=solver.max_step, first_step=self.dt,
-                                                linear_solver=solver.choice.linear_solver)
+                                                linear_solver=solver.choice.linear_solver,
+                                                max_order=solver.choice.max_order)
         solver.info["linear_solver"] = self.engine.linear_solver
 
     def __call__(self, state, t_start: float, t_end: float) -> float:

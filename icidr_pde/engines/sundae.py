@@ -42,7 +42,7 @@ class _CapturedOutput:
 
 
 class CvodeEngine(Engine):
-    """SUNDIALS CVODE (BDF, orders 1-5) via scikit-sundae: the compiled fast path.
+    """SUNDIALS CVODE (BDF, orders 1 to `max_order` <= 5) via scikit-sundae: the compiled fast path.
 
     CVODE runs in compiled code from one interrupt to the next; leaving the valid state
     space is caught exactly by CVODE's root finding on the `margins` (terminal events),
@@ -67,7 +67,7 @@ class CvodeEngine(Engine):
     methods = ("CVODE",)
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="dense LU"):
+                 linear_solver="dense LU", max_order=5):
         from sksundae.cvode import CVODE
 
         # min_step: without one CVODE halves h down to 1e-165 before giving up on a blow-up
@@ -75,7 +75,7 @@ class CvodeEngine(Engine):
         # spacing test is relative to t: a fixed 1e-14 stopped iCIDR at t* = 0 near jamming
         # and in tiny cells, whose time scales are 1e-14 to 1e-13.
         self.time_scale = problem.time_scale(t0)
-        kwargs = dict(method="BDF", rtol=rtol, atol=atol, max_num_steps=1_000_000,
+        kwargs = dict(method="BDF", rtol=rtol, atol=atol, max_num_steps=1_000_000, max_order=int(max_order),
                       min_step=MIN_STEP_FRACTION * self.time_scale,
                       max_step=max_step if np.isfinite(max_step) else 1e300)  # 0 ("none") < min_step
         if first_step is not None:

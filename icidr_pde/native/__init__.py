@@ -105,10 +105,10 @@ class NativeProblem:
     # --- CVODE ------------------------------------------------------------------------------
 
     def start(self, y0, *, rtol: float, atol: float, t0: float = 0.0, max_step: float = np.inf,
-              first_step: float | None = None) -> float:
-        """Start CVODE at (t0, y0) with the smallest step MIN_STEP_FRACTION x the fastest time
-        scale 1/rho(J(y0)) (:meth:`time_scale`, its evaluations counted as the run's); returns
-        that time scale."""
+              first_step: float | None = None, max_order: int = 5) -> float:
+        """Start CVODE (BDF, orders 1 to `max_order`) at (t0, y0) with the smallest step
+        MIN_STEP_FRACTION x the fastest time scale 1/rho(J(y0)) (:meth:`time_scale`, its
+        evaluations counted as the run's); returns that time scale."""
         y0 = np.ascontiguousarray(y0, dtype=float)
         evaluations = []
         scale = fastest_time_scale(lambda t, v: evaluations.append(1) or self.rates(v), t0, y0)
@@ -117,7 +117,7 @@ class NativeProblem:
         status = self.lib.icidr_cvode_start(
             self.handle, t0, _pointer(y0), rtol, atol, MIN_STEP_FRACTION * scale,
             max_step if np.isfinite(max_step) else 1e300, 1_000_000, 0.0 if first_step is None else first_step,
-            error, len(error))
+            int(max_order), error, len(error))
         if status != 0:
             raise RuntimeError(f"CVODE could not start: {error.value.decode(errors='replace')}")
         return scale

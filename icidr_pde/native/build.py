@@ -253,7 +253,7 @@ def _declare(lib) -> None:
         "icidr_cheb_conserve": (I, [P, ptr(D)]),
         "icidr_cheb_low_order_jacobian": (None, [P, ptr(D), ptr(D), ptr(D)]),
         "icidr_blas_threads": (I, [I]),
-        "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, ctypes.c_char_p, I]),
+        "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, I, ctypes.c_char_p, I]),
         "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
         "icidr_cvode_last_good": (D, [P, ptr(D)]),
         "icidr_cvode_message": (None, [P, I, ctypes.c_char_p, I]),

@@ -527,7 +527,7 @@ EXPORT int icidr_cheb_conserve(Native *p, const double *w)
 
 EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol, double atol,
                              double min_step, double max_step, long max_num_steps, double first_step,
-                             char *error, int error_len)
+                             int max_order, char *error, int error_len)
 {
     int neq = 3 * p->n;
     int direction[2] = {-1, -1};
@@ -612,7 +612,7 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetInitStep(p->cvode, first_step));
     CHECK(CVodeSetMinStep(p->cvode, min_step));
     CHECK(CVodeSetMaxStep(p->cvode, max_step));
-    CHECK(CVodeSetMaxOrd(p->cvode, 5));
+    CHECK(CVodeSetMaxOrd(p->cvode, max_order));
     CHECK(CVodeSetMaxNumSteps(p->cvode, max_num_steps));
     /* no "t + h = t" warnings on stdout (they would break --json /dev/stdout): a step that small
        ends the run at the minimum step, whose reason the Result reports */
