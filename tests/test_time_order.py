@@ -1,0 +1,152 @@
+"""The time integration of the 2-D cell is stable by construction (issue 37).
+
+Independent truths: the stability regions of the BDF formulas (their boundary locus, computed
+here from the formulas' coefficients), the exact solution of linear advection with damping (each
+discrete Fourier mode decays as exp(-d t)), and the continuum's linear rates of iCIDR's x-waves,
+about -0.03 for every wave number (a short wave that grows in a run is the integrator's).
+"""
+
+from math import comb
+
+import numpy as np
+import pytest
+from scipy import sparse
+
+from icidr_pde.engines.base import JacobianSpec, Problem
+from icidr_pde.engines.choose import (A_STABLE_ORDER, BDF_MAX_ORDER, SCHEME_STRUCTURES, JacobianStructure, choose,
+                                      time_order)
+from icidr_pde.validation import ParameterError
+
+
+def bdf_alpha(order: int) -> float:
+    """The angle alpha (degrees) of BDF-`order`'s A(alpha)-stability: the stability region holds the
+    sector |arg(-z)| < alpha. From the boundary locus z(theta) = rho(e^{i theta}) / sigma(e^{i theta}),
+    rho(zeta) = sum_{j=1..k} (1/j) zeta^{k-j} (zeta - 1)^j, sigma(zeta) = zeta^k."""
+    theta = np.linspace(1e-4, np.pi, 200_001)
+    zeta = np.exp(1j * theta)
+    rho = sum((zeta - 1) ** j * zeta ** (order - j) / j for j in range(1, order + 1))
+    z = rho / zeta**order
+    left = z.real < 0
+    if not left.any():
+        return 90.0
+    return float(np.degrees(np.min(np.abs(np.arctan2(z.imag[left], -z.real[left])))))
+
+
+def test_bdf_stability_angles_are_the_textbook_ones():
+    """The locus gives Hairer & Wanner's angles (BDF3-5: 86.03, 73.35, 51.84 degrees) and A-stability
+    up to order 2, the order the 2-D cell's default takes."""
+    assert [round(bdf_alpha(k), 1) for k in (3, 4, 5)] == [86.0, 73.4, 51.8]
+    assert bdf_alpha(1) == bdf_alpha(A_STABLE_ORDER) == 90.0
+
+
+def _spectrum_angle(jac_dense: np.ndarray) -> float:
+    """The largest angle (degrees) between an eigenvalue of the Jacobian and the negative real axis."""
+    lam = np.linalg.eigvals(jac_dense)
+    lam = lam[np.abs(lam) > 1e-6 * np.abs(lam).max()]  # not the conserved mass's zero, nor its round-off
+    assert lam.real.max() < 0  # iCIDR: every mode decays
+    return float(np.degrees(np.max(np.arctan2(np.abs(lam.imag), -lam.real))))
+
+
+def test_1d_spectrum_lies_inside_bdf5_sector():
+    """The 1-D cell (iCIDR, scene sine at t = 20, N = 47): every eigenvalue of the Jacobian lies
+    inside BDF5's stability sector, so the 1-D default keeps orders up to 5 (the regression anchors)."""
+    from icidr_pde import run
+    from icidr_pde.case import build_case
+
+    res = run("icidr", "sine", N=47, t_end=20, times=[0, 20], series_times=[])
+    case = build_case("icidr", "sine", "fd", 47)
+    y = np.array(res.final).ravel()
+    J = case.pde.make_jacobian(case.state)(20.0, y).toarray()
+    assert _spectrum_angle(J) < bdf_alpha(BDF_MAX_ORDER) - 3
+    assert res.settings["max_order"] == BDF_MAX_ORDER
+
+
+def test_2d_spectrum_leaves_bdf5_sector():
+    """The 2-D cell (iCIDR bump2d 16^2 at t = 2): advection along x puts eigenvalues outside the
+    sectors of BDF5 and BDF4 (finer grids, nearer the imaginary axis: BDF3 amplified a band at 256^2,
+    issue 37): why its default is the A-stable order."""
+    from icidr_pde import run
+    from icidr_pde.case import build_case
+
+    res = run("icidr", "bump2d", (16, 16), 2.0, ["2"], series_times=[])
+    case = build_case("icidr", "bump2d", "fv2d", (16, 16))
+    jac = case.pde.make_jacobian(case.state)
+    J = jac(2.0, np.array(res.final).ravel())
+    J = J.toarray() if sparse.issparse(J) else np.asarray(J)
+    assert _spectrum_angle(J) > bdf_alpha(4)
+    assert res.settings["max_order"] == A_STABLE_ORDER
+
+
+def test_default_orders_and_warnings():
+    fv2d, fd = SCHEME_STRUCTURES["fv2d"], SCHEME_STRUCTURES["fd"]
+    assert fv2d.advected and not fd.advected
+    for request in ("auto", "native", "pde", "petsc"):
+        choice = choose(method="CVODE", structure=fv2d, discretization="fv2d", request=request, dim=2, cells=32 * 32)
+        assert (choice.max_order, choice.warning) == (A_STABLE_ORDER, ""), request
+    assert choose(method="CVODE", structure=fd, discretization="fd").max_order == BDF_MAX_ORDER
+    order, warning = time_order("CVODE", fv2d, 5)
+    assert order == 5 and "max_order 2" in warning
+    for method in ("BDF", "LSODA"):  # scipy's BDF orders cannot be capped
+        assert "Radau" in time_order(method, fv2d)[1]
+    assert time_order("Radau", fv2d) == (A_STABLE_ORDER, "")
+    assert time_order("CVODE", fd, 3) == (3, "")
+    with pytest.raises(ParameterError, match=r"`max_order` must be an integer in \[1, 5\]; got 6"):
+        time_order("CVODE", fv2d, 6)
+
+
+# --- the model of the artefact: short waves advected in uniform shear under a dominant slow mode ---------
+
+L, H, DAMPING = 30.0, 30.0, 0.03
+
+
+def sheared_waves(nx: int, nz: int = 12, seed: int = 0):
+    """y_t = -U(z) D_x y - d y on rows z_j of a uniform shear U = 1.5 z / H, D_x central on the
+    periodic x (cell hx = L / nx): each discrete Fourier mode of each row is exact as
+    a(t) = a(0) exp(-d t) (its eigenvalue -d - i U sin(xi hx)/hx). The top row carries a wave
+    k = 1 of amplitude 1 (it sets CVODE's steps, as the bump does in bump2d), the others short
+    waves at 1e-10, below the tolerance, as round-off seeds them in a run."""
+    hx = L / nx
+    U = 1.5 * (np.arange(nz) + 0.5) / nz
+    shift = sparse.diags([np.ones(nx - 1), np.ones(1)], [1, -(nx - 1)], shape=(nx, nx))
+    Dx = (shift - shift.T) / (2 * hx)
+    J = (sparse.kron(sparse.diags(-U), Dx) - DAMPING * sparse.identity(nx * nz)).tocsc()
+    x = np.arange(nx) * hx
+    y0 = 1e-10 * np.random.default_rng(seed).standard_normal((nz, nx))
+    y0[-1] = np.cos(2 * np.pi * x / L)
+    problem = Problem(y0=y0.ravel(), fun=lambda t, y: J @ y,
+                      jacobian=JacobianSpec("sparse", jac=lambda t, y: J, sparsity=J), check=lambda y: None)
+    return problem, nz
+
+
+def short_wave_growth(engine_cls, nx, rtol, max_order, t_end=40.0) -> float:
+    """The largest ratio over rows (but the top) and x-wave numbers of the amplitude at t_end to the
+    exact one, a(0) exp(-d t_end)."""
+    problem, nz = sheared_waves(nx)
+    engine = engine_cls("CVODE" if engine_cls.name == "sundae" else engine_cls.methods[0], problem, 0.0,
+                        rtol=rtol, atol=rtol * 1e-3, linear_solver="SuperLU_MT", max_order=max_order)
+    assert engine.advance(t_end) is None
+    y = np.asarray(engine.value_at(t_end)).reshape(nz, nx)
+    a0 = np.abs(np.fft.rfft(problem.y0.reshape(nz, nx)[:-1], axis=1))
+    a1 = np.abs(np.fft.rfft(y[:-1], axis=1))
+    return float(np.max(a1 / (a0 * np.exp(-DAMPING * t_end))))
+
+
+def _default_order() -> int:
+    return choose(method="CVODE", structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d", request="pde",
+                  dim=2).max_order
+
+
+@pytest.mark.parametrize("nx, rtol", [(64, 1e-5), (256, 1e-5), (256, 1e-8)])
+def test_advected_waves_do_not_grow_on_the_default(nx, rtol):
+    """CVODE with the 2-D cell's default order: no mode ends above its exact amplitude (to 1 %:
+    the waves are below the tolerance, so this is the integrator's amplification, not its error)."""
+    from icidr_pde.engines.sundae import CvodeEngine
+
+    assert short_wave_growth(CvodeEngine, nx, rtol, _default_order()) < 1.01
+
+
+def test_bdf5_grows_advected_waves():
+    """The same model with orders up to 5 amplifies them (by orders of magnitude): the test above can fail."""
+    from icidr_pde.engines.sundae import CvodeEngine
+
+    assert short_wave_growth(CvodeEngine, 256, 1e-5, BDF_MAX_ORDER) > 100
