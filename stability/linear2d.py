@@ -42,8 +42,8 @@ sum_q (d sigma/d q) dq0/dz along the base (its derivatives from the spline).
 
 **Walls** (3.9), as the cell imposes them: u and w are Dirichlet (ghost = 2 value - edge), so
 u^ = w^ = 0 at z = 0 and z = H. phi takes no condition in the continuum problem (first order,
-transported by w0 = 0 at the walls; the cell's zero-gradient ghost only makes the wall mass flux
-phi w vanish, which w^ = 0 does here).
+transported by w0 = 0 at the walls; the cell's zero-gradient ghost only supplies phi's face value
+in the wall mass flux phi w, which vanishes with w).
 
 **Discretization.** Chebyshev collocation at the n Gauss-Lobatto points of [0, H]
 (:mod:`icidr_pde.discretizations.chebyshev`), unknowns (phi^, u^, w^) at every point. The wall

@@ -149,3 +149,17 @@ def test_cell_kernels_are_the_plane_stress_tensor(rheology):
         assert d[0] == pytest.approx(phi0 * a[i, j], rel=1e-10, abs=1e-12)
         for (k, l), q in entry.items():
             assert d[q] == pytest.approx(phi0 * B[i, j, k, l], rel=1e-10, abs=1e-12)
+
+
+def test_snapshot_base_of_steady_shear_is_simple_shear():
+    """A snapshot of the cell's steady shear (cell centres, x-independent) gives back u = z/H, phi0, w = 0 with
+    the walls' values of the cell, and the same rates as simple_shear."""
+    nx, nz = 8, 16
+    z = (np.arange(nz) + 0.5) * H / nz
+    data = np.stack([np.full((nx, nz), PHI0), np.broadcast_to(z / H, (nx, nz)), np.zeros((nx, nz))])
+    base = linear2d.from_snapshot(data, H=H)
+    zz = np.linspace(0, H, 7)
+    assert np.allclose(base.fields(zz), linear2d.simple_shear(PHI0, H).fields(zz), atol=1e-13)
+    assert np.allclose(base.fields(zz, 1)[1], 1 / H, atol=1e-13)
+    a = linear2d.Linear2D("icidr", base, L, 24).rate(3)
+    assert a == pytest.approx(linear2d.Linear2D("icidr", linear2d.simple_shear(PHI0, H), L, 24).rate(3), rel=1e-9)
