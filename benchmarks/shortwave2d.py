@@ -10,13 +10,21 @@ k <= 8; the integration error seeds every k at about the tolerance, so a positiv
 is a growth the run resolves, not the initial condition. The steps the run took are printed with
 it (docs/scaling.md).
 
+Beside the measured rates, the continuum's (``--continuum``, on by default): the largest growth
+rate max Re lambda of the 2-D equations linearized about the x-average of the first snapshot, per
+x-wave number k, Chebyshev collocation in z with ``--points`` points (:mod:`stability.linear2d`).
+``--rheology`` names the law(s) linearized about that base state (the run itself is always
+iCIDR): 'icidr' (well-posed, bounded rates) and/or 'mui' (ill-posed, rates growing like k^2).
+
     nice -n 5 python benchmarks/shortwave2d.py --sizes 256 512 [--advection central upwind] [--json F]
+    nice -n 10 python benchmarks/shortwave2d.py --sizes 64 128 --rheology icidr mui [--no-continuum]
 """
 
 import argparse
 import json
 import pathlib
 import sys
+import time
 
 import numpy as np
 
@@ -28,9 +36,23 @@ def amplitudes(field: np.ndarray) -> np.ndarray:
     return np.sqrt((np.abs(np.fft.rfft(field - field.mean(axis=0), axis=0)) ** 2).sum(axis=1))
 
 
-def measure(n: int, advection: str, times) -> dict:
-    from icidr_pde import run
+def continuum_rates(first_snapshot, ks, rheologies, points: int, H: float = 30.0, L: float = 30.0) -> dict:
+    """{rheology: {k: max Re lambda}} of :mod:`stability.linear2d` about the x-average of a snapshot (3, Nx, Nz)."""
+    from stability import linear2d
 
+    base = linear2d.from_snapshot(first_snapshot, H=H, V0=1.0)
+    out = {}
+    for name in rheologies:
+        op = linear2d.Linear2D(name, base, L, points)
+        out[name] = {str(k): op.rate(k) for k in ks}
+    return out
+
+
+def measure(n: int, advection: str, times, rheologies=(), points: int = 192) -> dict:
+    from icidr_pde import run
+    from icidr_pde.scenes import get_scene
+
+    scene = get_scene("bump2d")
     r = run("icidr", "bump2d", (n, n), float(times[-1]), [f"{t:g}" for t in times], series_times=[],
             advection=advection)
     d = r.to_dict()
@@ -41,6 +63,14 @@ def measure(n: int, advection: str, times) -> dict:
         a0, a1 = amplitudes(snaps[0]), amplitudes(snaps[-1])
         row[name] = {str(k): {"amplitude": float(a1[k]), "rate": float(np.log(a1[k] / a0[k]) / (times[-1] - times[0]))}
                      for k in WAVES if k < a1.size}
+    if rheologies:
+        first = np.stack([np.asarray(getattr(r, f))[0] for f in ("phi", "u", "w")])
+        ks = [int(k) for k in row["phi"]]
+        start = time.perf_counter()
+        row["continuum"] = continuum_rates(first, ks, rheologies, points, H=scene.H, L=scene.L)
+        row["continuum_points"] = points
+        row["continuum_base_time"] = times[0]
+        row["continuum_seconds"] = time.perf_counter() - start
     return row
 
 
@@ -50,16 +80,29 @@ def main():
     parser.add_argument("--advection", nargs="+", default=["central"], choices=("central", "upwind"))
     parser.add_argument("--times", type=float, nargs="+", default=[5.0, 9.0])
     parser.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    parser.add_argument("--continuum", action=argparse.BooleanOptionalAction, default=True,
+                        help="also the linearized continuum's rate per k about the first snapshot's x-average")
+    parser.add_argument("--rheology", nargs="+", default=["icidr"], choices=("icidr", "mui"),
+                        help="law(s) of the continuum rates (the run is iCIDR)")
+    parser.add_argument("--points", type=int, default=192, help="Chebyshev points in z of the continuum rates")
     args = parser.parse_args()
+    rheologies = args.rheology if args.continuum else []
     rows = []
     for n in args.sizes:
         for advection in args.advection:
-            row = measure(n, advection, args.times)
+            row = measure(n, advection, args.times, rheologies, args.points)
             rows.append(row)
             print(f"{n}^2 {advection}: {row['n_steps']} steps, {row['reason']}")
             for name in ("phi", "w"):
                 print(f"  {name} rate/amplitude at t = {args.times[-1]:g} by k: " + "  ".join(
                     f"{k}: {v['rate']:+.2f}/{v['amplitude']:.1e}" for k, v in row[name].items()))
+            if rheologies:
+                print(f"  continuum max Re lambda about the x-average at t = {args.times[0]:g} "
+                      f"({args.points} Chebyshev points, {row['continuum_seconds']:.1f} s):")
+                print("    " + f"{'k':>4} {'phi meas.':>10} {'w meas.':>10} " + " ".join(f"{r:>12}" for r in rheologies))
+                for k in row["phi"]:
+                    print("    " + f"{k:>4} {row['phi'][k]['rate']:+10.4f} {row['w'][k]['rate']:+10.4f} "
+                          + " ".join(f"{row['continuum'][r][k]:+12.5g}" for r in rheologies))
     if args.json:
         path = pathlib.Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
