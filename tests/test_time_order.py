@@ -154,9 +154,6 @@ def test_bdf5_grows_advected_waves():
 
 # --- the 2-D cell itself: iCIDR bump2d's short x-waves decay on the default, as the continuum's --------
 
-#: the short x-waves: k >= 24 wavelengths in the period (the bump's own waves, k <= 16, exchange
-#: amplitude between phi and w and spread toward the walls, so their local rates are not eigen-rates)
-SHORT = 24
 #: the continuum damps every x-wave of iCIDR at about -0.03 (issue 37): a margin of 0.05
 RATE_BOUND = 0.02
 
@@ -164,7 +161,7 @@ RATE_BOUND = 0.02
 def short_wave_rates(n, t0=5.0, t1=10.0, **settings) -> dict:
     """{(field, region): the largest growth rate over t0..t1 of the short x-waves above round-off}."""
     from icidr_pde import run
-    from icidr_pde.studies.short_waves import growth_rates, wall_rows
+    from icidr_pde.studies.short_waves import SHORT, growth_rates, wall_rows
 
     res = run("icidr", "bump2d", (n, n), t1, [f"{t0:g}", f"{t1:g}"], series_times=[], **settings)
     assert not res.blew_up, res.reason

@@ -15,10 +15,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["amplitudes", "growth_rates", "wall_rows", "ROUND_OFF_FLOOR"]
+__all__ = ["amplitudes", "growth_rates", "wall_rows", "ROUND_OFF_FLOOR", "SHORT"]
 
 #: a wave below this fraction of the field's largest x-wave amplitude is at round-off: no rate
 ROUND_OFF_FLOOR = 1e-11
+#: the short x-waves of bump2d (L = 30): k >= 24 wavelengths in the period. The bump's own waves
+#: (k <= 16) exchange amplitude between phi and w and spread toward the walls, so their rates over
+#: one field or one region are not the eigen-rates of the linearized problem (a rate over the rows
+#: next to a wall grows while the wave arrives there, and the whole cell's decays)
+SHORT = 24
 
 
 def amplitudes(field: np.ndarray, rows=slice(None)) -> np.ndarray:

@@ -83,9 +83,10 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
         runs[str(n)] = fields
         print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
+    advection = f" --advection {settings['advection']}" if "advection" in settings else ""
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": "python -m icidr_pde.studies.sim2d convergence"}
+               "command": "python -m icidr_pde.studies.sim2d convergence" + advection}
     write_json(payload, path)
     return payload
 
@@ -248,12 +249,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies.sim2d", description=__doc__.split("\n")[0])
     parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables"])
     parser.add_argument("--sizes", type=int, nargs="+", default=None)
+    parser.add_argument("--advection", choices=("central", "upwind"), default=None,
+                        help="convergence: the advection scheme (default central; upwind writes convergence_upwind.json)")
     add_cluster_options(parser, "the study's runs")
     add_cache_option(parser, "run")
     parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
     check_cache_option(args, parser)
     sizes = {"sizes": tuple(args.sizes)} if args.sizes else {}
+    if args.advection == "upwind":
+        sizes.update(advection="upwind", path=DATA / "convergence_upwind.json")
     studies = {"convergence": lambda **kw: convergence_study(**sizes, **kw),
                "tstar": lambda **kw: tstar_study(**sizes, **kw), "growth": growth_study}
     if args.study in studies:
