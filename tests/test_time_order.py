@@ -193,3 +193,16 @@ def test_bump2d_short_waves_decay_at_tight_tolerance_and_long_times():
     """rtol 1e-8 (at which orders up to 5 grew the waves faster still) at 256^2 to t = 10, and 512^2 to t = 20."""
     assert max(short_wave_rates(256, rtol=1e-8, atol=1e-11).values()) <= RATE_BOUND
     assert max(short_wave_rates(512, t0=10.0, t1=20.0).values()) <= RATE_BOUND
+
+
+def test_native_engine_takes_the_order():
+    """The native 2-D engine runs CVODE with the order the choice names (its C driver's
+    CVodeSetMaxOrd): orders up to 2 take more steps than up to 5 on the same run."""
+    from icidr_pde import run
+
+    runs = {order: run("icidr", "bump2d", (24, 24), 10.0, ["10"], series_times=[], engine="native",
+                       max_order=order) for order in (None, 5)}
+    assert runs[None].settings["engine"] == runs[5].settings["engine"] == "native"
+    assert runs[None].settings["max_order"] == A_STABLE_ORDER
+    assert runs[None].n_steps > 1.5 * runs[5].n_steps
+    assert runs[None].to_dict()["max_w"]["10"] == pytest.approx(runs[5].to_dict()["max_w"]["10"], rel=1e-3)
