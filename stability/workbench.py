@@ -58,7 +58,7 @@ def _phi_points(rheology, n_uniform, near):
 def resolve_law(law, material=None):
     """A Rheology instance from a registered name, a law file (``*.py``) or an instance/class."""
     from icidr_pde.rheology import Rheology, get_rheology
-    from icidr_pde.rheology.cidr import is_file_law, load_law_file
+    from icidr_pde.rheology.law_files import is_file_law, load_law_file
 
     if isinstance(law, Rheology):
         return law

@@ -1,10 +1,10 @@
-"""No circles among the module-level imports of icidr_pde and stability, and the layers of
-docs/engines.md: studies and DEM know no command line, studies no interface (figures, movies,
-plots); schemes and the run path know no study and no interface.
+"""The layers of docs/architecture.md, as a test: no import circle among the modules of
+icidr_pde and stability, and no edge that breaks a rule of :data:`RULES`.
 
-For circles, imports inside functions are lazy and are not edges; every module-level
-``import``/``from ... import`` (including inside ``if``/``try`` at top level) is. For the
-layers every import is an edge, lazy or not: a lazy import is still a dependency.
+Every import is an edge, at module level or inside a function: a lazy import keeps start-up
+cheap, it is still a dependency, and a circle it closes is still a circle. A look-up of one of
+the package's modules in ``sys.modules`` is an edge too (it depends on what that module did).
+``python tests/test_import_graph.py`` lists the circles and the broken rules.
 """
 
 import ast
@@ -35,7 +35,36 @@ def top_level_imports(tree):
                 stack.extend(handler.body)
 
 
-def import_graph(lazy=False):
+def _is_sys_modules(node) -> bool:
+    return (isinstance(node, ast.Attribute) and node.attr == "modules"
+            and isinstance(node.value, ast.Name) and node.value.id == "sys")
+
+
+def looked_up(tree):
+    """Module names looked up in ``sys.modules``: ``sys.modules.get(name)``, ``sys.modules[name]``,
+    ``name in sys.modules``."""
+    for node in ast.walk(tree):
+        key = None
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and _is_sys_modules(node.func.value)
+                and node.args):
+            key = node.args[0]
+        elif isinstance(node, ast.Subscript) and _is_sys_modules(node.value):
+            key = node.slice
+        elif (isinstance(node, ast.Compare) and len(node.comparators) == 1
+              and _is_sys_modules(node.comparators[0])):
+            key = node.left
+        if isinstance(key, ast.Constant) and isinstance(key.value, str):
+            yield key.value
+
+
+#: modules outside the packages whose importers a rule names
+WATCHED = ("argparse",)
+
+
+def import_graph(lazy=True):
+    """{module: modules it imports}: every import (`lazy`, the default) or only the module-level
+    ones; with `lazy`, the modules looked up in ``sys.modules`` as well. Of the modules outside the
+    packages only :data:`WATCHED` appear."""
     modules = {}
     for package in PACKAGES:
         for path in (ROOT / package).rglob("*.py"):
@@ -51,23 +80,46 @@ def import_graph(lazy=False):
             if lazy
             else top_level_imports(tree)
         )
+        targets = list(looked_up(tree)) if lazy else []
         for node in nodes:
             if isinstance(node, ast.Import):
-                targets = [alias.name for alias in node.names]
+                targets += [alias.name for alias in node.names]
             else:
                 prefix = base[: len(base) - node.level + 1] if node.level else []
                 source = ".".join(prefix + ([node.module] if node.module else []))
                 # `from package import module` needs the module; the package is already loaded
-                targets = [f"{source}.{alias.name}" if f"{source}.{alias.name}" in modules else source
-                           for alias in node.names]
-            for target in targets:
-                # the module itself, or the package whose __init__ runs first
-                while target and target not in modules:
-                    target = target.rpartition(".")[0]
-                if target and target != name:
-                    edges.add(target)
+                targets += [f"{source}.{alias.name}" if f"{source}.{alias.name}" in modules else source
+                            for alias in node.names]
+        for target in targets:
+            if target.partition(".")[0] in WATCHED:
+                edges.add(target.partition(".")[0])
+                continue
+            # the module itself, or the package whose __init__ runs first
+            while target and target not in modules:
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                edges.add(target)
         graph[name] = edges
     return graph
+
+
+def private_imports():
+    """[(module, source, name)]: names with a leading underscore imported from a module of another
+    of :data:`PACKAGES` (a private name is its own package's business)."""
+    found = []
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            name = module_name(path)
+            base = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+            for node in ast.walk(ast.parse(path.read_text())):
+                if not isinstance(node, ast.ImportFrom):
+                    continue
+                prefix = base[: len(base) - node.level + 1] if node.level else []
+                source = ".".join(prefix + ([node.module] if node.module else []))
+                if source.partition(".")[0] in PACKAGES and source.partition(".")[0] != package:
+                    found += [(name, source, a.name) for a in node.names
+                              if a.name.startswith("_") and not a.name.startswith("__")]
+    return sorted(found)
 
 
 def cycles(graph):
@@ -78,7 +130,7 @@ def cycles(graph):
         index[node] = low[node] = len(index)
         stack.append(node)
         on_stack.add(node)
-        for succ in graph[node]:
+        for succ in graph[node] & graph.keys():  # WATCHED modules are ends, not nodes
             if succ not in index:
                 visit(succ)
                 low[node] = min(low[node], low[succ])
@@ -105,54 +157,83 @@ def under(module, *packages):
     return any(module == p or module.startswith(p + ".") for p in packages)
 
 
+#: the modules that are command lines, the only ones that may import argparse: the commands, the
+#: argparse types and pieces they share, and the ``python -m`` mains of the studies, figures and DEM
+COMMAND_LINES = frozenset({
+    "icidr_pde.cli", "icidr_pde.tstar_cli", "icidr_pde.law_cli", "icidr_pde.cache_cli", "icidr_pde.cluster_cli",
+    "icidr_pde.argtypes", "icidr_pde.figures.cli", "icidr_pde.dem.cli", "icidr_pde.dem.__main__", "stability.cli",
+    "stability.__main__",
+    "icidr_pde.dem.pool", "icidr_pde.figures.sim2d_fields", "icidr_pde.studies.grid_convergence",
+    "icidr_pde.studies.references", "icidr_pde.studies.sim2d",
+})
+#: what a run records or shows besides its Result, each a recorder of the drive loop: the run path
+#: reaches an interface through these only
+RECORDERS = frozenset({"icidr_pde.snapshots", "icidr_pde.movies.frames", "icidr_pde.live_plot"})
+
+
 def is_cli(module):
-    """A command line: ``*.cli``, ``*_cli``, ``__main__`` and the argparse types."""
-    last = module.rpartition(".")[2]
-    return last in ("cli", "__main__") or last.endswith("_cli") or module == "icidr_pde.argtypes"
+    return module in COMMAND_LINES
 
 
 def is_interface(module):
-    """What faces a person: command lines, figures, movies, plots."""
-    return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting")
+    """What faces a person: command lines, figures, movies, plots, the live figure."""
+    return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting",
+                                   "icidr_pde.live_plot")
 
 
 def is_study(module):
     return under(module, "icidr_pde.studies")
 
 
+def is_dem(module):
+    return under(module, "icidr_pde.dem")
+
+
 def is_scheme(module):
+    """Laws and schemes (the cells)."""
     return under(module, "icidr_pde.rheology", "icidr_pde.discretizations")
 
 
+def is_compiled_problem(module):
+    return under(module, "icidr_pde.native")
+
+
 def is_run_path(module):
-    return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines",
-                 "icidr_pde.native", "icidr_pde.live_plot", "icidr_pde.result", "icidr_pde.validation")
+    return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines", "icidr_pde.native",
+                 "icidr_pde.result", "icidr_pde.validation", "icidr_pde.times", "icidr_pde.presets",
+                 "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress")
 
 
 def is_engine(module):
     return under(module, "icidr_pde.engines")
 
 
-def is_screen_or_case(module):
-    """What an engine must not know: schemes, cases, scenes, results, screens."""
-    return (is_scheme(module) or is_study(module) or is_interface(module)
+def is_case_or_screen(module):
+    """What an engine must not know: schemes, the DEM, studies, cases, scenes, the run's schedule
+    and Result, screens."""
+    return (is_scheme(module) or is_dem(module) or is_study(module) or is_interface(module)
             or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
-                     "icidr_pde.live_plot", "icidr_pde.progress", "icidr_pde.result", "icidr_pde.api"))
+                     "icidr_pde.times", "icidr_pde.presets", "icidr_pde.progress", "icidr_pde.result",
+                     "icidr_pde.snapshots", "icidr_pde.api"))
 
 
 RULES = {
-    "an engine imports a scheme, a case, a scene or a screen": (is_engine, is_screen_or_case),
-    # the DEM has a command of its own (dem.cli, dem.__main__); studies/ holds none
+    "an engine imports or looks up a scheme, the DEM, a study, a case, a scene or a screen": (
+        is_engine, is_case_or_screen),
+    "a scheme imports an engine, a study or an interface": (
+        is_scheme, lambda t: is_engine(t) or is_study(t) or is_interface(t)),
+    "a compiled problem imports an engine": (is_compiled_problem, is_engine),
+    # a command line (the studies' and DEM's python -m mains among them) may use the pieces the
+    # command lines share
     "a study or DEM module imports a command line": (
-        lambda m: is_study(m) or (under(m, "icidr_pde.dem") and not is_cli(m)), is_cli),
-    "a study imports an interface": (is_study, is_interface),
-    "a scheme imports a study or an interface": (is_scheme, lambda t: is_study(t) or is_interface(t)),
-    "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
+        lambda m: (is_study(m) or is_dem(m)) and not is_cli(m), is_cli),
+    "a study imports an interface": (lambda m: is_study(m) and not is_cli(m), is_interface),
+    "the run path imports a study, or an interface other than a recorder": (
+        is_run_path, lambda t: is_study(t) or (is_interface(t) and t not in RECORDERS)),
+    "a module that is not a command line imports argparse": (lambda m: not is_cli(m), lambda t: t == "argparse"),
 }
-#: the edges left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end;
-#: py-pde's solver adapter refuses a grid too large for memory by the schemes' size model
-KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames"),
-         ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size")}
+#: the edges left, each with its reason
+KNOWN = set()
 
 
 def layer_violations(graph, known=frozenset()):
@@ -167,43 +248,84 @@ def layer_violations(graph, known=frozenset()):
 
 
 def test_the_graph_sees_known_edges():
-    graph = import_graph()
+    graph = import_graph(lazy=False)
     assert "icidr_pde.rheology" in graph
     assert any(target.startswith("icidr_pde") for target in graph["icidr_pde.api"])
+    assert "argparse" in graph["icidr_pde.cli"]
+
+
+def test_lazy_imports_and_sys_modules_look_ups_are_edges(tmp_path):
+    tree = ast.parse("import sys\n"
+                     "def f():\n    from .b import c\n    return sys.modules.get('icidr_pde.dem._lammps')\n"
+                     "x = sys.modules['icidr_pde.api'] if 'icidr_pde.case' in sys.modules else None\n")
+    assert set(looked_up(tree)) == {"icidr_pde.dem._lammps", "icidr_pde.api", "icidr_pde.case"}
+    assert not list(top_level_imports(tree))[1:]
+    graph = import_graph()
+    assert "icidr_pde.case" in graph["icidr_pde.api"] - import_graph(lazy=False)["icidr_pde.api"]
 
 
 def test_a_circle_is_found():
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
-def test_no_import_circles():
+def test_no_import_circles_lazy_imports_included():
     assert cycles(import_graph()) == []
 
 
-def test_a_study_importing_the_command_line_is_found():
-    graph = {"icidr_pde.studies.sim2d": {"icidr_pde.cli"}, "icidr_pde.dem.fit": {"icidr_pde.argtypes"},
-             "icidr_pde.studies.__main__": {"icidr_pde.cli"},
-             "icidr_pde.dem.cli": {"icidr_pde.argtypes"}, "icidr_pde.discretizations.fd": {"icidr_pde.studies"},
-             "icidr_pde.api": {"icidr_pde.plotting", "icidr_pde.scenes"},
+def test_the_command_lines_are_listed():
+    """Every module that is a command line (named cli, *_cli or __main__, or a ``python -m`` main)
+    is in :data:`COMMAND_LINES`, and every one listed exists: the list cannot go stale."""
+    graph = import_graph()
+    found = set()
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            name, last = module_name(path), path.stem
+            if last in ("cli", "__main__") or last.endswith("_cli") or "__name__ == \"__main__\"" in path.read_text():
+                found.add(name)
+    assert found <= COMMAND_LINES
+    assert COMMAND_LINES - {"icidr_pde.argtypes"} <= found & set(graph)  # argtypes: the commands' shared types
+
+
+def test_each_rule_finds_its_break():
+    graph = {"icidr_pde.studies.failure_time": {"icidr_pde.cli", "argparse"}, "icidr_pde.dem.fit": {"icidr_pde.argtypes"},
+             "icidr_pde.studies.sim2d": {"icidr_pde.cluster_cli", "argparse", "icidr_pde.figures.two_d"},
+             "icidr_pde.dem.cli": {"icidr_pde.argtypes", "argparse"}, "icidr_pde.discretizations.fd": {"icidr_pde.studies"},
+             "icidr_pde.discretizations.base": {"icidr_pde.engines.stiff"},
+             "icidr_pde.rheology.cidr": {"icidr_pde.rheology.base"},
+             "icidr_pde.native.cheb": {"icidr_pde.engines.base", "icidr_pde.validation"},
+             "icidr_pde.api": {"icidr_pde.plotting", "icidr_pde.scenes", "icidr_pde.movies.frames", "icidr_pde.live_plot"},
+             "icidr_pde.validation": {"argparse"},
+             "icidr_pde.engines.stiff": {"icidr_pde.times", "icidr_pde.discretizations.grid_size"},
+             "icidr_pde.engines.petsc": {"icidr_pde.dem._lammps", "icidr_pde.validation"},
              "icidr_pde.engines.scipy": {"icidr_pde.validation", "icidr_pde.discretizations.fd"}}
     assert layer_violations(graph) == {
-        "an engine imports a scheme, a case, a scene or a screen": [("icidr_pde.engines.scipy",
-                                                                     "icidr_pde.discretizations.fd")],
+        "an engine imports or looks up a scheme, the DEM, a study, a case, a scene or a screen": [
+            ("icidr_pde.engines.petsc", "icidr_pde.dem._lammps"),
+            ("icidr_pde.engines.scipy", "icidr_pde.discretizations.fd"),
+            ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size"),
+            ("icidr_pde.engines.stiff", "icidr_pde.times")],
+        "a scheme imports an engine, a study or an interface": [
+            ("icidr_pde.discretizations.base", "icidr_pde.engines.stiff"),
+            ("icidr_pde.discretizations.fd", "icidr_pde.studies")],
+        "a compiled problem imports an engine": [("icidr_pde.native.cheb", "icidr_pde.engines.base")],
         "a study or DEM module imports a command line": [("icidr_pde.dem.fit", "icidr_pde.argtypes"),
-                                                          ("icidr_pde.studies.__main__", "icidr_pde.cli"),
-                                                          ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
-        "a study imports an interface": [("icidr_pde.studies.__main__", "icidr_pde.cli"),
-                                         ("icidr_pde.studies.sim2d", "icidr_pde.cli")],
-        "a scheme imports a study or an interface": [("icidr_pde.discretizations.fd", "icidr_pde.studies")],
-        "the run path imports a study or an interface": [("icidr_pde.api", "icidr_pde.plotting")]}
+                                                          ("icidr_pde.studies.failure_time", "icidr_pde.cli")],
+        "a study imports an interface": [("icidr_pde.studies.failure_time", "icidr_pde.cli")],
+        "the run path imports a study, or an interface other than a recorder": [("icidr_pde.api", "icidr_pde.plotting")],
+        "a module that is not a command line imports argparse": [("icidr_pde.studies.failure_time", "argparse"),
+                                                                  ("icidr_pde.validation", "argparse")]}
 
 
 def test_the_layers_are_kept():
-    assert layer_violations(import_graph(lazy=True), KNOWN) == {}
+    assert layer_violations(import_graph(), KNOWN) == {}
 
 
-if __name__ == "__main__":  # list the circles that lazy imports (inside functions) close as well, and the layers
-    graph, eager = import_graph(lazy=True), import_graph()
+def test_no_private_name_crosses_packages():
+    assert private_imports() == []
+
+
+if __name__ == "__main__":  # the circles (lazy imports included), the broken rules, the private names
+    graph, eager = import_graph(), import_graph(lazy=False)
     for component in cycles(graph):
         for module in component:
             for target in sorted(graph[module] & set(component)):
@@ -212,5 +334,9 @@ if __name__ == "__main__":  # list the circles that lazy imports (inside functio
     for rule, edges in layer_violations(graph).items():
         print(f"{rule}:")
         for module, target in edges:
-            print(f"  {module} -> {target}{'' if target in eager[module] else ' (lazy)'}"
+            print(f"  {module} -> {target}{'' if target in eager[module] else ' (lazy or look-up)'}"
                   f"{' (known)' if (module, target) in KNOWN else ''}")
+    for module, source, name in private_imports():
+        print(f"private: {module} imports {source}.{name}")
+    broken = bool(cycles(graph) or layer_violations(graph, KNOWN) or private_imports())
+    print("broken" if broken else "no circle, no broken rule")

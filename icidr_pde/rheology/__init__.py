@@ -8,6 +8,8 @@
 * :mod:`.cidr` -- the workbench: a CIDR law from (Y, f) (equation of state solved from the
   flow rule, stress from the yield law) or a law given as (p, tau); :mod:`.nonmonotonic`,
   :mod:`.saturating`, :mod:`.mu_psi`, :mod:`.blended` -- the laws built with it (section 7);
+* :mod:`.law_files` -- laws written in files (Python, declarative :mod:`.declarative`);
+  :mod:`.registry` -- :func:`get_rheology`, a law by name or file;
 * :mod:`.kinematics` -- adapters from a geometry's strain rates to the invariants;
 * :mod:`.codegen` -- numeric kernels and Jacobians generated from the sympy definitions,
   compiled by numba once per installation.
@@ -22,8 +24,9 @@ from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, Friction
                    MuOfI, SaturatingDilatancy)
 from .material import Material, mu_of_I
 from .mui import MuIPhiI
-from .cidr import (CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, define_rheology,
-                   get_rheology, load_law_file)
+from .cidr import CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, define_rheology
+from .law_files import load_law_file
+from .registry import get_rheology
 from . import blended, mu_psi, nonmonotonic, saturating  # noqa: F401,E402  (the shipped workbench laws)
 
 __all__ = [

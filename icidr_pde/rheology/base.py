@@ -18,6 +18,7 @@ import numpy as np
 
 from ..validation import ParameterError
 
+from .errors import LawError
 from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
 from .material import Material
 
@@ -25,15 +26,6 @@ __all__ = ["Rheology", "RHEOLOGIES", "LawError", "chi", "ill_defined", "sample_s
 
 #: name -> Rheology subclass; filled by the subclasses themselves
 RHEOLOGIES: dict[str, type] = {}
-
-
-class LawError(ValueError):
-    """A law that cannot be used: names the condition and a state where it fails."""
-
-    def __init__(self, law: str, condition: str, state: dict | None = None, detail: str = ""):
-        self.law, self.condition, self.state = law, condition, state
-        where = "" if state is None else " at " + ", ".join(f"{k} = {v:.6g}" for k, v in state.items())
-        super().__init__(f"law {law!r}: {condition}{where}" + (f" ({detail})" if detail else ""))
 
 
 class Rheology:

@@ -29,7 +29,7 @@ derivatives are sympy's, none is written by hand.
 A law given directly as p and ||tau|| on invariants (like mu(I),Phi(I)) is a
 :class:`DirectLaw`: (4.3)-(4.5) do not apply to it; only the stability analysis does.
 
-A law written in a file (:func:`load_law_file`) defines ``yield_function`` and
+A law written in a file (:func:`~.law_files.load_law_file`) defines ``yield_function`` and
 ``dilatancy_function`` (or ``pressure`` and ``shear_stress``) of
 (p, I, phi, M, Psi, prm) resp. (phi, div_u, norm_S, M, Psi, prm); M = mu(Psi(phi)) and
 Psi = Psi(phi) of the material, prm the material parameters by name. Such a Python file is a
@@ -39,7 +39,6 @@ same law as formulas read by a whitelist, nothing run (docs/security.md).
 
 from __future__ import annotations
 
-import pathlib
 import re
 
 import numpy as np
@@ -47,8 +46,8 @@ import numpy as np
 from .base import RHEOLOGIES, LawError, Rheology, ill_defined, sample_states
 from .material import Material
 
-__all__ = ["CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "load_law_file",
-           "sample_states", "ill_defined", "pressure_symbol", "is_file_law", "get_rheology", "define_rheology"]
+__all__ = ["CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "sample_states", "ill_defined",
+           "pressure_symbol", "placeholder_table", "define_rheology"]
 
 
 def pressure_symbol():
@@ -364,7 +363,7 @@ class DirectLaw(Rheology):
 
 # --- laws built at run time -----------------------------------------------------------------
 
-def _placeholder_table() -> dict:
+def placeholder_table() -> dict:
     """Name -> symbol of every argument a law function takes (:mod:`.symbols`, p of :func:`pressure_symbol`)."""
     from . import symbols as s
 
@@ -382,7 +381,7 @@ def as_expression(spec, argnames, where: str):
     from .declarative import parse_expression
 
     if isinstance(spec, str):
-        table = _placeholder_table()
+        table = placeholder_table()
         names = {n: table[n] for n in argnames}
         names.update({k: v for k, v in s.MATERIAL_SYMBOLS.items() if k not in names})
         return parse_expression(spec, names, where)
@@ -402,7 +401,7 @@ def _as_function(spec, argnames, where="law"):
     from . import symbols as s
 
     expr = as_expression(spec, argnames, where)
-    table = _placeholder_table()
+    table = placeholder_table()
 
     def function(*args):
         *values, prm = args
@@ -487,128 +486,6 @@ def define_direct_law(name: str, pressure, shear_stress, *, label=None, material
 
 def _ident(name: str) -> str:
     return re.sub(r"\W", "_", name)
-
-
-def is_file_law(spec) -> bool:
-    """True if `spec` names a law file (Python ``*.py`` or declarative ``*.toml``) rather than a registered law."""
-    from .declarative import is_declarative_law
-
-    return isinstance(spec, (str, pathlib.Path)) and (str(spec).endswith(".py") or is_declarative_law(spec))
-
-
-#: what a Python law file defines: (function names, their argument names, the law's kind)
-_FILE_LAWS = ((("yield_function", "dilatancy_function"), ("p", "I", "phi", "M", "Psi"), "cidr"),
-              (("pressure", "shear_stress"), ("phi", "div_u", "norm_S", "M", "Psi"), "direct"))
-
-
-def load_law_file(path) -> type:
-    """The law class of a law file; registered under its ``name`` (default: the file's stem).
-
-    A declarative file (``*.toml``, :mod:`.declarative`) is data: its formulas are parsed by a
-    whitelist, nothing in it is run. **A Python file (``*.py``) is a program: loading it runs
-    it** (``runpy``), with every right of the user, before anything can be checked; load only
-    Python law files you would run yourself, and share laws as ``*.toml``.
-
-    The Python file defines ``yield_function(p, I, phi, M, Psi, prm)`` and
-    ``dilatancy_function(p, I, phi, M, Psi, prm)`` (a CIDR law), or ``pressure`` and
-    ``shear_stress`` of (phi, div_u, norm_S, M, Psi, prm) (a direct law), returning sympy
-    expressions; optional ``name``, ``label``, ``material`` (a dict of Material arguments).
-    Every error (the file's own, at its run or at the first call of its functions, a name
-    that is a built-in law's, a symbol that is not a law's) is one ValueError line naming the file.
-    """
-    from .declarative import is_declarative_law, load_declarative_law
-
-    if is_declarative_law(path):
-        return load_declarative_law(path)
-    path = pathlib.Path(path)
-    where = f"Python law file {str(path)!r} (it was run)"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
-    namespace = _run_law_file(path, where)
-    name = namespace.get("name", path.stem)
-    label = namespace.get("label")
-    material = namespace.get("material")
-    try:
-        if isinstance(material, dict):
-            material = Material(**material)
-        elif material is not None and not isinstance(material, Material):
-            raise ValueError(f"`material` must be a dict of Material arguments; got {type(material).__name__}")
-        check_law_name(name)
-    except ValueError as err:
-        raise ValueError(f"{where}: {err}") from None
-    key = f"file {name}\n{path.read_text()}"
-    for functions, argnames, kind in _FILE_LAWS:
-        if all(f in namespace for f in functions):
-            _probe(namespace, functions, argnames, material or Material(), where)
-            define = define_cidr_law if kind == "cidr" else define_direct_law
-            return define(name, *(namespace[f] for f in functions), label=label, material=material, key=key)
-    raise ValueError(f"{where} must define yield_function and dilatancy_function "
-                     "(a CIDR law) or pressure and shear_stress (a direct law)")
-
-
-def _run_law_file(path, where) -> dict:
-    """The namespace of the Python file `path`, run; its errors (sys.exit too) as one ValueError line."""
-    import runpy
-
-    try:
-        return runpy.run_path(str(path))
-    except SyntaxError as err:
-        raise ValueError(f"Python law file {str(path)!r}: syntax error at line {err.lineno}: {err.msg} "
-                         "(nothing in it was run)") from None
-    except SystemExit as err:
-        raise ValueError(f"{where}: it called sys.exit({err.code!r}) instead of defining a law") from None
-    except Exception as err:  # noqa: BLE001  (any error of the user's program, named in one line)
-        raise ValueError(f"{where}: it raised {_one_line(err)}") from None
-
-
-def _one_line(err) -> str:
-    text = " ".join(str(err).split())
-    return f"{type(err).__name__}: {text}" if text else type(err).__name__
-
-
-def _probe(namespace, functions, argnames, material, where) -> None:
-    """Call the file's law functions once on the placeholder symbols: their errors, a result that
-    is not an expression, not finite (nan, zoo, oo) or in a symbol that is not the law's, as one line."""
-    import sympy as sp
-    from sympy.core.function import AppliedUndef
-
-    table = _placeholder_table()
-    args = [table[a] for a in argnames]
-    prm = material.values(symbolic=True)
-    allowed = set(args) | set(prm.values())
-    for function in functions:
-        try:
-            value = namespace[function](*args, prm)
-        except Exception as err:  # noqa: BLE001
-            raise ValueError(f"{where}: {function}() raised {_one_line(err)}") from None
-        try:
-            expr = sp.sympify(value, strict=True)
-        except sp.SympifyError:
-            raise ValueError(f"{where}: {function}() must return a sympy expression or a number; got "
-                             f"{type(value).__name__}") from None
-        bad = [a for a in (sp.nan, sp.zoo, sp.oo, -sp.oo) if expr.has(a)]
-        if bad:
-            raise ValueError(f"{where}: {function}() is not finite (it is {sp.sstr(expr)[:80]})")
-        strangers = sorted(map(str, (expr.free_symbols - allowed) | expr.atoms(AppliedUndef)))
-        if strangers:
-            raise ValueError(f"{where}: {function}() uses {', '.join(strangers)}, not a symbol of the law; "
-                             f"its symbols: {', '.join(argnames)} and the material's "
-                             f"{', '.join(material.parameter_names())} (as prm[...])")
-
-
-def get_rheology(name, material: Material | None = None) -> Rheology:
-    """The rheology registered as `name` (see :data:`RHEOLOGIES`), a law file ``*.toml`` or
-    ``*.py`` (:func:`~icidr_pde.rheology.cidr.load_law_file`: a ``*.py`` file is run, it is a
-    program), or `name` if it is a Rheology."""
-    if isinstance(name, Rheology):
-        return name
-    if is_file_law(name):   # a law written in a file (rheology workbench)
-        return load_law_file(name)(material)
-    try:
-        cls = RHEOLOGIES[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"`rheology` must be one of {sorted(RHEOLOGIES)}; got {name!r}") from None
-    return cls(material)
 
 
 def define_rheology(name: str, p, c, *, label: str | None = None, register: bool = True) -> type:

@@ -266,7 +266,7 @@ def generated_source(rheology, kinematics) -> str:
     try:
         return _generated_source(rheology, kinematics)
     except NotImplementedError as err:   # sympy's PrintMethodNotImplementedError: a function it cannot print
-        from .cidr import LawError
+        from .errors import LawError
 
         raise LawError(rheology.name, unprintable(err, "numba/numpy")) from None
 

@@ -1,6 +1,6 @@
 """Declarative law files (``*.toml``) and the safe parser of law expressions: data, never code.
 
-A Python law file (:func:`~.cidr.load_law_file`) is a program: loading it runs it, with every
+A Python law file (:func:`~.law_files.load_law_file`) is a program: loading it runs it, with every
 right of the user. A declarative law file is for sharing laws: a TOML table whose
 expressions are parsed by :func:`parse_expression`, a whitelist over Python's :mod:`ast`
 (no ``eval``, no ``sympify`` of text):
@@ -37,7 +37,7 @@ import ast
 import math
 import pathlib
 
-__all__ = ["FUNCTIONS", "parse_expression", "load_declarative_law", "is_declarative_law", "DECLARATIVE_SUFFIXES"]
+__all__ = ["FUNCTIONS", "parse_expression", "is_declarative_law", "DECLARATIVE_SUFFIXES"]
 
 DECLARATIVE_SUFFIXES = (".toml",)
 
@@ -218,55 +218,5 @@ def _constants(data: dict, where: str, taken: set) -> dict:
     return out
 
 
-def load_declarative_law(path) -> type:
-    """The law class of a declarative law file (see the module docstring); nothing in it is run.
 
-    Registered under its ``name`` (default: the file's stem), which may not be a built-in law's.
-    """
-    try:
-        return _declared_law(path)
-    except ValueError as err:
-        text = str(err)
-        raise ValueError(text if str(path) in text else f"law file {str(path)!r}: {text}") from None
-
-
-def _declared_law(path) -> type:
-    import sympy as sp
-
-    from . import symbols as s
-    from .cidr import check_law_name, define_cidr_law, define_direct_law, pressure_symbol
-    from .material import Material
-
-    path = pathlib.Path(path)
-    where = f"law file {str(path)!r}"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
-    data = _read_toml(path)
-    kind = _kind(data, where)
-    material = data.get("material")
-    if material is not None and not isinstance(material, dict):
-        raise ValueError(f"{where}: [material] must be a table of Material arguments")
-    material = Material(**material) if material else None
-    parameters = (material or Material()).parameter_names()
-    law_symbols = LAW_SYMBOLS["cidr" if kind == "cidr" else "direct"]
-    table = {"p": pressure_symbol(), "I": s.I, "phi": s.phi, "div_u": s.div_u, "norm_S": s.norm_S,
-             "M": s.M, "Psi": s.Psi}
-    names = {n: table[n] for n in law_symbols}
-    names.update({n: s.material_symbol(n) for n in parameters})
-    names["pi"] = sp.pi
-    names.update(_constants(data, where, set(names)))
-    exprs = {key: parse_expression(data[key], names, f"{where}: {key}") for key in _KEYS[kind]}
-    name, label = data.get("name", path.stem), data.get("label")
-    for key, value in (("name", name), ("label", label)):
-        if value is not None and not isinstance(value, str):
-            raise ValueError(f"{where}: `{key}` must be a string; got {value!r}")
-    check_law_name(name)
-    key = f"declarative {name}\n{path.read_text()}"
-    if kind == "cidr":
-        return define_cidr_law(name, exprs["yield_function"], exprs["dilatancy_function"], label=label,
-                               material=material, key=key,
-                               equation_of_state=data.get("equation_of_state", "auto"))
-    if "equation_of_state" in data:
-        raise ValueError(f"{where}: `equation_of_state` applies to a CIDR law (yield_function, dilatancy_function)")
-    shear = exprs["shear_stress"] if kind == "direct" else exprs["c"] * s.norm_S
-    return define_direct_law(name, exprs["pressure"], shear, label=label, material=material, key=key)
+#END

@@ -12,7 +12,8 @@ import sympy as sp
 from icidr_pde.cli import main
 from icidr_pde.rheology import RHEOLOGIES, define_cidr_law, define_direct_law, define_rheology, get_rheology
 from icidr_pde.rheology import symbols as s
-from icidr_pde.rheology.cidr import ill_defined, load_law_file, pressure_symbol
+from icidr_pde.rheology.cidr import ill_defined, pressure_symbol
+from icidr_pde.rheology.law_files import load_law_file
 from icidr_pde.rheology.declarative import parse_expression
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
