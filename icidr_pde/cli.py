@@ -19,7 +19,7 @@ import time
 import warnings
 from pathlib import Path
 
-from .argtypes import positive_int
+from .argtypes import option_names, positive_int
 
 # subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
 # full only the subcommand it names, so that `--help` and each subcommand import only their
@@ -430,13 +430,6 @@ def _describe_subcommands(parser) -> None:
                 _describe_subcommands(sub)
 
 
-def _option_names(message: str, args) -> str:
-    """Name the command-line option where the API names its parameter (`t_end` -> `--t-end`)."""
-    for dest in vars(args):
-        message = message.replace(f"`{dest}`", f"`--{dest.replace('_', '-')}`")
-    return message
-
-
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # the subcommand is the first word (the top level has no option but --help)
@@ -448,7 +441,7 @@ def main(argv=None) -> int:
         return args.func(args)
     except ValueError as err:
         if not getattr(args, "quiet", False):
-            print(f"{PREFIX} {_option_names(str(err), args)}", file=sys.stderr)
+            print(f"{PREFIX} {option_names(str(err), args)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
         print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)

@@ -26,7 +26,7 @@ from .outputs import check_outputs, write_json
 from .rheology import RHEOLOGIES
 from .scenes import SCENES
 from .studies.case_cache import add_cache_option, check_cache_option
-from .studies.distributed import add_cluster_options, client_of
+from .cluster_cli import add_cluster_options, client_of
 from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
 

@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ParameterError", "real", "integer", "int_at_least", "choice", "shown", "memory_bytes", "format_bytes",
+__all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes",
            "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
            "output_path"]
 
@@ -75,22 +75,6 @@ def integer(name: str, value, low: int | None = None, high: int | None = None, *
     if (low is not None and n < low) or (high is not None and n > high):
         raise ParameterError(f"`{name}` must be {wanted}; got {shown(value)}")
     return n
-
-
-def int_at_least(lowest: int):
-    """argparse type: the text as an integer >= `lowest` (the check of :func:`integer`), else
-    argparse's error naming that range and the text received. The one such type of every
-    command line, the studies' ``--jobs``/``--workers`` among them."""
-    def parse(text):
-        import argparse
-
-        try:
-            return integer("value", int(text), lowest)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be {_integer_wanted(lowest, None)}; got {text!r}") from None
-
-    parse.__name__ = _integer_wanted(lowest, None)
-    return parse
 
 
 def choice(name: str, value, choices) -> str:

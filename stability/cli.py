@@ -56,7 +56,7 @@ def _write_json(path, obj):
 
 
 def _stability(args) -> int:
-    from icidr_pde.cli import _option_names  # noqa: PLC0415
+    from icidr_pde.argtypes import option_names  # noqa: PLC0415
     from icidr_pde.outputs import check_outputs  # noqa: PLC0415
 
     from .numeric import stability_numbers  # noqa: PLC0415
@@ -82,7 +82,7 @@ def _stability(args) -> int:
             angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
             ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
     except ValueError as e:
-        print(f"icidr-pde: error: {_option_names(str(e), args)}", file=sys.stderr)
+        print(f"icidr-pde: error: {option_names(str(e), args)}", file=sys.stderr)
         return 2
     out = {}
     if sn is not None:

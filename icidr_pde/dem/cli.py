@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..argtypes import int_at_least, positive_int as _pos_int
 from ..outputs import check_outputs, writable_folder, write_json
-from ..studies.distributed import add_cluster_options, client_of
+from ..cluster_cli import add_cluster_options, client_of
 
 
 def _fraction(text):

@@ -3,14 +3,12 @@
 * :func:`cluster` -- a :class:`distributed.Client` on a ``LocalCluster`` of `workers`
   processes (one thread, one BLAS thread each), or on the scheduler at `scheduler`
   (a cluster started by ``dask scheduler``/``dask worker`` or by dask-jobqueue);
-* :func:`map_cases` -- ``function(case)`` for every case as tasks, with one progress bar
-  over them (the engine of :func:`~icidr_pde.studies.parallel.run_cases` given a client);
 * :func:`run_many` -- :func:`icidr_pde.api.run` for a list of cases, the
   :class:`~icidr_pde.result.Result`\\ s in the order asked; a task that raised is a
-  :class:`TaskError` naming its case, in its place;
-* :func:`add_cluster_options` and :func:`client_of` -- ``--workers N`` / ``--scheduler
-  ADDRESS`` of every command that runs independent runs (``icidr-pde tstar``, the studies'
-  ``python -m`` commands), parsed and checked in this one place.
+  :class:`TaskError` naming its case, in its place.
+
+The options ``--workers N`` / ``--scheduler ADDRESS`` of the commands that run independent
+runs open their client through :func:`cluster` (:mod:`icidr_pde.cluster_cli`).
 
 A task computes what the serial run computes: the same function on the same arguments in
 a process with one BLAS thread, so t* agrees bit for bit (tests/test_distributed.py).
@@ -19,7 +17,6 @@ dask is the optional extra ``pip install "icidr-pde[dask]"``; see docs/distribut
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import logging
@@ -29,10 +26,10 @@ import sys
 import traceback
 from dataclasses import dataclass
 
-from ..validation import int_at_least, integer
-from .parallel import single_thread_environment, worker_init
+from ..validation import integer
+from .parallel import map_cases, run_cases, single_thread_environment
 
-__all__ = ["TaskError", "add_cluster_options", "client_of", "cluster", "map_cases", "run_many"]
+__all__ = ["TaskError", "cluster", "run_many"]
 
 #: seconds to wait for a scheduler to answer before giving up (bad input, exit 2 on the CLI)
 CONNECT_TIMEOUT = 3.0
@@ -60,48 +57,6 @@ def _distributed():
         raise ValueError("`workers`/`scheduler` need dask.distributed, which is not installed: "
                          "pip install 'icidr-pde[dask]'") from None
     return distributed
-
-
-_count_argument = int_at_least(1)  # argparse type of --workers and --jobs
-
-
-def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:
-    """Add ``--jobs N`` (this machine's process pool; default `jobs`, 1: one run after the
-    other in this process) and ``--workers N`` or ``--scheduler ADDRESS`` (dask; one or the
-    other) to `parser`; :func:`client_of` opens the client they ask for."""
-    parser.add_argument("--jobs", type=_count_argument, default=jobs, metavar="N",
-                        help=f"worker processes of this machine's process pool for {what} (default {jobs})")
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--workers", type=_count_argument, default=None, metavar="N",
-                       help=f"run {what} as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
-    group.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                       help=f"run {what} as tasks of the dask cluster whose scheduler is at ADDRESS "
-                            "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
-
-
-@contextlib.contextmanager
-def client_of(args, parser: argparse.ArgumentParser | None = None, *, dashboard: bool = True):
-    """The dask client of ``args.workers``/``args.scheduler`` for the block (None without
-    either: the caller's own serial path or process pool), its dashboard's link printed.
-
-    A cluster that cannot start or a scheduler that does not answer is bad input, its message
-    naming the option: with `parser`, its one-line error and exit 2 (``parser.error``); without,
-    a ValueError (the commands' mains print it as one line, exit 2).
-    """
-    if args.workers is None and args.scheduler is None:
-        yield None
-        return
-    with contextlib.ExitStack() as stack:
-        try:
-            client = stack.enter_context(cluster(args.workers, args.scheduler, dashboard=dashboard))
-        except ValueError as err:
-            message = str(err)
-            for name in ("workers", "scheduler"):
-                message = message.replace(f"`{name}`", f"`--{name}`")
-            if parser is None:
-                raise ValueError(message) from None
-            parser.error(message)
-        yield client
 
 
 @contextlib.contextmanager
@@ -166,51 +121,6 @@ def _probe(address: str) -> None:
         pass
 
 
-_initialised = False
-
-
-def _task(function, case):
-    """`function(case)` in a worker: one BLAS thread, warnings off, as the process pool does."""
-    global _initialised
-    if not _initialised:
-        worker_init()
-        _initialised = True
-    return function(case)
-
-
-def map_cases(function, cases: list, client, progress: bool, *, ordered: bool = True, desc=None,
-              postfix=None):
-    """Yield function(case) for every case, computed as tasks of `client`.
-
-    With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
-    An exception of a task is raised here (with the worker's traceback); the tasks not yet
-    run are cancelled when the caller stops (or is interrupted).
-    """
-    from distributed import as_completed
-    from tqdm.auto import tqdm
-
-    futures = [client.submit(_task, function, case, pure=False) for case in cases]
-    index = {f.key: i for i, f in enumerate(futures)}
-    done: dict[int, object] = {}
-    following = 0
-    try:
-        with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
-            for future in as_completed(futures):
-                result = future.result()
-                if postfix is not None:
-                    bar.set_postfix_str(postfix(result))
-                bar.update()
-                if not ordered:
-                    yield result
-                    continue
-                done[index[future.key]] = result
-                while following in done:
-                    yield done.pop(following)
-                    following += 1
-    finally:
-        client.cancel([f for f in futures if not f.done()])
-
-
 def _run_one(case: dict):
     """api.run(**case); an exception is returned as a :class:`TaskError` (a blow-up is a Result)."""
     from ..api import run
@@ -243,6 +153,4 @@ def run_many(cases, client=None, workers: int | None = None, *, progress: bool =
     if workers is not None:
         with cluster(workers) as own:
             return list(map_cases(_run_one, cases, own, progress, desc="runs"))
-    from .parallel import run_cases
-
     return list(run_cases(_run_one, cases, 1, progress, desc="runs"))

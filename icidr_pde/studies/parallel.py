@@ -1,7 +1,8 @@
 """Worker processes for the studies: one BLAS thread each, spawned, with a progress bar.
 
 :func:`run_cases` runs on a process pool of this machine, or, given a dask client, as its
-tasks (:mod:`.distributed`: a ``LocalCluster`` or a cluster's scheduler).
+tasks (:func:`map_cases`, with one progress bar over them; the client is :mod:`.distributed`'s:
+a ``LocalCluster`` or a cluster's scheduler).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import warnings
 
 from ..validation import integer
 
-__all__ = ["blas_threads", "limit_blas_threads", "run_cases", "single_thread_environment", "worker_init",
+__all__ = ["blas_threads", "limit_blas_threads", "map_cases", "run_cases", "single_thread_environment", "worker_init",
            "worker_state"]
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -101,6 +102,51 @@ def _in_worker_state(function):
     return call
 
 
+_initialised = False
+
+
+def _task(function, case):
+    """`function(case)` in a worker: one BLAS thread, warnings off, as the process pool does."""
+    global _initialised
+    if not _initialised:
+        worker_init()
+        _initialised = True
+    return function(case)
+
+
+def map_cases(function, cases: list, client, progress: bool, *, ordered: bool = True, desc=None,
+              postfix=None):
+    """Yield function(case) for every case, computed as tasks of `client`.
+
+    With ``ordered=False`` results come as they finish; `postfix(result)` labels the bar.
+    An exception of a task is raised here (with the worker's traceback); the tasks not yet
+    run are cancelled when the caller stops (or is interrupted).
+    """
+    from distributed import as_completed
+    from tqdm.auto import tqdm
+
+    futures = [client.submit(_task, function, case, pure=False) for case in cases]
+    index = {f.key: i for i, f in enumerate(futures)}
+    done: dict[int, object] = {}
+    following = 0
+    try:
+        with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
+            for future in as_completed(futures):
+                result = future.result()
+                if postfix is not None:
+                    bar.set_postfix_str(postfix(result))
+                bar.update()
+                if not ordered:
+                    yield result
+                    continue
+                done[index[future.key]] = result
+                while following in done:
+                    yield done.pop(following)
+                    following += 1
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+
+
 def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool = True, desc=None,
               postfix=None, client=None, init_here: bool = True):
     """Yield function(case) for every case, in `jobs` spawned workers (jobs=1: this process),
@@ -113,8 +159,6 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
     study's serial default).
     """
     if client is not None:
-        from .distributed import map_cases
-
         yield from map_cases(function, cases, client, progress, ordered=ordered, desc=desc, postfix=postfix)
         return
     jobs = integer("jobs", jobs, 1)

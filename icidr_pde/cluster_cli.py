@@ -1,0 +1,57 @@
+"""The options of every command that runs independent runs (``icidr-pde tstar``, the DEM's
+commands, the studies' ``python -m`` mains): ``--jobs N`` (this machine's process pool),
+``--workers N`` or ``--scheduler ADDRESS`` (dask, :func:`icidr_pde.studies.distributed.cluster`),
+parsed and checked in this one place.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+
+from .argtypes import int_at_least
+from .studies.distributed import cluster
+
+__all__ = ["add_cluster_options", "client_of"]
+
+
+_count_argument = int_at_least(1)  # argparse type of --workers and --jobs
+
+
+def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:
+    """Add ``--jobs N`` (this machine's process pool; default `jobs`, 1: one run after the
+    other in this process) and ``--workers N`` or ``--scheduler ADDRESS`` (dask; one or the
+    other) to `parser`; :func:`client_of` opens the client they ask for."""
+    parser.add_argument("--jobs", type=_count_argument, default=jobs, metavar="N",
+                        help=f"worker processes of this machine's process pool for {what} (default {jobs})")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=_count_argument, default=None, metavar="N",
+                       help=f"run {what} as dask tasks on a LocalCluster of N processes (needs the [dask] extra)")
+    group.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                       help=f"run {what} as tasks of the dask cluster whose scheduler is at ADDRESS "
+                            "(e.g. tcp://10.0.0.1:8786, or a file of `dask scheduler --scheduler-file`)")
+
+
+@contextlib.contextmanager
+def client_of(args, parser: argparse.ArgumentParser | None = None, *, dashboard: bool = True):
+    """The dask client of ``args.workers``/``args.scheduler`` for the block (None without
+    either: the caller's own serial path or process pool), its dashboard's link printed.
+
+    A cluster that cannot start or a scheduler that does not answer is bad input, its message
+    naming the option: with `parser`, its one-line error and exit 2 (``parser.error``); without,
+    a ValueError (the commands' mains print it as one line, exit 2).
+    """
+    if args.workers is None and args.scheduler is None:
+        yield None
+        return
+    with contextlib.ExitStack() as stack:
+        try:
+            client = stack.enter_context(cluster(args.workers, args.scheduler, dashboard=dashboard))
+        except ValueError as err:
+            message = str(err)
+            for name in ("workers", "scheduler"):
+                message = message.replace(f"`{name}`", f"`--{name}`")
+            if parser is None:
+                raise ValueError(message) from None
+            parser.error(message)
+        yield client
