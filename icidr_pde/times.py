@@ -10,7 +10,7 @@ import numpy as np
 
 from .validation import ParameterError, real, shown
 
-__all__ = ["dense_times", "time_labels", "time_tolerance", "controller_dt", "check_t_end", "MAX_T_END", "chi_times",
+__all__ = ["dense_times", "time_labels", "time_tolerance", "check_t_end", "MAX_T_END", "chi_times",
            "merged_output_times"]
 
 #: the largest t_end: beyond it the round-off of the rates at the steady state, integrated over
@@ -35,16 +35,6 @@ def time_tolerance(t) -> float:
     numbers resolve it, else 16 spacings of the float numbers at t (an absolute 1e-8 vanishes
     in t + 1e-8 once t > 2**28, and a recorder waiting for t to pass it would wait forever)."""
     return max(1e-8, 16.0 * float(np.spacing(abs(float(t)))))
-
-
-def controller_dt(t) -> float | None:
-    """The `dt` a solver reports to py-pde's Controller at time t: None (its absolute windows,
-    1e-12 for the end of a run, 1e-8 for a tracker's time) while float numbers at t resolve
-    them, else one whose windows (1e-6 dt and dt/2) are 32 and 1.6e7 float spacings at t: with
-    absolute windows a tracker due at a t past ~1e4 never fires (its final snapshot is lost)
-    or fires forever at the same time (past 2**28, the run hangs)."""
-    spacing = float(np.spacing(abs(float(t))))
-    return None if 4 * spacing < 1e-12 else 3.2e7 * spacing
 
 
 def dense_times(t_end: float, n_log: int = 120, n_lin: int = 400, t_min: float = 1e-4) -> np.ndarray:

@@ -47,10 +47,10 @@ def _no_lammps_mpi_here(request):
     PETSc's): an in-process PETSc test in such a test worker is skipped and says why (the
     mpiexec tests run in processes of their own)."""
     if HAVE_PETSC and request.node.get_closest_marker("skipif") is not None:
-        from icidr_pde.engines.petsc import lammps_mpi_loaded
+        from icidr_pde.engines.petsc import other_mpi
 
         in_process = request.node.name not in SUBPROCESS_TESTS
-        if in_process and lammps_mpi_loaded() and "petsc4py.PETSc" not in sys.modules:
+        if in_process and other_mpi() and "petsc4py.PETSc" not in sys.modules:
             pytest.skip("this test process has run LAMMPS (the DEM tests): its MPICH and PETSc's MPI cannot "
                         "share a process; run tests/test_petsc.py in a process of its own")
 

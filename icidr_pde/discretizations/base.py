@@ -51,12 +51,11 @@ import numpy as np
 from pde import CartesianGrid, FieldCollection, ScalarField
 from pde.pdes.base import PDEBase
 
-from ..engines import stiff  # noqa: F401  -- registers py-pde's "stiff" solver, the default of solve()
 from ..rheology import SHEAR_CELL, Material, Rheology, get_rheology
 from ..validation import real
 from .core import PhiRange
 from .grid_size import FD, GridLimit, check_N
-from .registry import SCHEMES, check_options
+from .registry import SCHEMES, check_options, pypde_solver
 
 __all__ = ["ShearCellBase"]
 
@@ -172,9 +171,10 @@ class ShearCellBase(PhiRange, PDEBase):
         """py-pde's ``solve`` with the stiff solver as the default (``solver="stiff"``).
 
         py-pde's own default, explicit Euler, is stable here only for steps ~h^2/p: 158 s
-        for t = 1 at N = 101. Any py-pde solver can still be named.
+        for t = 1 at N = 101. Any py-pde solver can still be named; "stiff" is registered with
+        py-pde here, on first use (:func:`~.registry.pypde_solver`).
         """
-        return super().solve(state, t_range, dt, tracker, solver=solver, **kwargs)
+        return super().solve(state, t_range, dt, tracker, solver=pypde_solver(solver), **kwargs)
 
 
 class ShearCell1DBase(ShearCellBase):

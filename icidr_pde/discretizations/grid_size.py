@@ -58,6 +58,12 @@ class GridLimit:
                 return estimate(N), note
         return self.memory_estimate(N), self.memory_note
 
+    def check_run(self, what: str, n: int, N: int, method: str, mode: str, hint: str = "") -> None:
+        """Refuse a run on N (`what`: its grid, e.g. "`N` = 20000") of n unknowns whose scheme
+        (:attr:`memory_estimate`) and linear algebra (`method`, Jacobian `mode`) do not fit
+        (:func:`check_path`): the engines' py-pde adapter asks the scheme it is given."""
+        check_path(what, n, self.memory_estimate(N), method, mode, hint, self.memory_note)
+
     def least(self, N: int) -> tuple[float, str]:
         """(bytes, what they hold) of the cheapest run on N: what every run of the scheme needs."""
         return min([self.estimate(N)] + [self.estimate(N, name) for name, _, _ in self.paths])

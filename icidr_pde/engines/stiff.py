@@ -22,7 +22,6 @@ import time
 import numpy as np
 from pde.solvers.base import SolverBase
 
-from ..times import controller_dt
 from ..validation import ParameterError, choice as checked_choice, nonfinite_rates, real
 from . import ENGINES, METHODS, engine_class
 from .base import JacobianSpec, Problem, SimulationFailed, StepStatistics, check_tolerances
@@ -130,22 +129,30 @@ class StiffSolver(SolverBase):
         return _Stepper(self, ordering, spec, validity, dt)
 
 
+def controller_dt(t) -> float | None:
+    """The `dt` a solver reports to py-pde's Controller at time t: None (its absolute windows,
+    1e-12 for the end of a run, 1e-8 for a tracker's time) while float numbers at t resolve
+    them, else one whose windows (1e-6 dt and dt/2) are 32 and 1.6e7 float spacings at t: with
+    absolute windows a tracker due at a t past ~1e4 never fires (its final snapshot is lost)
+    or fires forever at the same time (past 2**28, the run hangs)."""
+    spacing = float(np.spacing(abs(float(t))))
+    return None if 4 * spacing < 1e-12 else 3.2e7 * spacing
+
+
 def check_memory(pde, state, method: str, choice: Choice) -> None:
     """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
-    scheme and linear algebra need more than half the memory available
-    (:func:`icidr_pde.discretizations.grid_size.check_path`: a dense n x n array where this path has one)."""
+    scheme and linear algebra need more than half the memory available: the scheme's
+    ``grid_limit`` checks it (:meth:`icidr_pde.discretizations.grid_size.GridLimit.check_run`:
+    a dense n x n array where this path has one)."""
     limit = getattr(pde, "grid_limit", None)
     if limit is None:
         return
-    from ..discretizations.grid_size import check_path
-
     shape = tuple(state.grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
     mode = choice.memory_mode
     hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
-    check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), method, mode, hint,
-               limit.memory_note)
+    limit.check_run(what, state.data.size, int(np.prod(shape)), method, mode, hint)
 
 
 def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):

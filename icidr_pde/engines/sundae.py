@@ -14,7 +14,7 @@ from . import cvode_counters
 from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN, Engine, Problem, dense  # KRYLOV_EPS_LIN: its engine's setting
 from .choose import AMG_SOLVER, FOURIER_SOLVER
 from .conservative_jacobian import ConservativeDifferenceQuotients
-from .time_scale import MIN_STEP_FRACTION
+from ..time_scale import MIN_STEP_FRACTION
 
 __all__ = ["CvodeEngine", "KRYLOV_EPS_LIN", "LINEAR_SOLVERS"]
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..discretizations.fd_core import ghost_coefficients
 from ..discretizations.grid_size import FD
-from ..engines.time_scale import MIN_STEP_FRACTION, fastest_time_scale
+from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
 __all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients", "MAX_N"]
@@ -86,7 +86,7 @@ class NativeProblem:
 
     def time_scale(self, y, iterations: int = 20) -> float:
         """1/rho(J(y)) of the compiled right-hand side (the stiff solvers' estimate,
-        :func:`icidr_pde.engines.time_scale.fastest_time_scale`)."""
+        :func:`icidr_pde.time_scale.fastest_time_scale`)."""
         return fastest_time_scale(lambda t, v: self.rates(v), 0.0, y, iterations)
 
     def kernel_times(self, y, repeats: int | None = None) -> tuple[float, float]:

@@ -17,7 +17,7 @@ import os
 import numpy as np
 
 from ..discretizations.grid_size import CHEB, check_memory
-from ..engines.base import DENSE_LU_DELTA_GAMMA
+from ..cvode_settings import DENSE_LU_DELTA_GAMMA
 from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
@@ -53,7 +53,7 @@ class ChebProblem(NativeProblem):
     """The compiled Chebyshev problem of `rheology` with differentiation matrix `D` (N, N):
     right-hand side, dense analytic Jacobian, M(phi) and CVODE (dense LU: `solver`, one of
     :data:`DENSE_SOLVERS`; the factored Newton matrix kept until gamma changed by
-    `delta_gamma`, default :data:`icidr_pde.engines.base.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
+    `delta_gamma`, default :data:`icidr_pde.cvode_settings.DENSE_LU_DELTA_GAMMA`); or, `linear_solver`
     "krylov" (default :data:`LINEAR_SOLVER`; the dense LU where the build cannot), GMRES with the
     low-order band preconditioner or a lagged dense LU, its settings `krylov` over :data:`KRYLOV`;
     given `weights`, the quadrature weights of phi, the Krylov path projects every step onto the

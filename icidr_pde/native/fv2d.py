@@ -4,8 +4,8 @@ The rates are the numba template ``discretizations/templates/cartesian2d.py`` pr
 (:mod:`.translate`: the whole grid as one patch, ``halo_into`` then ``patch_rates``), in a
 library of the law of plane flow (:mod:`.build`). CVODE is set up as the py-pde path sets it
 up on a thick cell (:mod:`icidr_pde.engines.sundae`, linear solver 'GMRES'): BDF, SUNDIALS'
-GMRES of Krylov dimension :data:`icidr_pde.engines.base.KRYLOV_DIM` without a preconditioner, the tolerance factor
-:data:`icidr_pde.engines.base.KRYLOV_EPS_LIN`, CVODE's difference-quotient products J v;
+GMRES of Krylov dimension :data:`icidr_pde.cvode_settings.KRYLOV_DIM` without a preconditioner, the tolerance factor
+:data:`icidr_pde.cvode_settings.KRYLOV_EPS_LIN`, CVODE's difference-quotient products J v;
 the mass stays the exact solves' to round-off as on that path (the rates of phi are flux
 differences, so every product J v has zero mass up to round-off). A thin cell (hx > THIN_CELL hz),
 where the py-pde path preconditions along z, is not taken here (:func:`icidr_pde.engines.choose.choose`).
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..discretizations.cartesian2d_core import CartesianCells, measures
-from ..engines.base import KRYLOV_DIM, KRYLOV_EPS_LIN
+from ..cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
 from .build import NativeUnavailable
 from . import NativeProblem, _pointer
 

@@ -1,8 +1,9 @@
 """The fastest time scale of the shear cell's right-hand side, 1/rho(J), and the smallest step it sets.
 
 Plain numpy, so that every engine computes it with this one function: the stiff solvers of
-:mod:`icidr_pde.engines` (scipy, scikit-sundae) and the native engine (:mod:`icidr_pde.native`, whose warm run
-imports neither scipy nor py-pde) on its compiled right-hand side.
+:mod:`icidr_pde.engines` (scipy, scikit-sundae, PETSc) and the compiled problems of the native engine
+(:mod:`icidr_pde.native`, whose warm run imports neither scipy nor py-pde) on their compiled
+right-hand side; below both, so that a compiled problem imports no engine.
 """
 
 from __future__ import annotations
