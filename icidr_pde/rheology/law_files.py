@@ -122,7 +122,7 @@ def _probe(namespace, functions, argnames, material, where) -> None:
 
 
 def load_declarative_law(path) -> type:
-    """The law class of a declarative law file (see the module docstring); nothing in it is run.
+    """The law class of a declarative law file (its format: :mod:`.declarative`); nothing in it is run.
 
     Registered under its ``name`` (default: the file's stem), which may not be a built-in law's.
     """
