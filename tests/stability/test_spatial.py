@@ -259,3 +259,30 @@ def test_law_check_prints_three_d(capsys):
     out = capsys.readouterr().out
     assert "symbol one-d: ILL-POSED" in out and "symbol two-d: ILL-POSED" in out
     assert "symbol three-d: ILL-POSED" in out and "verdict: ILL-POSED" in out
+
+
+def test_numbers_quoted_in_the_docs():
+    """docs/plane_waves.md's 3-D table (steady shear, u_z = 1/30) is what the code computes."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "plane_waves.md").read_text()
+    num = r"([0-9.]+)"
+    rows = re.findall(rf"\| {num} +\| {num} +\| {num} / {num} \({num}\) +\| \[{num}°, {num}°\] / \[{num}°, {num}°\] +\| "
+                      rf"{num} +\|", text)
+    assert len(rows) == 2
+    for row in rows:
+        phi, M, r2, r3, ratio, a2, b2, a3, b3, frac = (float(v) for v in row)
+        g2 = (0.0, 1 / 30, 0.0, 0.0)
+        assert _M_Psi(phi)[0] == pytest.approx(M, abs=1e-4)
+        d2 = directional.directional_stability("mui", phi, g2)
+        r = spatial.spatial_stability("mui", phi, spatial.planar_gradient(*g2), directions=200_000)
+        assert d2.max_lambda == pytest.approx(r2, rel=2e-4) and r.max_lambda == pytest.approx(r3, rel=2e-4)
+        assert r.max_lambda / d2.max_lambda == pytest.approx(ratio, abs=1e-3)
+        assert np.allclose(d2.ill_posed_intervals_deg, [[a2, b2]], atol=0.006)
+        a, B = spatial.principal_part_at("mui", phi, spatial.planar_gradient(*g2))
+        for edge, inside in ((a3, +0.02), (b3, -0.02)):
+            ends = np.deg2rad([edge - inside, edge + inside])
+            lam = spatial.lambda_max(a, B, np.stack([np.cos(ends), 0 * ends, np.sin(ends)], -1))
+            assert lam[0] < 0 < lam[1]
+        assert r.ill_posed_fraction == pytest.approx(frac, abs=6e-5)
