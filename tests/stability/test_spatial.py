@@ -194,6 +194,10 @@ def test_cli_dim3_json(tmp_path, capsys):
     assert data["max_lambda"] > 0 and np.linalg.norm(data["worst_direction"]) == pytest.approx(1.0)
     assert data["velocity_gradient"]["u_z"] == pytest.approx(1 / 30) and len(data["velocity_gradient"]) == 9
     assert "ill_posed_fraction" in capsys.readouterr().out
+    png = tmp_path / "sphere.png"
+    assert _run(["--rheology", "mui", "--phi", "0.78", "--dim", "3", "--uz", str(1 / 30), "--wz", "0",
+                 "--directions", "200", "--plot", str(png)]) == 0
+    assert png.stat().st_size > 10000
     rc = _run(["--rheology", "icidr", "--phi", "0.7", "--dim", "3", "--velocity-gradient",
                *"0.1 0.2 0.3 -0.1 0.05 0 0.3 0 -0.2".split(), "--json", str(out)])
     assert rc == 0 and json.loads(out.read_text())["ill_posed_fraction"] == 0.0
@@ -286,3 +290,23 @@ def test_numbers_quoted_in_the_docs():
             lam = spatial.lambda_max(a, B, np.stack([np.cos(ends), 0 * ends, np.sin(ends)], -1))
             assert lam[0] < 0 < lam[1]
         assert r.ill_posed_fraction == pytest.approx(frac, abs=6e-5)
+
+
+def test_newtonian_law_gives_the_navier_stokes_symbol():
+    """sigma = -p0(phi) I + 2 eta S + zeta div u I in 3-D is compressible Navier-Stokes, whose momentum symbol is
+    -xi^2 (eta I + (zeta + eta/3) n n^T)/(rho phi): the eta/3 is the 3-D deviator's (2-D would give 0)."""
+    import sympy as sp
+
+    from stability import plane
+    from stability.symbols import phi, rho
+
+    eta, zeta, xi = sp.symbols("eta zeta xi", positive=True)
+    p0 = sp.Function("p0")
+    law = plane.InvariantLaw("newtonian", lambda ph, dv, sn: (p0(ph) - zeta * dv, 2 * eta))
+    n = spatial.direction()
+    A = spatial.symbol(law, n, xi)
+    assert A.shape == (4, 4)
+    target = -xi**2 * (eta * sp.eye(3) + (zeta + eta / 3) * n * n.T) / (rho * phi)
+    assert all(sp.simplify(x) == 0 for x in (A[1:, 1:] - target))
+    assert all(sp.simplify(x) == 0 for x in (A[1:, 0] + sp.I * xi * sp.diff(p0(phi), phi) * n / (rho * phi)))
+    assert all(sp.simplify(x) == 0 for x in (A[0, 1:] + sp.I * xi * phi * n.T))
