@@ -34,9 +34,11 @@ plane is the 2-D one plus c/(6 rho phi) n n^T: a stiffer longitudinal response. 
 mu(I),Phi(I) (c = M p/s, p = rho (2 d s/Psi)^2) at the principal stretching direction
 (m = s n) the ill-posed eigenvalue of -Gamma drops from (4 d^2 s/(phi Psi^2)) (1 - M) (2-D)
 to (4 d^2 s/(phi Psi^2)) (1 - 7M/6) (3-D): the in-plane instability needs M < 6/7 instead of
-M < 1, and the ill-posed angular interval narrows (numbers for Table 1 in docs/plane_waves.md).
-In 3-D the worst direction of a planar shear still lies in its plane (the principal
-stretching direction), but off-plane directions are ill-posed too: a cone, not an interval.
+M < 1, and the ill-posed directions, C = cos 2(theta - beta) > M in 2-D, become
+M C^2 + 6 C - 8 M > 0, i.e. C > (sqrt(8 M^2 + 9) - 3)/M: a narrower interval (numbers for
+Table 1 in docs/plane_waves.md).  In the steady shear computed there the worst direction
+stays in the plane, and off-plane directions are ill-posed too: a pair of caps on the sphere,
+not an interval.
 
 Numbers (:func:`spatial_stability`): the coefficients are compiled once per law with
 ``sympy.lambdify`` (d = rho_* = 1, as :mod:`stability.directional`); Lambda_max is sampled on a
