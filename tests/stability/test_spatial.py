@@ -290,6 +290,8 @@ def test_numbers_quoted_in_the_docs():
             lam = spatial.lambda_max(a, B, np.stack([np.cos(ends), 0 * ends, np.sin(ends)], -1))
             assert lam[0] < 0 < lam[1]
         assert r.ill_posed_fraction == pytest.approx(frac, abs=6e-5)
+        half = np.degrees(np.arccos((np.sqrt(8 * M**2 + 9) - 3) / M)) / 2    # the docs' closed form, beta = 45 deg
+        assert [45 - half, 45 + half] == pytest.approx([a3, b3], abs=0.006)
 
 
 def test_newtonian_law_gives_the_navier_stokes_symbol():
