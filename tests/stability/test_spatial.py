@@ -245,24 +245,26 @@ def test_workbench_closed_form_is_the_derived_gamma(name):
         assert np.allclose(Gc, G, rtol=1e-9, atol=1e-10 * np.abs(G).max())
 
 
-def test_workbench_3d_verdicts():
-    """iCIDR well-posed at every state of the 3-D grid; mu(I) ill-posed at every state, on part of the sphere only."""
+def test_workbench_3d_verdict_icidr():
+    """iCIDR well-posed at every state of the workbench's 3-D grid."""
     from icidr_pde.rheology import get_rheology
 
     good = spatial.workbench_symbol(get_rheology("icidr"))
     assert good["well_posed"] and good["max_Lambda_plus"]["Lambda_plus"] < 0
-    bad = spatial.workbench_symbol(get_rheology("mui"))
-    assert not bad["well_posed"] and bad["max_Lambda_plus"]["ill_posed_states"] == bad["states"]
-    assert 0 < bad["max_Lambda_plus"]["ill_posed_fraction"] < 1
 
 
-def test_law_check_prints_three_d(capsys):
+def test_law_check_prints_three_d(capsys, tmp_path):
+    """`law check mui`: the 3-D line beside the 1-D and 2-D ones; in the report mu(I) is ill-posed at every state
+    of the 3-D grid, on part of the sphere only."""
     from icidr_pde.cli import main
 
-    assert main(["law", "check", "mui", "--no-curves"]) == 0
+    assert main(["law", "check", "mui", "--no-curves", "--json", str(tmp_path / "r.json")]) == 0
     out = capsys.readouterr().out
     assert "symbol one-d: ILL-POSED" in out and "symbol two-d: ILL-POSED" in out
     assert "symbol three-d: ILL-POSED" in out and "verdict: ILL-POSED" in out
+    bad = json.loads((tmp_path / "r.json").read_text())["stability"]["three_d"]
+    assert not bad["well_posed"] and bad["max_Lambda_plus"]["ill_posed_states"] == bad["states"]
+    assert 0 < bad["max_Lambda_plus"]["ill_posed_fraction"] < 1
 
 
 def test_numbers_quoted_in_the_docs():
@@ -280,7 +282,7 @@ def test_numbers_quoted_in_the_docs():
         g2 = (0.0, 1 / 30, 0.0, 0.0)
         assert _M_Psi(phi)[0] == pytest.approx(M, abs=1e-4)
         d2 = directional.directional_stability("mui", phi, g2)
-        r = spatial.spatial_stability("mui", phi, spatial.planar_gradient(*g2), directions=200_000)
+        r = spatial.spatial_stability("mui", phi, spatial.planar_gradient(*g2), directions=20_000)
         assert d2.max_lambda == pytest.approx(r2, rel=2e-4) and r.max_lambda == pytest.approx(r3, rel=2e-4)
         assert r.max_lambda / d2.max_lambda == pytest.approx(ratio, abs=1e-3)
         assert np.allclose(d2.ill_posed_intervals_deg, [[a2, b2]], atol=0.006)
@@ -289,7 +291,7 @@ def test_numbers_quoted_in_the_docs():
             ends = np.deg2rad([edge - inside, edge + inside])
             lam = spatial.lambda_max(a, B, np.stack([np.cos(ends), 0 * ends, np.sin(ends)], -1))
             assert lam[0] < 0 < lam[1]
-        assert r.ill_posed_fraction == pytest.approx(frac, abs=6e-5)
+        assert r.ill_posed_fraction == pytest.approx(frac, abs=3e-4)   # the docs quote 200 000 directions
         half = np.degrees(np.arccos((np.sqrt(8 * M**2 + 9) - 3) / M)) / 2    # the docs' closed form, beta = 45 deg
         assert [45 - half, 45 + half] == pytest.approx([a3, b3], abs=0.006)
 
