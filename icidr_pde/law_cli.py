@@ -2,8 +2,8 @@
 
 ``law check NAME|FILE [--json out.json]`` prints conditions (4.3)-(4.5) (status, method,
 counterexample), whether p and c are finite and >= 0 on the sample (else the verdict is
-ILL-DEFINED, with the state), the equation of state and the verdict of the symbol in 1-D
-and 2-D, and writes the full report (:func:`stability.workbench.law_report`) as JSON.
+ILL-DEFINED, with the state), the equation of state and the verdict of the symbol in 1-D,
+2-D and 3-D, and writes the full report (:func:`stability.workbench.law_report`) as JSON.
 ``law list`` lists the registered laws. Exit codes: 0 (the report was made, whatever the
 verdict), 2 (bad input: unknown law, a law file that cannot be used, a law whose p or c is
 not finite; one line).
@@ -58,6 +58,11 @@ def _check(args) -> int:
               f"(max Re Lambda_+ = {w['Lambda_plus']:.4g} at phi = {w['phi']:.4g}, gamma-dot = {w['gamma_dot']:.4g}, "
               f"div u/||S|| = {w['div_u_over_norm_S']:.3g}; {w['ill_posed_states']} of {st['grid']['states']} "
               "states ill-posed)")
+    w3 = st["three_d"]["max_Lambda_plus"]
+    print(f"  symbol three-d: {'well-posed' if st['three_d']['well_posed'] else 'ILL-POSED'} (max Re Lambda_+ = "
+          f"{w3['Lambda_plus']:.4g} at phi = {w3['phi']:.4g}, gamma-dot = {w3['gamma_dot']:.4g}, div u/||S|| = "
+          f"{w3['div_u_over_norm_S']:.3g}, Lode angle {w3['lode_deg']:g} deg; {w3['ill_posed_states']} of "
+          f"{st['three_d']['states']} states ill-posed, each over {st['three_d']['directions']} directions)")
     verdict = "WELL-POSED" if report["well_posed"] else "ILL-POSED"
     if defined["failures"]:
         verdict = "ILL-DEFINED (" + ", ".join(f["what"] for f in defined["failures"]) + ")"

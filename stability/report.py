@@ -105,10 +105,11 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
     from icidr_pde.outputs import check_outputs, write_atomically  # noqa: PLC0415
 
     from . import plane  # noqa: PLC0415  (2-D plane waves: the direction the 1-D appendix A leaves out)
+    from . import spatial  # noqa: PLC0415  (3-D plane waves: the deformations the x-z plane leaves out)
 
     check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
-    checks = run_checks(crosscheck) + plane.checks()
+    checks = run_checks(crosscheck) + plane.checks() + spatial.checks()
     stream(format_table(checks))
     n = {s: sum(c.status == s for c in checks) for s in ("exact", "numeric", "fails")}
     stream(f"\n{len(checks)} checks: {n['exact']} exact, {n['numeric']} numeric, {n['fails']} fail "

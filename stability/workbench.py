@@ -19,7 +19,7 @@ For a law of :mod:`icidr_pde.rheology` (a registered name, a law file, or an ins
   and the steady (div u = 0) mu(I), Phi(I) the law implies (at ||S|| = 1/2, gamma-dot = 1).
 
 ``well_posed`` is the verdict of the symbol on the grid (strictly negative Re Lambda_+ at
-every state, 1-D and 2-D); for a CIDR law the report also says whether (4.3)-(4.5) hold,
+every state, 1-D, 2-D and 3-D: :mod:`stability.spatial`, waves in every direction of space with the 3-D deviator); for a CIDR law the report also says whether (4.3)-(4.5) hold,
 which by Barker et al. (2017) makes it well-posed at *every* state.
 """
 
@@ -391,6 +391,7 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
         report["equation_of_state"] = _eos_summary(rheology)
     grid = symbol_grid(rheology)
     sym = grid.to_json()
+    sym["three_d"] = _three_d(rheology)
     symbol_ok = sym["one_d"]["well_posed"] and sym["two_d"]["well_posed"]
     hold = all(c.status == "holds" for c in conditions.values())
     report["conditions"] = {k: c.to_json() for k, c in conditions.items()}
@@ -400,6 +401,7 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
     report["defined"] = defined
     report["well_posed"] = bool(symbol_ok and (hold or not isinstance(rheology, CIDRLaw)) and defined["status"] == "holds")
     report["stability"] = sym
+    report["well_posed"] = report["well_posed"] and sym["three_d"]["well_posed"]   # waves in every direction of space
     if isinstance(rheology, CIDRLaw) and hold and not symbol_ok:
         if positivity is not None and positivity.status == "fails":
             report["stability"]["notes"].append("(4.3)-(4.5) hold but Y < 0 on part of the sample (see "
@@ -414,6 +416,13 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
         and all(f["what"] == "c < 0" for f in defined["failures"])
     del LawError
     return report
+
+
+def _three_d(rheology) -> dict:
+    """The symbol in 3-D over the grid's states and every deviator shape (:func:`stability.spatial.workbench_symbol`)."""
+    from .spatial import workbench_symbol
+
+    return workbench_symbol(rheology)
 
 
 def _definedness(rheology) -> dict:
