@@ -30,7 +30,7 @@ import traceback
 from dataclasses import dataclass
 
 from ..validation import int_at_least, integer
-from .parallel import single_thread_environment, worker_init
+from .parallel import max_processes, single_thread_environment, worker_init
 
 __all__ = ["TaskError", "add_cluster_options", "client_of", "cluster", "map_cases", "run_many"]
 
@@ -62,7 +62,7 @@ def _distributed():
     return distributed
 
 
-_count_argument = int_at_least(1)  # argparse type of --workers and --jobs
+_count_argument = int_at_least(1, max_processes())  # argparse type of --workers and --jobs
 
 
 def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:
@@ -116,7 +116,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
         raise ValueError(f"give `workers` (a cluster on this machine) or `scheduler` (an existing one), "
                          f"not both; got workers={workers!r}, scheduler={scheduler!r}")
     if scheduler is None:
-        workers = integer("workers", workers, 1)
+        workers = integer("workers", workers, 1, max_processes())
     distributed = _distributed()
     with contextlib.ExitStack() as stack:
         if scheduler is None:

@@ -1,0 +1,125 @@
+"""Regression tests of issue 42 (hardening, round 3), items 1-3 and 5-10.
+
+Each test reproduces one defect through the command line (``icidr_pde.cli.main`` in process,
+or a subprocess where a resource limit, a signal or the exit status is the point) or the public
+function that holds the fix. Tests that would start processes or allocate without bound on the
+code before its fix are written so that the unfixed code fails them safely (a stub that
+refuses to start a pool, a subprocess under a memory limit).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from icidr_pde import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _bad_input(capsys, argv, option):
+    """Run the CLI in process: exit 2 and one error line (after argparse's usage) naming
+    `option`, no traceback."""
+    with pytest.raises(SystemExit) as info:
+        raise SystemExit(cli.main(argv))
+    err = capsys.readouterr().err
+    assert info.value.code == 2, err
+    lines = [line for line in err.strip().splitlines() if line.startswith("icidr-pde")]
+    assert len(lines) == 1 and option in lines[0], err
+    assert "Traceback" not in err and "Error:" not in err
+    return lines[0]
+
+
+def _python(code: str, *, memory: int | None = None, timeout: float = 120, env=None):
+    """Run `code` in a fresh interpreter (with an address-space limit of `memory` bytes)."""
+    preexec = None
+    if memory is not None:
+        import resource
+
+        def preexec():
+            resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=timeout, preexec_fn=preexec, cwd=ROOT,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT), **(env or {})))
+
+
+# --- 7. --workers and --jobs have an upper bound ----------------------------------------------
+
+
+@pytest.fixture
+def no_processes(monkeypatch):
+    """Starting a process pool or a LocalCluster fails the test (instead of starting thousands)."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("a pool of worker processes was started")
+
+    monkeypatch.setattr(multiprocessing, "get_context", refuse)
+    try:
+        import distributed
+    except ImportError:
+        return
+    monkeypatch.setattr(distributed, "LocalCluster", refuse)
+
+
+@pytest.mark.parametrize("option", ["--jobs", "--workers"])
+def test_a_process_count_beyond_the_machine_is_refused(no_processes, capsys, option):
+    from icidr_pde.studies.parallel import max_processes
+
+    line = _bad_input(capsys, ["tstar", "--N", "21", "--t-end", "0.001", "--no-progress", option, "100000"], option)
+    assert f"[1, {max_processes()}]" in line and "100000" in line
+
+
+def test_run_cases_refuses_a_pool_beyond_the_machine(no_processes):
+    from icidr_pde.studies.parallel import max_processes, run_cases
+    from icidr_pde.validation import ParameterError
+
+    with pytest.raises(ParameterError, match=r"`jobs` must be an integer in \[1, \d+\]; got 100000"):
+        list(run_cases(abs, [1, 2], 100000, False))
+    assert max_processes() >= 4  # a machine of one core may still run 4 workers
+
+
+# --- 9. tstar --N: the number of cases and each N bounded before a range is expanded -----------
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("4:200000:1", r"every `--N` must be in \[4, 100000\]"),
+    ("4:99999:1,5:99999:1", r"at most 10000 cases; got 199991"),
+    ("21,100001", r"every `--N` must be in \[4, 100000\]"),
+])
+def test_tstar_N_is_bounded(capsys, monkeypatch, text, expected):
+    import re
+
+    from icidr_pde import tstar_cli
+
+    def no_sweep(*args, **kwargs):
+        raise AssertionError("the sweep was started")
+
+    monkeypatch.setattr(tstar_cli, "sweep", no_sweep)
+
+    line = _bad_input(capsys, ["tstar", "--N", text, "--t-end", "0.001", "--no-progress", "--jobs", "1"], "--N")
+    assert re.search(expected, line), line
+
+
+def test_a_huge_N_range_is_refused_before_it_is_expanded():
+    """Under a 1 GiB address-space limit: a list of 10^12 numbers cannot be built, so only a check
+    on the range's ends and its counted length can answer."""
+    done = _python("""
+        from icidr_pde.studies.failure_time import parse_range
+        try:
+            parse_range("4:1000000000000:1")
+        except ValueError as err:
+            print("refused:", err)
+        """, memory=1 << 30)
+    assert done.returncode == 0 and "refused: every `N` must be in [4, 100000]" in done.stdout, done.stderr[-2000:]
+
+
+def test_the_largest_sweep_is_accepted():
+    from icidr_pde.studies.failure_time import parse_range
+
+    assert parse_range("4:10003:1") == list(range(4, 10004))
+    assert parse_range("4:100000:10") == list(range(4, 100001, 10))
