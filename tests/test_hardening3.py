@@ -123,3 +123,51 @@ def test_the_largest_sweep_is_accepted():
 
     assert parse_range("4:10003:1") == list(range(4, 10004))
     assert parse_range("4:100000:10") == list(range(4, 100001, 10))
+
+
+# --- 2, 3. declarative laws: no complex numbers, no constant beyond a float's range ------------
+
+#: half-rate law of examples/half_rate_law.toml with a factor {extra} in its yield function
+_LAW = '''name = "{name}"
+yield_function = "M * p * (k * I / Psi + 1 - k) * {extra}"
+dilatancy_function = "M * (k * I / (4 * Psi) + 1 - k - Psi * (1 - 3 * k / 4) / I)"
+[parameters]
+k = 0.5
+'''
+
+
+@pytest.mark.parametrize("extra, token", [
+    ("sqrt(-1)", "sqrt(-1)"),
+    ("(1 + log(-1))", "log(-1)"),
+    ("(-1)**(1/2)", "(-1)**(1/2)"),
+    ("(-8)**(1/3) / 2", "(-8)**(1/3)"),   # sympy's principal root 1 + sqrt(3) i, written 2*(-1)**(1/3)
+    ("sqrt(-phi) + 1", "sqrt(-phi)"),
+])
+def test_a_complex_law_formula_is_refused(tmp_path, capsys, extra, token):
+    law = tmp_path / "complex.toml"
+    law.write_text(_LAW.format(name="complex-law", extra=extra))
+    for argv in (["law", "check", str(law)], ["run", "--rheology", str(law), "--N", "21", "--t-end", "0.001",
+                                                 "--no-progress"]):
+        line = _bad_input(capsys, argv, "yield_function")
+        assert f"{token!r} is not allowed" in line and "complex" in line, line
+
+
+def test_chained_powers_are_refused_before_they_are_built(tmp_path, capsys):
+    """Each power within the +-64 cap, the chain 2^(64^4) = 2^16777216: refused at its first step
+    beyond a float's range, before sympy multiplies it out (five levels took 22 s and 625 MB)."""
+    law = tmp_path / "huge.toml"
+    law.write_text(_LAW.format(name="huge-law", extra="((((2**64)**64)**64)**64) / 2**16777216"))
+    line = _bad_input(capsys, ["law", "check", str(law)], "yield_function")
+    assert "'(2**64)**64' is not allowed" in line and "1100 bits" in line, line
+
+
+def test_constants_within_a_float_s_range_are_read_exactly():
+    import sympy as sp
+
+    from icidr_pde.rheology.declarative import parse_expression
+
+    assert parse_expression("(2**16)**64", {}) == sp.Integer(2) ** 1024
+    assert parse_expression("(1/2)**64 * 3**(-64)", {}) == sp.Rational(1, 6**64)
+    assert parse_expression("(-2)**3 + sqrt(4) + (-8)**(-1)", {}) == sp.Rational(-49, 8)
+    with pytest.raises(ValueError, match="1100 bits"):
+        parse_expression("(2**32)**64", {})
