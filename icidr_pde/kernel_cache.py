@@ -43,8 +43,8 @@ import sys
 import threading
 import time
 
-__all__ = ["KernelCacheError", "digest", "version", "sympy_version", "folder", "stem", "read", "store", "build",
-           "scratch", "numba_setup", "prune", "info", "clear", "PRUNE_AFTER_S"]
+__all__ = ["KernelCacheError", "untrusted", "digest", "version", "sympy_version", "folder", "stem", "read", "store",
+           "build", "scratch", "numba_setup", "prune", "info", "clear", "PRUNE_AFTER_S"]
 
 PREFIX = "icidr_pde_"
 TEMP_PREFIX = ".icidr_pde-"
@@ -118,8 +118,10 @@ def configured() -> tuple[pathlib.Path | None, str]:
     return pathlib.Path(home) / ".cache" / "icidr_pde" / "kernels", "HOME"
 
 
-def _untrusted(st: os.stat_result) -> str | None:
-    """Why a file or folder with this status cannot be trusted, or None."""
+def untrusted(st: os.stat_result) -> str | None:
+    """Why a file or folder with this status cannot be trusted, or None: owned by another user or
+    writable by group or others (also the check of a dask scheduler file, which names a cluster
+    trusted with the account: :mod:`icidr_pde.studies.distributed`)."""
     if st.st_uid != os.geteuid():
         return f"owned by uid {st.st_uid}, not by this user (uid {os.geteuid()})"
     if st.st_mode & 0o022:
@@ -131,7 +133,7 @@ def _check_file(st: os.stat_result) -> None:
     """_Refused unless `st` is that of a regular file this user owns and only this user can write."""
     if not stat.S_ISREG(st.st_mode):
         raise _Refused("not a regular file")
-    reason = _untrusted(st)
+    reason = untrusted(st)
     if reason:
         raise _Refused(reason)
 
@@ -146,7 +148,7 @@ def _prepare(path: pathlib.Path) -> None:
             raise _Refused(err.strerror or str(err)) from None
         if not stat.S_ISDIR(st.st_mode):
             raise _Refused("not a directory")
-        reason = _untrusted(st)
+        reason = untrusted(st)
         if reason:
             raise _Refused(reason)
         if st.st_mode & 0o077:  # readable by others: a folder made before the cache was private
@@ -460,7 +462,7 @@ def info() -> dict:
         return out
     try:
         st = os.stat(path)
-        out["refused"] = _untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
+        out["refused"] = untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
     except FileNotFoundError:
         return out
     except OSError as err:

@@ -171,3 +171,99 @@ def test_constants_within_a_float_s_range_are_read_exactly():
     assert parse_expression("(-2)**3 + sqrt(4) + (-8)**(-1)", {}) == sp.Rational(-49, 8)
     with pytest.raises(ValueError, match="1100 bits"):
         parse_expression("(2**32)**64", {})
+
+
+# --- 1, 8. a dask cluster: the scheduler file is trusted only as the kernel cache's files are;
+# a result of the wrong shape and a port that never speaks dask are one line, exit 2 ------------
+
+_TSTAR = ["tstar", "--N", "21", "--t-end", "0.001", "--no-progress", "--discretization", "fd"]
+
+
+@pytest.fixture(scope="module")
+def loopback_scheduler():
+    """A dask scheduler on 127.0.0.1 with one worker thread in this process."""
+    distributed = pytest.importorskip("distributed")
+    import logging
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None, silence_logs=logging.ERROR) as local:
+        yield local.scheduler_address
+
+
+def _scheduler_file(tmp_path, address, mode=0o600):
+    import json
+
+    path = tmp_path / "scheduler.json"
+    path.write_text(json.dumps({"type": "Scheduler", "address": address}))
+    os.chmod(path, mode)
+    return path
+
+
+def test_a_trusted_scheduler_file_runs_the_sweep(loopback_scheduler, tmp_path, capsys):
+    path = _scheduler_file(tmp_path, loopback_scheduler)
+    assert cli.main([*_TSTAR, "--scheduler", str(path)]) == 0
+    assert "N=  21" in capsys.readouterr().out
+
+
+def test_a_world_writable_scheduler_file_is_refused(loopback_scheduler, tmp_path, capsys):
+    path = _scheduler_file(tmp_path, loopback_scheduler, mode=0o666)
+    line = _bad_input(capsys, [*_TSTAR, "--scheduler", str(path)], "--scheduler")
+    assert "writable by group or others (mode 0666)" in line and str(path) in line
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="giving a file to another uid needs root")
+def test_a_scheduler_file_of_another_user_is_refused(loopback_scheduler, tmp_path, capsys):
+    path = _scheduler_file(tmp_path, loopback_scheduler, mode=0o644)
+    os.chown(path, 65534, 65534)
+    line = _bad_input(capsys, [*_TSTAR, "--scheduler", str(path)], "--scheduler")
+    assert f"owned by uid 65534, not by this user (uid {os.geteuid()})" in line
+
+
+def test_a_task_result_of_the_wrong_shape_is_one_line(loopback_scheduler, tmp_path, capsys, monkeypatch):
+    """A worker whose start-up replaced the task (``dask worker --preload``) returns what it likes:
+    here an int where the sweep expects (index, failure_time dict)."""
+    from icidr_pde.studies import distributed
+
+    monkeypatch.setattr(distributed, "_task", lambda function, case: 0)
+    line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
+    assert "a task returned 0 (a int)" in line
+    monkeypatch.setattr(distributed, "_task", lambda function, case: (0, {"N": "21", "t_star": []}))
+    line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
+    assert "not a failure_time dict" in line
+
+
+@pytest.fixture
+def silent_port():
+    """A loopback port that accepts TCP connections and never sends a byte."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    accepted = []
+
+    def accept():
+        while True:
+            try:
+                accepted.append(server.accept()[0])
+            except OSError:
+                return
+
+    threading.Thread(target=accept, daemon=True).start()
+    yield server.getsockname()[1]
+    server.close()
+    for conn in accepted:
+        conn.close()
+
+
+def test_a_port_that_never_speaks_dask_is_refused(silent_port):
+    """Exit 2 and one line; the code before this fix waited in distributed's handshake for more
+    than 200 s (the subprocess's limit below is a bound on a hang, not a timing)."""
+    pytest.importorskip("distributed")
+    done = subprocess.run([sys.executable, "-m", "icidr_pde.cli", *_TSTAR, "--scheduler",
+                           f"tcp://127.0.0.1:{silent_port}"], capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert done.returncode == 2, done.stderr[-2000:]
+    lines = [line for line in done.stderr.splitlines() if line.startswith("icidr-pde")]
+    assert len(lines) == 1 and "--scheduler" in lines[0] and "no answer as a dask scheduler" in lines[0], done.stderr

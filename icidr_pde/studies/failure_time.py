@@ -130,6 +130,12 @@ def _run_case(kwargs: dict) -> dict:
     return failure_time(**kwargs)
 
 
+#: what :func:`failure_time` returns, as far as :func:`sweep` and ``tstar`` read it
+_RESULT_SHAPE = ("a failure_time dict (N an int, t_star a number or None)",
+                 lambda r: isinstance(r, dict) and isinstance(r.get("N"), int)
+                 and (r.get("t_star") is None or isinstance(r.get("t_star"), (int, float))))
+
+
 def sweep(
     Ns,
     discretizations=("cheb",),
@@ -160,7 +166,7 @@ def sweep(
 
     out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
     for case, res in zip(cases, run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
-                                           postfix=label, desc="t*(N)", client=client)):
+                                           postfix=label, desc="t*(N)", client=client, expect=_RESULT_SHAPE)):
         out[case["discretization"]][case["N"]] = res
     return {d: dict(sorted(v.items())) for d, v in out.items()}
 
