@@ -267,3 +267,32 @@ def test_a_port_that_never_speaks_dask_is_refused(silent_port):
     assert done.returncode == 2, done.stderr[-2000:]
     lines = [line for line in done.stderr.splitlines() if line.startswith("icidr-pde")]
     assert len(lines) == 1 and "--scheduler" in lines[0] and "no answer as a dask scheduler" in lines[0], done.stderr
+
+
+# --- 10. dem: the number of disks is checked against the memory before LAMMPS allocates --------
+
+
+def test_dem_refuses_a_cell_beyond_the_memory_before_allocating(no_processes, monkeypatch, tmp_path, capsys):
+    from icidr_pde.dem import driver, runs
+
+    def no_lammps(*args, **kwargs):
+        raise AssertionError("LAMMPS was started")
+
+    for module in (driver, runs):
+        monkeypatch.setattr(module, "ShearCell", no_lammps)
+    line = _bad_input(capsys, ["dem", "steady", "--particles", "1000000000", "--repeats", "1", "--jobs", "1",
+                               "--no-progress", "--out", str(tmp_path)], "n_particles")
+    assert "1000000000 is too large" in line and "TiB" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_dem_memory_estimate_grows_with_the_disks(monkeypatch):
+    from icidr_pde.dem.params import DEMParams
+    from icidr_pde.validation import MEMORY_ENV
+
+    small, large = DEMParams(n_particles=1000), DEMParams(n_particles=100_000)
+    assert large.memory_bytes() == pytest.approx(100 * small.memory_bytes())
+    monkeypatch.setenv(MEMORY_ENV, str(int(2 * large.memory_bytes()) + 1))  # half of it is just enough
+    DEMParams(n_particles=100_000)
+    with pytest.raises(ValueError, match=r"`n_particles` = 100005 is too large"):
+        DEMParams(n_particles=100_005)
