@@ -296,3 +296,56 @@ def test_dem_memory_estimate_grows_with_the_disks(monkeypatch):
     DEMParams(n_particles=100_000)
     with pytest.raises(ValueError, match=r"`n_particles` = 100005 is too large"):
         DEMParams(n_particles=100_005)
+
+
+# --- 5. an MP4 that ffmpeg could not finish is not written ------------------------------------
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 16 kB tmpfs: room for the JSON and an MP4's frames, not for its index (root only)."""
+    folder = tmp_path / "full"
+    folder.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", str(folder)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs: {done.stderr.decode().strip()}")
+    yield folder
+    subprocess.run(["umount", str(folder)], check=False)
+
+
+def test_an_mp4_on_a_full_disk_is_not_reported_written(full_disk, capfd):
+    from icidr_pde.movies.sink import ffmpeg_exe
+
+    if ffmpeg_exe() is None:
+        pytest.skip("no ffmpeg")
+    movie, summary = full_disk / "m.mp4", full_disk / "r.json"
+    status = cli.main(["run", "--N", "21", "--t-end", "1", "--no-progress", "--movie", str(movie),
+                       "--json", str(summary)])
+    out, err = capfd.readouterr()
+    assert status == 4, err
+    assert "movie written" not in out
+    assert f"could not write --movie {movie}: No space left on device" in err
+    assert sorted(p.name for p in full_disk.iterdir()) == ["r.json"]  # no partial movie, no temporary file
+
+
+def test_check_mp4_needs_the_index_and_the_whole_file(tmp_path):
+    from icidr_pde.movies.render import write_movie
+    from icidr_pde.movies.sink import check_mp4, ffmpeg_exe
+
+    if ffmpeg_exe() is None:
+        pytest.skip("no ffmpeg")
+    import numpy as np
+
+    z = np.linspace(0, 1, 11)
+    path = tmp_path / "m.mp4"
+    write_movie(path, z, [0.0, 1.0], np.zeros((2, 3, 11)) + 0.5)
+    check_mp4(path)  # what ffmpeg finished passes
+    data = path.read_bytes()
+    moov = data.find(b"moov") - 4
+    assert moov > 0
+    for damaged in (data[:moov], data[:-1], data + b"\0\0\0"):
+        path.write_bytes(damaged)
+        with pytest.raises(OSError):
+            check_mp4(path)
