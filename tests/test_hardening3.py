@@ -349,3 +349,17 @@ def test_check_mp4_needs_the_index_and_the_whole_file(tmp_path):
         path.write_bytes(damaged)
         with pytest.raises(OSError):
             check_mp4(path)
+
+
+# --- 6. a full disk under NUMBA_CACHE_DIR costs a recompilation, not the run -------------------
+
+
+def test_a_full_numba_cache_disk_is_one_line_not_a_traceback(full_disk):
+    (full_disk / "filler").write_bytes(b"\0" * 12288)  # the rest of the 16 kB goes to the first files
+    done = subprocess.run([sys.executable, "-m", "icidr_pde.cli", "run", "--N", "21", "--t-end", "0.1",
+                           "--no-progress", "--engine", "pde"], capture_output=True, text=True, timeout=900,
+                          cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(full_disk)))
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "Traceback" not in done.stderr and "reached t_end" in done.stdout
+    notes = [line for line in done.stderr.splitlines() if "numba cache" in line]
+    assert len(notes) == 1 and "No space left on device" in notes[0], done.stderr
