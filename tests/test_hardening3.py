@@ -226,7 +226,7 @@ def test_a_task_result_of_the_wrong_shape_is_one_line(loopback_scheduler, tmp_pa
 
     monkeypatch.setattr(distributed, "_task", lambda function, case: 0)
     line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
-    assert "a task returned 0 (a int)" in line
+    assert "a task returned 0 (of type int)" in line
     monkeypatch.setattr(distributed, "_task", lambda function, case: (0, {"N": "21", "t_star": []}))
     line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
     assert "not a failure_time dict" in line

@@ -147,7 +147,8 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
 
     def checked(item):
         check_task_result(item, "an (index, result) pair of a case not yet done",
-                          lambda x: isinstance(x, tuple) and len(x) == 2 and x[0] in pending)
+                          lambda x: isinstance(x, tuple) and len(x) == 2 and type(x[0]) is int
+                          and x[0] in pending)
         if expect is not None:
             check_task_result(item[1], *expect)
         return item

@@ -230,7 +230,7 @@ def check_task_result(value, what: str, predicate) -> None:
     if not predicate(value):
         shown = repr(value)
         shown = shown if len(shown) <= 60 else shown[:57] + "..."
-        raise ValueError(f"a task returned {shown} (a {type(value).__name__}), not {what}: the cluster's "
+        raise ValueError(f"a task returned {shown} (of type {type(value).__name__}), not {what}: the cluster's "
                          f"workers do not run this package's functions (`scheduler` names a cluster this "
                          f"process trusts with your account)")
 
