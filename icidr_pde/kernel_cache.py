@@ -43,8 +43,9 @@ import sys
 import threading
 import time
 
-__all__ = ["KernelCacheError", "digest", "version", "sympy_version", "folder", "stem", "read", "store", "build",
-           "scratch", "numba_setup", "prune", "info", "clear", "PRUNE_AFTER_S"]
+__all__ = ["KernelCacheError", "untrusted", "digest", "version", "sympy_version", "folder", "stem", "read", "store",
+           "build", "scratch", "numba_setup", "numba_saves_may_fail", "prune", "info", "clear",
+           "PRUNE_AFTER_S"]
 
 PREFIX = "icidr_pde_"
 TEMP_PREFIX = ".icidr_pde-"
@@ -118,8 +119,10 @@ def configured() -> tuple[pathlib.Path | None, str]:
     return pathlib.Path(home) / ".cache" / "icidr_pde" / "kernels", "HOME"
 
 
-def _untrusted(st: os.stat_result) -> str | None:
-    """Why a file or folder with this status cannot be trusted, or None."""
+def untrusted(st: os.stat_result) -> str | None:
+    """Why a file or folder with this status cannot be trusted, or None: owned by another user or
+    writable by group or others (also the check of a dask scheduler file, which names a cluster
+    trusted with the account: :mod:`icidr_pde.studies.distributed`)."""
     if st.st_uid != os.geteuid():
         return f"owned by uid {st.st_uid}, not by this user (uid {os.geteuid()})"
     if st.st_mode & 0o022:
@@ -131,7 +134,7 @@ def _check_file(st: os.stat_result) -> None:
     """_Refused unless `st` is that of a regular file this user owns and only this user can write."""
     if not stat.S_ISREG(st.st_mode):
         raise _Refused("not a regular file")
-    reason = _untrusted(st)
+    reason = untrusted(st)
     if reason:
         raise _Refused(reason)
 
@@ -146,7 +149,7 @@ def _prepare(path: pathlib.Path) -> None:
             raise _Refused(err.strerror or str(err)) from None
         if not stat.S_ISDIR(st.st_mode):
             raise _Refused("not a directory")
-        reason = _untrusted(st)
+        reason = untrusted(st)
         if reason:
             raise _Refused(reason)
         if st.st_mode & 0o077:  # readable by others: a folder made before the cache was private
@@ -399,8 +402,37 @@ def numba_setup() -> None:
 
         files._load_index, files._load_data, files._open_for_write = _load_index, _load_data, _open_for_write
         _STATE["numba"] = True
+    numba_saves_may_fail()
 
 
+
+
+def numba_saves_may_fail() -> None:
+    """Make a failure to save numba's compiled code (a full disk, a read-only folder under
+    NUMBA_CACHE_DIR or beside the package) one line on stderr, once per process, instead of an
+    exception out of the first call of a function: the code compiled is used all the same, only
+    not kept for the next run. Covers every cached function, the package's own (``engines/``,
+    which call this at import) and the kernels' (:func:`numba_setup`). Idempotent."""
+    with _LOCK:
+        if _STATE.get("numba_saves"):
+            return
+        from numba.core import caching
+
+        save_overload = caching.Cache.save_overload
+
+        def tolerant_save_overload(self, sig, data):
+            try:
+                save_overload(self, sig, data)
+            except OSError as err:
+                if not _STATE.get("numba_save_failed"):
+                    _STATE["numba_save_failed"] = True
+                    where = getattr(self, "_cache_path", None) or getattr(err, "filename", None) or "?"
+                    sys.stderr.write(f"icidr-pde: numba cache {where}: compiled code not saved "
+                                     f"({err.strerror or err}); it is compiled again in every run\n")
+                    sys.stderr.flush()
+
+        caching.Cache.save_overload = tolerant_save_overload
+        _STATE["numba_saves"] = True
 
 
 def _numba_miss(path, err) -> None:
@@ -460,7 +492,7 @@ def info() -> dict:
         return out
     try:
         st = os.stat(path)
-        out["refused"] = _untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
+        out["refused"] = untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
     except FileNotFoundError:
         return out
     except OSError as err:
@@ -496,7 +528,6 @@ def clear(stale_only: bool = False) -> tuple[pathlib.Path | None, int, int]:
 def _reset() -> None:
     """Forget the folder chosen and the listing (the environment changed: tests)."""
     with _LOCK:
-        numba = _STATE.get("numba")
+        kept = {k: _STATE[k] for k in ("numba", "numba_saves") if _STATE.get(k)}
         _STATE.clear()
-        if numba:
-            _STATE["numba"] = numba
+        _STATE.update(kept)

@@ -55,6 +55,10 @@ _KEYS = {"cidr": ("yield_function", "dilatancy_function"), "direct": ("pressure"
 _OTHER_KEYS = ("name", "label", "equation_of_state", "parameters", "material")
 MAX_LENGTH = 10_000          # characters of one expression
 MAX_EXPONENT = 64            # |n| of a number raised to a number (sympy evaluates it exactly)
+#: bits of the numerator and of the denominator of any number a formula builds: a float64 kernel
+#: holds nothing beyond 2^1024 (nor a nonzero below 2^-1074), and a chain of powers within
+#: MAX_EXPONENT, ((2**64)**64)**64..., multiplies the digits by 64 at each level
+MAX_NUMBER_BITS = 1100
 MAX_FILE_BYTES = 1 << 20     # a law is a few formulas
 
 
@@ -118,15 +122,35 @@ class _Builder:
         if op is None:
             raise _Refused(self.token(node), f"operator {type(node.op).__name__} is not allowed")
         left, right = self.visit(node.left), self.visit(node.right)
-        if op == "__pow__" and left.is_Number and right.is_Number and abs(right) > MAX_EXPONENT:
-            raise _Refused(self.token(node), f"a number to a power beyond +-{MAX_EXPONENT}")
+        if op == "__pow__" and left.is_Number and right.is_Number:
+            if abs(right) > MAX_EXPONENT:
+                raise _Refused(self.token(node), f"a number to a power beyond +-{MAX_EXPONENT}")
+            if left.is_Rational and _bits(left) * abs(float(right)) > MAX_NUMBER_BITS:  # before sympy builds it
+                raise _Refused(self.token(node), self.TOO_LARGE)
         if op == "__truediv__" and right == 0:
             raise _Refused(self.token(node), "division by zero")
-        return getattr(left, op)(right)
+        return self.checked(node, getattr(left, op)(right))
+
+    TOO_LARGE = (f"a number beyond {MAX_NUMBER_BITS} bits in its numerator or denominator "
+                 f"(no float64 kernel holds it)")
+
+    def checked(self, node, expr):
+        """`expr`, built from the formula at `node`, unless it is a number out of every float's
+        range (operands within the bound make it at most twice their size: checking each result
+        bounds them all) or complex (sqrt or log of a negative number, a negative number to a
+        fractional power: sympy's I, which no kernel evaluates and whose dropped imaginary part
+        would change the law)."""
+        if expr.is_Rational and _bits(expr) > MAX_NUMBER_BITS:
+            raise _Refused(self.token(node), self.TOO_LARGE)
+        makes_roots = isinstance(node, ast.Call) or isinstance(getattr(node, "op", None), ast.Pow)
+        if makes_roots and _complex(expr, self.sp):  # sums and products of real numbers are real
+            raise _Refused(self.token(node), "it is a complex number (the root or logarithm of a negative "
+                                             "number, or a negative number to a fractional power)")
+        return expr
 
     def visit_UnaryOp(self, node):
         if isinstance(node.op, ast.USub):
-            return -self.visit(node.operand)
+            return self.checked(node, -self.visit(node.operand))
         if isinstance(node.op, ast.UAdd):
             return self.visit(node.operand)
         raise _Refused(self.token(node), f"operator {type(node.op).__name__} is not allowed")
@@ -164,7 +188,19 @@ class _Builder:
         if not lo <= len(node.args) <= hi:
             raise _Refused(self.token(node), f"{node.func.id} takes {lo if lo == hi else f'{lo} to {hi}'} "
                                              f"argument(s), got {len(node.args)}")
-        return getattr(self.sp, attr)(*(self.visit(a) for a in node.args))
+        return self.checked(node, getattr(self.sp, attr)(*(self.visit(a) for a in node.args)))
+
+
+def _complex(expr, sp) -> bool:
+    """Whether `expr` holds sympy's I or a power of a negative number that is not real, e.g.
+    (-1)**(1/3) (sympy's principal root)."""
+    return expr.has(sp.I) or any(power.base.is_number and power.base.is_extended_negative
+                                 and power.is_extended_real is False for power in expr.atoms(sp.Pow))
+
+
+def _bits(number) -> int:
+    """Bits of the larger of a sympy Rational's numerator and denominator."""
+    return max(abs(int(number.p)).bit_length(), int(number.q).bit_length())
 
 
 def is_declarative_law(spec) -> bool:

@@ -16,8 +16,8 @@ import warnings
 
 from ..validation import integer
 
-__all__ = ["blas_threads", "limit_blas_threads", "run_cases", "single_thread_environment", "worker_init",
-           "worker_state"]
+__all__ = ["blas_threads", "limit_blas_threads", "max_processes", "run_cases", "single_thread_environment",
+           "worker_init", "worker_state"]
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -64,6 +64,22 @@ def limit_blas_threads(n: int = 1) -> list[str]:
         set_threads(int(n))
         done.append(name)
     return done
+
+
+#: worker processes a pool or LocalCluster of this machine may start, per core it may use: more
+#: only share the cores (each worker is one thread) and each holds its own Python and numpy
+PROCESSES_PER_CORE = 4
+
+
+def max_processes() -> int:
+    """The most worker processes of this machine (``jobs``, ``workers``): :data:`PROCESSES_PER_CORE`
+    per core this process may use. A bound checked before any process is started: a count in the
+    thousands would start them all (until the process limit refuses, with a traceback)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return PROCESSES_PER_CORE * max(1, cores)
 
 
 def single_thread_environment() -> None:
@@ -117,7 +133,7 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
 
         yield from map_cases(function, cases, client, progress, ordered=ordered, desc=desc, postfix=postfix)
         return
-    jobs = integer("jobs", jobs, 1)
+    jobs = integer("jobs", jobs, 1, max_processes())
     from tqdm.auto import tqdm
 
     with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
