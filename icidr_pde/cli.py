@@ -132,6 +132,8 @@ def figure_path(option: str, path):
     """The file a figure is written to: a supported suffix, '.png' appended if none."""
     if path is None:
         return None
+    if not os.fspath(path):  # the empty path is no directory: check_outputs names what it is
+        check_output_path(option, path)
     from matplotlib.figure import Figure
 
     if Path(path).is_dir():

@@ -113,10 +113,14 @@ def memory_bytes() -> int | None:
     MemAvailable (/proc/meminfo), else the physical memory (None where the OS says neither)."""
     override = os.environ.get(MEMORY_ENV)
     if override:
+        wanted = f"`${MEMORY_ENV}` must be a finite number of bytes > 0; got {override!r}"
         try:
-            return int(float(override))
+            amount = float(override)
         except ValueError:
-            raise ParameterError(f"${MEMORY_ENV} must be a number of bytes; got {override!r}") from None
+            raise ParameterError(wanted) from None
+        if not (math.isfinite(amount) and amount > 0):  # 'inf', '1e400' parse as inf: no int of it
+            raise ParameterError(wanted)
+        return int(amount)
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
