@@ -13,12 +13,13 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import stat
 
 import numpy as np
 
 __all__ = ["ParameterError", "real", "integer", "int_at_least", "choice", "shown", "memory_bytes", "format_bytes",
            "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
-           "output_path"]
+           "output_path", "input_file"]
 
 
 class ParameterError(ValueError):
@@ -178,3 +179,22 @@ def output_path(name: str, value):
                                                   and isinstance(os.fspath(value), str)):
         return value
     raise TypeError(f"`{name}` must be a file path (a str or os.PathLike) or None; got {shown(value)}")
+
+
+def input_file(name: str, path) -> str:
+    """`path` if it names a regular file (a symbolic link to one included); ParameterError
+    naming the parameter and saying what it is otherwise: missing, a directory, a FIFO (reading
+    one waits for a writer), a device or a socket are not files of data."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ParameterError(f"`{name}` must be an existing file; {str(path)!r} does not exist") from None
+    except OSError as err:
+        raise ParameterError(f"`{name}` must be a readable file; {str(path)!r} cannot be examined "
+                             f"({err.strerror})") from None
+    if stat.S_ISREG(mode):
+        return path
+    what = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode) else
+            "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else
+            "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+    raise ParameterError(f"`{name}` must be a regular file; {str(path)!r} is {what}")

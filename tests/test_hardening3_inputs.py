@@ -77,3 +77,78 @@ def test_empty_output_path_is_refused_before_the_run(option, tmp_path, monkeypat
     line = refused(capsys, "run", "--t-end", "0.1", "--no-progress", option, "")
     assert line.endswith(f"`{option}` must be a file path; got ''")
     assert "Geometric" not in line and list(tmp_path.iterdir()) == []
+
+
+# --- 17. law files ----------------------------------------------------------------------------
+
+LAW = ('yield_function = "M * p * (I / Psi)"\n'
+       'dilatancy_function = "M * (I / (4 * Psi) + 1 - Psi / I)"\n')
+
+
+def law_file(folder, text, name="law.toml") -> str:
+    path = folder / name
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("extra, said", [
+    ('[material]\nfriction = [1]\n', "`friction` must be one of ['mu(I)', 'non-monotonic'] (or a FrictionLaw); got [1]"),
+    ('x = ' + '[' * 2000 + ']' * 2000 + '\n', "is nested too deeply to be a law"),
+], ids=["friction-list", "nested-2000"])
+def test_law_file_contents_refused_in_one_line(extra, said, tmp_path, capsys):
+    """friction = [1] was `TypeError: unhashable type` (a traceback); TOML nested 2000 deep a
+    RecursionError."""
+    line = refused(capsys, "law", "check", law_file(tmp_path, LAW + extra))
+    assert said in line
+
+
+def test_law_constant_beyond_a_double_is_refused(tmp_path, capsys):
+    """1e308*1e308 is the exact 1e616 in sympy and an OverflowError traceback in the kernels."""
+    text = LAW.replace('"M * p * (I / Psi)"', '"M * p * (I / Psi) + 1e308*1e308*p"')
+    line = refused(capsys, "law", "check", law_file(tmp_path, text))
+    assert "yield_function" in line and "outside the range of a double" in line
+
+
+def test_law_flat_sum_of_many_terms_is_a_law(tmp_path):
+    """A flat 3400-term sum (a left-nested tree 3400 deep in Python's ast) was refused as
+    "nested too deeply", and one of 900 terms overflowed the builder's recursion. Its value is the
+    law's: n/2 terms +I and n/2 terms -k sum to n/2 (I - k)."""
+    import sympy as sp
+
+    from icidr_pde.rheology.declarative import parse_expression
+
+    I, k = sp.symbols("I k")
+    for n in (900, 3400):
+        text = "I" + "".join("+I" if i % 2 else "-k" for i in range(n))
+        assert sp.expand(parse_expression(text, {"I": I, "k": k}) - (I + n // 2 * (I - k))) == 0
+    assert sp.expand(parse_expression("I - (k - I) + -k**2 - -I", {"I": I, "k": k}) - (3 * I - k - k**2)) == 0
+
+
+@pytest.mark.parametrize("kind", ["directory", "fifo", "device"])
+@pytest.mark.parametrize("suffix", [".toml", ".py"])
+def test_law_file_that_is_not_a_regular_file(kind, suffix, tmp_path, capsys):
+    """A directory, FIFO or device named x.toml was reported as "does not exist"."""
+    path = tmp_path / f"x{suffix}"
+    if kind == "directory":
+        path.mkdir()
+    elif kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.symlink_to("/dev/null")
+    line = refused(capsys, "law", "check", str(path))
+    what = {"directory": "a directory", "fifo": "a FIFO", "device": "a device"}[kind]
+    assert line.endswith(f"`rheology` must be a regular file; {str(path)!r} is {what}")
+
+
+def test_unreadable_law_file(tmp_path, monkeypatch, capsys):
+    """An unreadable law file was a PermissionError traceback (simulated: the tests may run as root)."""
+    import pathlib
+
+    path = law_file(tmp_path, LAW)
+
+    def denied(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(pathlib.Path, "read_text", denied)
+    line = refused(capsys, "law", "check", path)
+    assert line.endswith(f"law file {path!r} cannot be read: Permission denied")
