@@ -29,6 +29,7 @@ from .studies.case_cache import add_cache_option, check_cache_option
 from .studies.distributed import add_cluster_options, client_of
 from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
+from .validation import integer, real
 
 __all__ = ["add_parser", "cmd_tstar"]
 
@@ -55,6 +56,14 @@ def _load_curve(text: str) -> tuple[str, dict]:
     if not isinstance(curve, dict):
         raise ValueError(f"`--load` {text!r}: {path!r} must hold a JSON object {{N: t*}}; got a "
                          f"{type(curve).__name__}")
+    for n, t_star in curve.items():  # checked here, not found out by the plot after the sweep
+        try:
+            integer("N", int(n) if n.strip().lstrip("+-").isdigit() else n, 1)
+            if t_star is not None:
+                real("t*", t_star, 0, low_open=False)
+        except ValueError:
+            raise ValueError(f"`--load` {text!r}: {path!r} must map each N (an integer >= 1) to t* (a finite "
+                             f"number >= 0, or null: no failure); got {n!r}: {json.dumps(t_star)}") from None
     return label, curve
 
 

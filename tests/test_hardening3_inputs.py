@@ -152,3 +152,56 @@ def test_unreadable_law_file(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(pathlib.Path, "read_text", denied)
     line = refused(capsys, "law", "check", path)
     assert line.endswith(f"law file {path!r} cannot be read: Permission denied")
+
+
+# --- 19. figures --movies, dem --cache, tstar --load ------------------------------------------
+
+
+def test_unknown_movie_refused_before_any_figure(tmp_path, monkeypatch, capsys):
+    """`figures --movies movie99` computed fig 3 first and then raised KeyError."""
+    from icidr_pde.figures import cli as figures_cli
+
+    def no_figures(*args, **kwargs):
+        raise AssertionError("a figure was computed before the movies were checked")
+
+    monkeypatch.setattr(figures_cli, "make_figures", no_figures)
+    out = tmp_path / "gallery"
+    line = refused(capsys, "figures", "--only", "fig3", "--movies", "movie1", "movie99", "--out", str(out))
+    assert "`--movies` must name movies of" in line and "got ['movie99']" in line
+    assert not out.exists()
+
+
+def test_dem_cache_that_is_a_file_refused_before_the_runs(tmp_path, monkeypatch, capsys):
+    """`dem steady --cache FILE` ran LAMMPS for 21 s, then raised FileExistsError."""
+    from icidr_pde.dem import steady
+
+    def no_runs(*args, **kwargs):
+        raise AssertionError("the DEM runs started before --cache was checked")
+
+    monkeypatch.setattr(steady, "run_steady_study", no_runs)
+    cache = tmp_path / "cache"
+    cache.write_text("not a folder")
+    line = refused(capsys, "dem", "steady", "--cache", str(cache), "--out", str(tmp_path), "--repeats", "1",
+                   "--no-progress")
+    assert line.endswith(f"`--cache` must be a directory; got the file {str(cache)!r}")
+    assert cache.read_text() == "not a folder"
+
+
+@pytest.mark.parametrize("curve", ['{"21": "x"}', '{"21": [1]}', '{"fd": {"21": 1}}', '{"21": -1}', '{"0": 1}'])
+def test_tstar_load_of_wrong_values_refused(curve, tmp_path, capsys):
+    """`tstar --load x=l.json` with non-numeric values raised TypeError in the plot."""
+    saved = tmp_path / "l.json"
+    saved.write_text(curve)
+    plot = tmp_path / "p.png"
+    line = refused(capsys, "tstar", "--load", f"x={saved}", "--plot", str(plot))
+    assert "must map each N (an integer >= 1) to t* (a finite number >= 0, or null: no failure)" in line
+    assert not plot.exists()
+
+
+def test_tstar_load_of_a_saved_sweep_is_plotted(tmp_path, capsys):
+    """The check refuses no sweep that `tstar --json` writes."""
+    saved = tmp_path / "l.json"
+    saved.write_text(json.dumps({"21": None, "23": 0.5, "25": 0.01}))
+    plot = tmp_path / "p.png"
+    assert cli.main(["tstar", "--load", f"x={saved}", "--plot", str(plot)]) == 0
+    assert plot.stat().st_size > 0
