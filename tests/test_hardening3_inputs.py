@@ -205,3 +205,81 @@ def test_tstar_load_of_a_saved_sweep_is_plotted(tmp_path, capsys):
     plot = tmp_path / "p.png"
     assert cli.main(["tstar", "--load", f"x={saved}", "--plot", str(plot)]) == 0
     assert plot.stat().st_size > 0
+
+
+# --- 18. `cache clear` while another run compiles ---------------------------------------------
+
+
+@pytest.fixture
+def own_kernel_cache(tmp_path, monkeypatch):
+    """A kernel folder of this test alone (the process's usual folder again afterwards)."""
+    from icidr_pde import kernel_cache
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    kernel_cache._reset()
+    yield kernel_cache
+    monkeypatch.undo()
+    kernel_cache._reset()
+
+
+def test_cache_clear_right_after_a_kernel_is_written(own_kernel_cache, tmp_path, monkeypatch):
+    """`icidr-pde cache clear` in another process between the writing of a new law's kernel module
+    and its import crashed the run: `RuntimeError: cannot cache function '_rsqrt0'` (numba found
+    no source file to key its cache on)."""
+    from icidr_pde.rheology import codegen
+
+    kernel_cache = own_kernel_cache
+    store = kernel_cache.store
+
+    def store_then_clear(kernel, ext, data):
+        path = store(kernel, ext, data)
+        assert kernel_cache.clear()[1] >= 1 and not path.exists()  # the other process's clear
+        return path
+
+    monkeypatch.setattr(kernel_cache, "store", store_then_clear)
+    source = "from numba import njit\n\n\n@njit(cache=True)\ndef _rsqrt0(x):\n    return 1.0 / x ** 0.5\n"
+    module = codegen._load("test_clear", f"a law of {tmp_path}", lambda: source)
+    assert module._rsqrt0(4.0) == 0.5  # compiled, and its compiled code saved to the cache
+
+
+def test_cache_clear_leaves_writes_in_progress(own_kernel_cache):
+    """A clear removed the temporary files other processes were writing (the kernel cache's and
+    numba's), failing their writes; they are left, and the finished files go."""
+    kernel_cache = own_kernel_cache
+    kept = kernel_cache.store(kernel_cache.stem("test", "k"), ".py", b"x = 1\n")
+    folder = kernel_cache.folder()
+    numba_writing = folder / "__pycache__" / f"{kernel_cache.stem('test', 'k')}.nbi.tmp.0123456789abcdef"
+    numba_writing.write_bytes(b"half")
+    with kernel_cache.scratch(".so.tmp") as writing:
+        path, count, _ = kernel_cache.clear()
+        assert path == folder and count == 1 and not kept.exists()
+        assert writing.exists() and numba_writing.exists()
+
+
+def test_native_library_removed_by_a_clear_before_it_is_loaded(own_kernel_cache, tmp_path, monkeypatch):
+    """A clear between the compiling of a native library and its loading made the run fall back
+    to the py-pde path ("native library not loadable"); the library is compiled again."""
+    import _ctypes
+
+    from icidr_pde.native import NativeUnavailable, build
+
+    kernel_cache = own_kernel_cache
+    try:
+        build.sundials(), build._compiler()
+    except NativeUnavailable as err:
+        pytest.skip(f"no native engine here: {err}")
+    library_bytes = Path(_ctypes.__file__).read_bytes()  # a loadable shared library, not compiled here
+    compiled = []
+
+    def compile_then_cleared(rheology, kinematics, index, cc, libdir, libs, name):
+        compiled.append(name)
+        path = kernel_cache.store(name, ".so", library_bytes)
+        if len(compiled) == 1:
+            kernel_cache.clear()  # another process's `icidr-pde cache clear`
+        return path
+
+    monkeypatch.setattr(build, "_key", lambda *args: f"a law of {tmp_path}")
+    monkeypatch.setattr(build, "_compile", compile_then_cleared)
+    monkeypatch.setattr(build, "_declare", lambda lib: None)
+    assert build.library(None, None) is not None
+    assert len(compiled) == 2
