@@ -451,6 +451,10 @@ def main(argv=None) -> int:
     except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
         print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
         return EXIT_WRITE_FAILED
+    except KeyboardInterrupt as interrupt:  # a subcommand that keeps nothing of an interrupted computation
+        if not getattr(args, "quiet", False):
+            print(f"{PREFIX} interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED[signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT]
 
 
 if __name__ == "__main__":

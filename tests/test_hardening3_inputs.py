@@ -283,3 +283,74 @@ def test_native_library_removed_by_a_clear_before_it_is_loaded(own_kernel_cache,
     monkeypatch.setattr(build, "_declare", lambda lib: None)
     assert build.library(None, None) is not None
     assert len(compiled) == 2
+
+
+# --- 14. Ctrl-C during tstar ------------------------------------------------------------------
+
+
+def test_ctrl_c_during_a_tstar_sweep_keeps_what_finished(tmp_path):
+    """Ctrl-C during `tstar --jobs 2` was a 30-line traceback, the pool ran on for 9-18 s and
+    --json was not written. Now: the finished cases in --json, exit 130, the workers stopped at
+    once (the N = 400 case still running is not waited for), no traceback."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    cache, out = tmp_path / "cases", tmp_path / "tstar.json"
+    proc = subprocess.Popen([sys.executable, "-m", "icidr_pde.cli", "tstar", "--rheology", "icidr",
+                             "--discretization", "fd", "--N", "8,10,400", "--t-end", "20", "--jobs", "2",
+                             "--cache", str(cache), "--json", str(out), "--no-progress"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 600  # a hang guard, not a measurement
+        while not (cache.is_dir() and any(n.endswith(".json") for n in os.listdir(cache))):
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no case finished"
+            time.sleep(0.1)
+        workers = [pid for pid in subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True,
+                                                 text=True).stdout.split()
+                   if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()]
+        assert workers
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and "interrupted after" in stderr
+    finished = {json.loads(p.read_text())["case"]["N"] for p in cache.glob("*.json")}
+    written = json.loads(out.read_text())
+    assert set(written) == {str(n) for n in finished} and "400" not in written  # the N = 400 run was stopped
+    assert all(t is None for t in written.values())  # iCIDR does not fail
+    for pid in workers:  # stopped with the sweep, not left to finish their cases
+        assert not Path(f"/proc/{pid}").exists() or b"spawn_main" not in Path(f"/proc/{pid}/cmdline").read_bytes()
+
+
+def test_interrupted_case_of_a_serial_sweep_is_not_a_case_without_failure(tmp_path, monkeypatch, capsys):
+    """In this process (--jobs 1) the run swallowed Ctrl-C and returned 'interrupted at t = ...':
+    the sweep recorded that case as t* = null (no failure) in --json and in --cache, and went on."""
+    import importlib
+
+    from icidr_pde.engines.scipy import ScipyEngine
+
+    failure_time = importlib.import_module("icidr_pde.studies.failure_time")  # the module, not its function
+    original_run, original_value_at = failure_time.run, ScipyEngine.value_at
+    calls = []
+
+    def interrupting(self, t):
+        if t > 0.5:
+            raise KeyboardInterrupt
+        return original_value_at(self, t)
+
+    def run_interrupting_the_second(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 2:  # Ctrl-C during the second case
+            monkeypatch.setattr(ScipyEngine, "value_at", interrupting)
+        return original_run(*args, **kwargs)
+
+    monkeypatch.setattr(failure_time, "run", run_interrupting_the_second)
+    cache, out = tmp_path / "cases", tmp_path / "tstar.json"
+    status = cli.main(["tstar", "--rheology", "icidr", "--discretization", "fd", "--N", "8,12", "--t-end", "2",
+                       "--jobs", "1", "--cache", str(cache), "--json", str(out), "--no-progress"])
+    err = capsys.readouterr().err
+    assert status == 130, err
+    assert len(calls) == 2 and json.loads(out.read_text()) == {"12": None}  # the first case (large N first)
+    assert [json.loads(p.read_text())["case"]["N"] for p in cache.glob("*.json")] == [12]
