@@ -354,3 +354,32 @@ def test_interrupted_case_of_a_serial_sweep_is_not_a_case_without_failure(tmp_pa
     assert status == 130, err
     assert len(calls) == 2 and json.loads(out.read_text()) == {"12": None}  # the first case (large N first)
     assert [json.loads(p.read_text())["case"]["N"] for p in cache.glob("*.json")] == [12]
+
+
+# --- 13. the memory check before any allocation -----------------------------------------------
+
+
+def test_memory_refusal_comes_before_the_state_is_allocated(monkeypatch):
+    """A 2048^2 refusal came after a 502 MB peak: the state (and the initial condition's arrays)
+    was built before the memory check of the run's linear algebra. Scaled down to 512^2: the
+    memory available is set so that the least a 2-D run needs fits and the default path's
+    preconditioner does not; the refusal allocates less than one array of the state's size."""
+    import tracemalloc
+
+    from icidr_pde import run
+    from icidr_pde.discretizations.grid_size import FV2D
+
+    n = 512
+    least, _ = FV2D.least(n * n)
+    monkeypatch.setenv(MEMORY_ENV, f"{2.1 * least:.0f}")
+    with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 512 x 512 with method 'CVODE'"):
+        run("icidr", "bump2d", (n, n), 1e-3)  # kernels compiled and modules imported: not counted below
+    tracemalloc.start()
+    try:
+        with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 512 x 512 with method 'CVODE'"):
+            run("icidr", "bump2d", (n, n), 1e-3)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    state_bytes = 3 * n * n * 8  # phi, u, w in doubles
+    assert peak < state_bytes, f"{peak} bytes allocated before the refusal"
