@@ -383,3 +383,65 @@ def test_memory_refusal_comes_before_the_state_is_allocated(monkeypatch):
         tracemalloc.stop()
     state_bytes = 3 * n * n * 8  # phi, u, w in doubles
     assert peak < state_bytes, f"{peak} bytes allocated before the refusal"
+
+
+# --- 4. the thin cell's line preconditioner in the memory model -------------------------------
+
+
+def thin_case(nx=256, nz=32, H=30.0):
+    """iCIDR bump2d on a thin cell, hx = 60 hz (as 4096 x 256 at L = 120000)."""
+    from icidr_pde.case import build_case
+
+    return build_case("icidr", "bump2d", "fv2d", (nx, nz), scene_params={"H": H, "L": 60 * H * nx / nz})
+
+
+def test_line_preconditioner_memory_is_covered_by_the_estimate():
+    """What the line preconditioner's set-up allocates (tracemalloc: the analytic Jacobian, its
+    line part, I - gamma J_line) and holds (SuperLU's factors, C memory counted from their
+    entries; the line pattern) is within the estimate that the memory check adds for it."""
+    import tracemalloc
+
+    from icidr_pde.discretizations.grid_size import path_bytes
+    from icidr_pde.engines.stiff import conserved
+    from icidr_pde.engines.sundae import _line_preconditioner
+
+    case = thin_case()
+    pde, state = case.pde, case.state
+    pattern = pde.line_pattern(state)
+    assert pattern is not None
+    jac = pde.make_jacobian(state)
+    weights, anchor = conserved(pde, state, None)
+    y = state.data.ravel().copy()
+    jac(0.0, y)
+    tracemalloc.start()
+    try:
+        precond = _line_preconditioner(jac, pattern, weights, anchor)
+        precond.setupfn(0.0, y, None, False, np.zeros(1, dtype=np.int32), 0.01)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    saved = next(c.cell_contents for c in precond.setupfn.__closure__ if isinstance(c.cell_contents, dict))
+    factors = 12 * (saved["lu"].L.nnz + saved["lu"].U.nnz)  # a double and a 32-bit index an entry
+    held = pattern.data.nbytes + pattern.indices.nbytes + pattern.indptr.nbytes
+    estimate, note = path_bytes(y.size, "CVODE", "line")
+    assert "line preconditioner" in note
+    assert peak + factors + held <= estimate
+
+
+def test_thin_cell_run_counts_its_line_preconditioner(monkeypatch):
+    """A thin 2-D cell was accepted on the estimate of GMRES alone (2.44 GiB for 4096 x 256) and
+    peaked at twice it: its line preconditioner was not in the memory model. Scaled down to
+    256 x 32: with memory for the scheme's estimate and half of the preconditioner's, the run is
+    refused before it starts, naming the preconditioner."""
+    from icidr_pde import run
+    from icidr_pde.discretizations.grid_size import FV2D, path_bytes
+
+    nx, nz, H = 256, 32, 30.0
+    scheme, _ = FV2D.estimate(nx * nz)
+    line, _ = path_bytes(3 * nx * nz, "CVODE", "line")
+    monkeypatch.setenv(MEMORY_ENV, f"{2 * (scheme + line / 2):.0f}")
+    with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 256 x 32 with method 'CVODE', Jacobian 'krylov' "
+                                             r"\(GMRES with the line preconditioner\) needs about"):
+        run("icidr", "bump2d", (nx, nz), 1e-6, H=H, L=60 * H * nx / nz)
+    monkeypatch.setenv(MEMORY_ENV, f"{2.2 * (scheme + line):.0f}")  # enough: the run goes
+    assert run("icidr", "bump2d", (nx, nz), 1e-6, H=H, L=60 * H * nx / nz).t_final == pytest.approx(1e-6)

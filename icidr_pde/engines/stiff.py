@@ -143,6 +143,9 @@ def check_memory(pde, grid, method: str, choice: Choice) -> None:
     shape = tuple(grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
     mode = choice.memory_mode
+    if mode == "krylov" and choice.linear_solver.startswith("GMRES (line") and getattr(pde, "is_thin", None) \
+            and pde.is_thin(grid):  # GMRES with the line preconditioner (engines.sundae)
+        mode = "line"
     hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
     unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
