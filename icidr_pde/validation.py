@@ -193,6 +193,12 @@ def input_file(name: str, path) -> str:
         raise ParameterError(f"`{name}` must be a readable file; {str(path)!r} cannot be examined "
                              f"({err.strerror})") from None
     if stat.S_ISREG(mode):
+        try:
+            with open(path, "rb"):
+                pass
+        except OSError as err:
+            raise ParameterError(f"`{name}` must be a readable file; {str(path)!r} cannot be read "
+                                 f"({err.strerror})") from None
         return path
     what = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode) else
             "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else

@@ -445,3 +445,22 @@ def test_thin_cell_run_counts_its_line_preconditioner(monkeypatch):
         run("icidr", "bump2d", (nx, nz), 1e-6, H=H, L=60 * H * nx / nz)
     monkeypatch.setenv(MEMORY_ENV, f"{2.2 * (scheme + line):.0f}")  # enough: the run goes
     assert run("icidr", "bump2d", (nx, nz), 1e-6, H=H, L=60 * H * nx / nz).t_final == pytest.approx(1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".py"])
+def test_law_file_that_cannot_be_opened(suffix, tmp_path, monkeypatch, capsys):
+    """A Python law file that cannot be read was reported as a file that was run and raised
+    PermissionError (simulated: the tests may run as root, who reads every file)."""
+    import builtins
+
+    path = law_file(tmp_path, LAW, f"law{suffix}")
+    original = builtins.open
+
+    def denied(file, *args, **kwargs):
+        if os.fspath(file) == path:
+            raise PermissionError(13, "Permission denied", path)
+        return original(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", denied)
+    line = refused(capsys, "law", "check", path)
+    assert line.endswith(f"`rheology` must be a readable file; {path!r} cannot be read (Permission denied)")
