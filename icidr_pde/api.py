@@ -327,8 +327,11 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
         if "advection" not in get_discretization(settings["discretization"]).options:
             raise ValueError(f"`advection` is not an option of discretization {settings['discretization']!r}")
         options["advection"] = advection
+    from .engines.stiff import check_memory
+
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
-                      options=options, scene_params=scene_params)
+                      options=options, scene_params=scene_params,
+                      check_grid=lambda pde, grid: check_memory(pde, grid, settings["method"], choice))
     outputs = dict(save=save, live_plot=live_plot, movie=movie, frame_dt=frame_dt, max_wall=max_wall)
     result, recorders = _run_scheme(case, settings, t_end, times, choice, accuracy=accuracy, progress=progress,
                                     series_times=series_times, backend=backend, outputs=outputs)
@@ -608,7 +611,7 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
     from .engines.stiff import StiffSolver, check_memory, scheme_problem
 
     check_atol(settings["atol"], case.state.data)
-    check_memory(case.pde, case.state, settings["method"], choice)  # before anything is allocated
+    check_memory(case.pde, case.grid, settings["method"], choice)  # before the engine allocates
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     recorders = make_recorders(case, t_end, snap_times=sched.snap_times, progress=progress, **(outputs or {}))
     bar = None

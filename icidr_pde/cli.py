@@ -132,6 +132,8 @@ def figure_path(option: str, path):
     """The file a figure is written to: a supported suffix, '.png' appended if none."""
     if path is None:
         return None
+    if not os.fspath(path):  # the empty path is no directory: check_outputs names what it is
+        check_output_path(option, path)
     from matplotlib.figure import Figure
 
     if Path(path).is_dir():
@@ -453,6 +455,10 @@ def main(argv=None) -> int:
     except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
         print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
         return EXIT_WRITE_FAILED
+    except KeyboardInterrupt as interrupt:  # a subcommand that keeps nothing of an interrupted computation
+        if not getattr(args, "quiet", False):
+            print(f"{PREFIX} interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED[signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT]
 
 
 if __name__ == "__main__":

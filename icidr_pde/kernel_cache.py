@@ -356,13 +356,24 @@ def numba_setup() -> None:
         from numba.core import caching
 
         class KernelFolderLocator(caching.InTreeCacheLocator):
-            """numba's in-tree locator, for the files of the kernel folder only."""
+            """numba's in-tree locator, for the files of the kernel folder only. A kernel's name
+            holds the hash of its bytes, so the name is its source stamp: the module runs from the
+            bytes read, and a `cache clear` of another process that removes the file after they
+            were read (numba's own locators then find no file and refuse to cache) changes nothing."""
 
             @classmethod
             def from_function(cls, py_func, py_file):
                 if os.path.dirname(os.path.abspath(py_file)) != str(folder()):
                     return None
-                return super().from_function(py_func, py_file)
+                self = cls(py_func, py_file)
+                try:
+                    self.ensure_cache_path()
+                except OSError:
+                    return None
+                return self
+
+            def get_source_stamp(self):
+                return os.path.basename(self._py_file)
 
         caching.CacheImpl._locator_classes.insert(0, KernelFolderLocator)
         files = caching.IndexDataCacheFile
@@ -459,17 +470,24 @@ def _entries(path: pathlib.Path):
                     yield file, os.lstat(file), name.startswith(current)
 
 
+def _temporary(name: str) -> bool:
+    """Whether `name` is a file being written: this module's (:func:`scratch`) or numba's
+    (``<index or data file>.tmp.<uuid>``, renamed into place when whole)."""
+    return name.startswith(TEMP_PREFIX) or ".tmp." in name
+
+
 def prune(older_than: float = PRUNE_AFTER_S, stale_only: bool = True, path: pathlib.Path | None = None):
     """Remove the files of other code versions (and temporary files older than :data:`PRUNE_AFTER_S`)
     in the folder last modified more than `older_than` seconds ago; every file of this package if not
-    `stale_only`.
+    `stale_only`. A temporary file younger than :data:`PRUNE_AFTER_S` is never removed: another
+    process may be writing it, and would fail without it.
     Returns (files removed, bytes)."""
     path = folder() if path is None else path
     now, count, size = time.time(), 0, 0
     for file, st, current in list(_entries(path)):
         age = now - st.st_mtime
-        in_progress = file.name.startswith(TEMP_PREFIX) and age < PRUNE_AFTER_S  # another process writing it
-        if (stale_only and (current or in_progress)) or age < older_than:
+        in_progress = _temporary(file.name) and age < PRUNE_AFTER_S  # another process writing it
+        if in_progress or (stale_only and current) or age < older_than:
             continue
         try:
             file.unlink()
@@ -514,8 +532,10 @@ def info() -> dict:
 
 def clear(stale_only: bool = False) -> tuple[pathlib.Path | None, int, int]:
     """Remove every file of this package from the configured folder (those of other code versions
-    only with `stale_only`). Returns (folder, files removed, bytes); a folder owned by another user is
-    left alone (ValueError)."""
+    only with `stale_only`), but for the files other processes are writing (:func:`prune`): a run
+    that is compiling while the cache is cleared goes on (its kernels are in memory, and files it
+    publishes later are new files). Returns (folder, files removed, bytes); a folder owned by
+    another user is left alone (ValueError)."""
     path, setting = configured()
     if path is None or not path.is_dir():
         return path, 0, 0

@@ -291,6 +291,14 @@ class ShearCell2DPDE(ShearCellBase):
         self.check_grid(state.grid)
         return _pattern(*state.grid.shape)
 
+    def is_thin(self, grid) -> bool:
+        """Whether the cells of `grid` are thin (hx > THIN_CELL hz): the Krylov solves of the py-pde
+        path are then preconditioned along z (:meth:`line_pattern`)."""
+        self.check_grid(grid)
+        nx, nz = grid.shape
+        L, H = (float(np.diff(b)[0]) for b in grid.axes_bounds)
+        return cartesian2d_core.thin_cell(nx, nz, L, H)
+
     def line_pattern(self, state) -> sparse.csc_matrix | None:
         """The part of :meth:`jacobian_sparsity` along z in a thin cell (hx > THIN_CELL hz), else
         None: every field of cell (i, j) and of cells (i, j +- 1), the couplings within each x
@@ -299,11 +307,9 @@ class ShearCell2DPDE(ShearCellBase):
         Measured, iCIDR bump2d 32^2, L = 30, t_end = 5, CVODE + GMRES(20) without/with it:
         H = 30: 138/221 steps (64^2), H = 3: 258/297, H = 0.3: 2814/156, H = 0.01: failed at
         t = 2e-3/97 steps."""
-        self.check_grid(state.grid)
-        nx, nz = state.grid.shape
-        L, H = (float(np.diff(b)[0]) for b in state.grid.axes_bounds)
-        if not cartesian2d_core.thin_cell(nx, nz, L, H):
+        if not self.is_thin(state.grid):
             return None
+        nx, nz = state.grid.shape
         cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
         P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(sparse.identity(nx), cz)))
         P.sort_indices()

@@ -101,7 +101,7 @@ class StiffSolver(SolverBase):
     def check_memory(self, state) -> None:
         """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
         scheme and linear algebra need more than half the memory available."""
-        check_memory(self.pde, state, self.method, self._choose(state))
+        check_memory(self.pde, state.grid, self.method, self._choose(state))
 
     def rates(self, state):
         """The right-hand side: the discretization's cached kernels, else py-pde's backend."""
@@ -130,21 +130,26 @@ class StiffSolver(SolverBase):
         return _Stepper(self, ordering, spec, validity, dt)
 
 
-def check_memory(pde, state, method: str, choice: Choice) -> None:
-    """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
-    scheme and linear algebra need more than half the memory available
-    (:func:`icidr_pde.discretizations.grid_size.check_path`: a dense n x n array where this path has one)."""
+def check_memory(pde, grid, method: str, choice: Choice) -> None:
+    """Refuse (ParameterError), before anything is allocated, a run on `grid` whose scheme and
+    linear algebra need more than half the memory available
+    (:func:`icidr_pde.discretizations.grid_size.check_path`: a dense n x n array where this path
+    has one). The grid alone is enough: the state need not exist yet."""
     limit = getattr(pde, "grid_limit", None)
     if limit is None:
         return
     from ..discretizations.grid_size import check_path
 
-    shape = tuple(state.grid.shape)
+    shape = tuple(grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
     mode = choice.memory_mode
+    if mode == "krylov" and choice.linear_solver.startswith("GMRES (line") and getattr(pde, "is_thin", None) \
+            and pde.is_thin(grid):  # GMRES with the line preconditioner (engines.sundae)
+        mode = "line"
     hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
-    check_path(what, state.data.size, limit.memory_estimate(int(np.prod(shape))), method, mode, hint,
+    unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
+    check_path(what, unknowns, limit.memory_estimate(int(np.prod(shape))), method, mode, hint,
                limit.memory_note)
 
 

@@ -45,6 +45,7 @@ import re
 import numpy as np
 
 from .base import RHEOLOGIES, LawError, Rheology, ill_defined, sample_states
+from ..validation import input_file
 from .material import Material
 
 __all__ = ["CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "load_law_file",
@@ -522,8 +523,7 @@ def load_law_file(path) -> type:
         return load_declarative_law(path)
     path = pathlib.Path(path)
     where = f"Python law file {str(path)!r} (it was run)"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
+    input_file("rheology", path)
     namespace = _run_law_file(path, where)
     name = namespace.get("name", path.stem)
     label = namespace.get("label")

@@ -36,6 +36,9 @@ from __future__ import annotations
 import ast
 import math
 import pathlib
+import sys
+
+from ..validation import input_file
 
 __all__ = ["FUNCTIONS", "parse_expression", "load_declarative_law", "is_declarative_law", "DECLARATIVE_SUFFIXES"]
 
@@ -60,6 +63,8 @@ MAX_EXPONENT = 64            # |n| of a number raised to a number (sympy evaluat
 #: MAX_EXPONENT, ((2**64)**64)**64..., multiplies the digits by 64 at each level
 MAX_NUMBER_BITS = 1100
 MAX_FILE_BYTES = 1 << 20     # a law is a few formulas
+#: magnitudes of the nonzero constants a double holds (normal numbers): the kernels' arithmetic
+DOUBLE_RANGE = (sys.float_info.min, sys.float_info.max)
 
 
 class _Refused(ValueError):
@@ -82,8 +87,7 @@ def parse_expression(text: str, names: dict, where: str = "expression"):
     if len(text) > MAX_LENGTH:
         raise ValueError(f"{where}: expression {shown!r} is longer than {MAX_LENGTH} characters")
     try:
-        tree = ast.parse(text.strip(), mode="eval")
-        expr = _Builder(text, names, sp).visit(tree.body)
+        expr = _build(text.strip(), names, sp)
     except _Refused as err:
         allowed = ", ".join(sorted(names))
         raise ValueError(f"{where}: expression {shown!r}: {err.token!r} is not allowed ({err.why}); "
@@ -96,7 +100,51 @@ def parse_expression(text: str, names: dict, where: str = "expression"):
     if expr.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
         raise ValueError(f"{where}: expression {shown!r} is not finite (it simplifies to contain "
                          f"{next(str(a) for a in (sp.nan, sp.zoo, sp.oo, -sp.oo) if expr.has(a))})")
+    for number in expr.atoms(sp.Number):  # the kernels compute in doubles: 1e308*1e308 is 1e616 exactly here
+        if not (number == 0 or DOUBLE_RANGE[0] <= abs(number) <= DOUBLE_RANGE[1]):
+            raise ValueError(f"{where}: expression {shown!r} holds the constant {sp.Float(number, 3)}, outside "
+                             f"the range of a double, [{DOUBLE_RANGE[0]:.3g}, {DOUBLE_RANGE[1]:.3g}] in magnitude")
     return expr
+
+
+def _build(text: str, names: dict, sp):
+    """The sympy expression of the formula `text` (stripped) through :class:`_Builder`."""
+    try:
+        tree = ast.parse(text, mode="eval")
+    except RecursionError:
+        # CPython refuses an AST deeper than a multiple of the recursion limit, and a flat sum is
+        # a tree as deep as it has terms: its terms are parsed one by one (a deep term still fails)
+        terms = _top_level_terms(text)
+        if len(terms) < 2:
+            raise
+        return sp.Add(*(sign * _build(term, names, sp) for sign, term in terms))
+    return _Builder(text, names, sp).visit(tree.body)
+
+
+def _top_level_terms(text: str) -> list[tuple[int, str]]:
+    """(sign, text) of the terms of `text` split at its binary + and - outside brackets."""
+    import io
+    import tokenize
+
+    starts = [0]  # offset of each line of `text`
+    for line in text.splitlines(keepends=True):
+        starts.append(starts[-1] + len(line))
+    terms, depth, begin, sign, previous = [], 0, 0, 1, None
+    for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+        if tok.type == tokenize.OP and tok.string in "([{":
+            depth += 1
+        elif tok.type == tokenize.OP and tok.string in ")]}":
+            depth -= 1
+        elif (tok.type == tokenize.OP and tok.string in "+-" and depth == 0 and previous is not None
+              and (previous.type in (tokenize.NAME, tokenize.NUMBER) or previous.string in ")]}")):
+            at = starts[tok.start[0] - 1] + tok.start[1]  # a binary + or -: a term ends here
+            terms.append((sign, text[begin:at].strip()))
+            begin, sign = at + 1, 1 if tok.string == "+" else -1
+        if tok.type not in (tokenize.NL, tokenize.NEWLINE, tokenize.COMMENT, tokenize.INDENT,
+                            tokenize.DEDENT, tokenize.ENDMARKER):
+            previous = tok
+    terms.append((sign, text[begin:].strip()))
+    return terms
 
 
 class _Builder:
@@ -107,11 +155,24 @@ class _Builder:
 
     def __init__(self, text, names, sp):
         self.text, self.names, self.sp = text, names, sp
+        self.built = {}  # id of a link of a chain -> its expression, built before the link above it
 
     def token(self, node) -> str:
         return ast.get_source_segment(self.text.strip(), node) or type(node).__name__
 
     def visit(self, node):
+        built = self.built.pop(id(node), None)
+        if built is not None:
+            return built
+        if isinstance(node, ast.BinOp) and isinstance(node.left, ast.BinOp):
+            # a flat sum or product of n terms is a left-nested chain n deep: built from its
+            # innermost link outwards, each link's left operand is already built (no recursion)
+            chain = [node]
+            while isinstance(chain[-1].left, ast.BinOp):
+                chain.append(chain[-1].left)
+            for link in reversed(chain[1:]):
+                self.built[id(link)] = self.visit_BinOp(link)
+            return self.visit_BinOp(node)
         method = getattr(self, f"visit_{type(node).__name__}", None)
         if method is None:
             raise _Refused(self.token(node), f"{type(node).__name__.lower()} is not part of a formula")
@@ -208,20 +269,27 @@ def is_declarative_law(spec) -> bool:
     return isinstance(spec, (str, pathlib.Path)) and str(spec).endswith(DECLARATIVE_SUFFIXES)
 
 
-def _read_toml(path: pathlib.Path) -> dict:
+def _read_toml(path: pathlib.Path) -> tuple[dict, str]:
+    """(the table, the text) of the law file `path`, a regular file."""
     try:
         import tomllib
     except ModuleNotFoundError:   # Python < 3.11: the same parser, packaged (a dependency there)
         import tomli as tomllib
+    input_file("rheology", path)
     size = path.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ValueError(f"law file {str(path)!r} has {size} bytes; a law file has at most {MAX_FILE_BYTES}")
     try:
-        return tomllib.loads(path.read_text())
+        text = path.read_text()
+        return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as err:
         raise ValueError(f"law file {str(path)!r} is not valid TOML: {err}") from None
     except UnicodeDecodeError as err:
         raise ValueError(f"law file {str(path)!r} is not UTF-8 text: {err.reason}") from None
+    except OSError as err:
+        raise ValueError(f"law file {str(path)!r} cannot be read: {err.strerror or err}") from None
+    except RecursionError:  # tomllib's parser recurses into nested arrays and tables
+        raise ValueError(f"law file {str(path)!r} is nested too deeply to be a law") from None
 
 
 def _kind(data: dict, where: str) -> str:
@@ -275,9 +343,7 @@ def _declared_law(path) -> type:
 
     path = pathlib.Path(path)
     where = f"law file {str(path)!r}"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
-    data = _read_toml(path)
+    data, text = _read_toml(path)
     kind = _kind(data, where)
     material = data.get("material")
     if material is not None and not isinstance(material, dict):
@@ -297,7 +363,7 @@ def _declared_law(path) -> type:
         if value is not None and not isinstance(value, str):
             raise ValueError(f"{where}: `{key}` must be a string; got {value!r}")
     check_law_name(name)
-    key = f"declarative {name}\n{path.read_text()}"
+    key = f"declarative {name}\n{text}"
     if kind == "cidr":
         return define_cidr_law(name, exprs["yield_function"], exprs["dilatancy_function"], label=label,
                                material=material, key=key,

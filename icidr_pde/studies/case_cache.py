@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 from ..outputs import write_json, writable_folder
-from .parallel import run_cases
+from .parallel import StudyInterrupted, run_cases
 
 __all__ = ["CaseCache", "add_cache_option", "check_cache_option", "code_version", "run_cached"]
 
@@ -122,7 +122,8 @@ def _indexed(function, item):
 
 def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: bool, postfix=None,
                expect=None, **options) -> list:
-    """``function(case)`` for every case (:func:`~.parallel.run_cases`), in the order of `cases`.
+    """``function(case)`` for every case (:func:`~.parallel.run_cases`), in the order of `cases`;
+    interrupted, :class:`~.parallel.StudyInterrupted` with the results so far (None: not finished).
 
     With `cache` (a folder) the study `name`'s cases found there are not run, and every result is
     kept there (JSON values only) as it arrives, so an interrupted study resumes; a result taken
@@ -154,10 +155,13 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
         return item
 
     label = None if postfix is None else (lambda item: postfix(cases[checked(item)[0]], item[1]))
-    for i, result in map(checked, run_cases(functools.partial(_indexed, function), todo, jobs, progress,
-                                            ordered=False, postfix=label, **options)):
-        pending.discard(i)
-        if store is not None:
-            store.put(cases[i], result)
-        results[i] = result
+    try:
+        for i, result in map(checked, run_cases(functools.partial(_indexed, function), todo, jobs, progress,
+                                                ordered=False, postfix=label, **options)):
+            pending.discard(i)
+            if store is not None:
+                store.put(cases[i], result)
+            results[i] = result
+    except KeyboardInterrupt as interrupt:  # what finished goes with it (None: not run)
+        raise StudyInterrupted(results) from interrupt
     return results

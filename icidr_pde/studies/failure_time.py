@@ -21,7 +21,7 @@ import numpy as np
 from ..api import run
 from ..discretizations.grid_size import CHEB, FD
 from ..times import check_t_end
-from .parallel import run_cases
+from .parallel import StudyInterrupted, run_cases
 
 __all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR", "BDF_RTOL",
            "BDF_ATOL"]
@@ -111,6 +111,8 @@ def failure_time(
         result = run(rheology, scene, N, t_end, snap or [0.0], discretization=discretization, method=method,
                      rtol=rtol, atol=atol, jacobian=jacobian, backend="numba" if engine == "native" else backend,
                      max_wall=max_wall, series_times=(), engine=engine, **scene_params)
+    if result.interrupted:  # not a run that reached t_end: the case did not finish
+        raise KeyboardInterrupt
     out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
            "rtol": result.rtol, "atol": result.atol, "engine": result.settings.get("engine"),
            **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
@@ -152,7 +154,8 @@ def sweep(
     in this process), or as tasks of the dask `client` (:mod:`.distributed`), with a
     tqdm progress bar. `kwargs` go to :func:`failure_time`. With `cache` (a folder,
     :class:`~.case_cache.CaseCache`) every finished case is kept there as it arrives and a
-    case already there is not run again: an interrupted sweep resumes.
+    case already there is not run again: an interrupted sweep resumes. Interrupted (Ctrl-C),
+    :class:`~.parallel.StudyInterrupted` holds the mapping of the cases that finished.
     """
     from .case_cache import run_cached
 
@@ -164,11 +167,19 @@ def sweep(
         t = "none" if res["t_star"] is None else f"{res['t_star']:.5g}"
         return f"{case['discretization']} N={res['N']} t*={t}"
 
-    out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
-    for case, res in zip(cases, run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
-                                           postfix=label, desc="t*(N)", client=client, expect=_RESULT_SHAPE)):
-        out[case["discretization"]][case["N"]] = res
-    return {d: dict(sorted(v.items())) for d, v in out.items()}
+    def by_scheme(results):
+        out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
+        for case, res in zip(cases, results):
+            if res is not None:
+                out[case["discretization"]][case["N"]] = res
+        return {d: dict(sorted(v.items())) for d, v in out.items()}
+
+    try:
+        return by_scheme(run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
+                                    postfix=label, desc="t*(N)", client=client,
+                                    expect=_RESULT_SHAPE))
+    except StudyInterrupted as interrupt:
+        raise StudyInterrupted(by_scheme(interrupt.done)) from interrupt
 
 
 def tstar_mapping(results: dict[int, dict]) -> dict[str, float | None]:

@@ -11,13 +11,23 @@ import ctypes
 import multiprocessing
 import os
 import re
+import signal
 import sys
 import warnings
 
 from ..validation import integer
 
-__all__ = ["blas_threads", "limit_blas_threads", "max_processes", "run_cases", "single_thread_environment",
+__all__ = ["StudyInterrupted", "blas_threads", "limit_blas_threads", "max_processes", "run_cases", "single_thread_environment",
            "worker_init", "worker_state"]
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """A study stopped by Ctrl-C (or SIGTERM) with what had finished: `done`, in the form of the
+    function that raises it (a list with None for the cases not run, a sweep's partial mapping)."""
+
+    def __init__(self, done):
+        super().__init__("interrupted")
+        self.done = done
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -94,6 +104,14 @@ def worker_init() -> None:
     warnings.simplefilter("ignore")
 
 
+def _pool_worker_init() -> None:
+    """A worker of :func:`run_cases`'s pool: :func:`worker_init`, and Ctrl-C left to the parent
+    (a terminal sends it to every process of the group: each worker printed a traceback), which
+    stops the pool."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    worker_init()
+
+
 @contextlib.contextmanager
 def worker_state():
     """A worker's state (:func:`worker_init`) for the block only: the caller's BLAS thread
@@ -142,15 +160,20 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
             pool = None
         else:
             single_thread_environment()
-            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=worker_init)
+            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_pool_worker_init)
             results = (pool.imap if ordered else pool.imap_unordered)(function, cases)
+        finished = False
         try:
             for result in results:
                 if postfix is not None:
                     bar.set_postfix_str(postfix(result))
                 bar.update()
                 yield result
+            finished = True
         finally:
             if pool is not None:
-                pool.close()
+                if finished:
+                    pool.close()
+                else:  # interrupted, an error, or the caller stopped: the queued cases are not run
+                    pool.terminate()
                 pool.join()
