@@ -298,13 +298,15 @@ def test_upwind_reproduces_the_first_order_study():
     path = pathlib.Path(__file__).resolve().parents[1] / "data" / "sim2d" / "convergence_upwind.json"
     study = json.loads(path.read_text())
     times = study["times"]
+    settings = dict(study["settings"])
+    assert settings.pop("advection") == "upwind"
     d = run("icidr", "bump2d", (16, 16), float(times[-1]), times, advection="upwind", engine="pde", jacobian="krylov",
-            **study["settings"]).to_dict()  # the study's solver: the py-pde path's unpreconditioned GMRES at its
+            **settings).to_dict()  # the study's solver: the py-pde path's unpreconditioned GMRES at its
     # Krylov tolerance (the native one agrees to ~1e-8, the x-Fourier preconditioned one to ~1e-7: rtol)
     for q in ("max_w", "max_phi_dev", "l2_velocity"):
         for t in times:
             assert d[q][t] == pytest.approx(study["runs"]["16"][q][t], rel=1e-9), (q, t)
-    default = run("icidr", "bump2d", (16, 16), float(times[-1]), times, **study["settings"]).to_dict()
+    default = run("icidr", "bump2d", (16, 16), float(times[-1]), times, **settings).to_dict()
     assert abs(default["max_w"]["10"] / d["max_w"]["10"] - 1) > 0.1  # the default is not upwind
 
 

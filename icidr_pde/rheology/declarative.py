@@ -193,7 +193,7 @@ class _Builder:
         return self.checked(node, getattr(left, op)(right))
 
     TOO_LARGE = (f"a number beyond {MAX_NUMBER_BITS} bits in its numerator or denominator "
-                 f"(no float64 kernel holds it)")
+                 f"(outside the range of a double: no float64 kernel holds it)")
 
     def checked(self, node, expr):
         """`expr`, built from the formula at `node`, unless it is a number out of every float's
