@@ -571,6 +571,7 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     start = _time.perf_counter()
     problem = case.problem()
+    _check_stiffness(problem, case.y0, t_end)
     compile_s = _time.perf_counter() - start
     start, cpu_start = _time.perf_counter(), _time.process_time()
     bar = None
@@ -599,6 +600,19 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
                     recorded=recorded, outcome=outcome,
                     counts=(counts["steps"], counts["rhs"], counts["jac"], counts["lu"]),
                     y0_data=case.fields(case.y0), plane=getattr(case, "plane", lambda data: {})(recorded.data))
+
+
+def _check_stiffness(problem, y0, t_end):
+    """NativeUnavailable where the run is stiffer than the native problem's linear solver follows
+    (its ``max_stiffness``: t_end over the fastest time scale), so that the run takes the py-pde
+    path, whose Krylov solves are preconditioned, instead of failing as if the law did."""
+    limit = getattr(problem, "max_stiffness", None)
+    stiffness = 0.0 if limit is None else t_end / problem.time_scale(y0)
+    if limit is not None and stiffness > limit:
+        from .native import NativeUnavailable
+
+        raise NativeUnavailable(f"t_end / fastest time scale = {stiffness:.2g} > {limit:.0e}, too stiff for its "
+                                "GMRES without a preconditioner")
 
 
 def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend,

@@ -152,12 +152,15 @@ ATOL_FRACTION = 1e-3
 
 
 def check_atol(atol: float, data) -> float:
-    """atol below :data:`ATOL_FRACTION` of the field scale max|data| of the initial state."""
+    """atol between the round-off of the field scale max|data| of the initial state (a smaller one
+    asks the error test to control round-off: the integrator fails, or crawls, as if the law had
+    blown up) and :data:`ATOL_FRACTION` of it (a larger one controls no error)."""
     scale = float(np.max(np.abs(data))) if np.size(data) else 1.0
-    high = ATOL_FRACTION * scale
-    if atol > high:
-        raise ParameterError(f"`atol` must be in (0, {high:g}] ({ATOL_FRACTION:g} of the initial fields' "
-                             f"largest magnitude {scale:g}: a larger one controls no error); got {shown(atol)}")
+    low, high = np.finfo(float).eps * scale, ATOL_FRACTION * scale
+    if not low <= atol <= high:
+        raise ParameterError(f"`atol` must be in [{low:.3g}, {high:g}] (from the round-off of the initial fields' "
+                             f"largest magnitude {scale:g} to {ATOL_FRACTION:g} of it: beyond, it controls no "
+                             f"error); got {shown(atol)}")
     return atol
 
 
