@@ -285,6 +285,7 @@ def run(
         discretization = getattr(scene_cls, "discretization", None)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     settings["rtol"], settings["atol"] = check_tolerances(settings["rtol"], settings["atol"])
+    settings["atol_asked"] = atol is not None
     two_d = isinstance(settings["N"], (tuple, list)) or getattr(scene_cls, "dim", 1) != 1
     outputs = [what for what, value in (("--save", save), ("--movie", movie), ("a live plot", live_plot),
                                         ("a wall-clock limit", max_wall)) if value]
@@ -567,7 +568,7 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
 
     case = _native_case(rheology, scene, settings, material=material, advection=advection,
                         scene_params=scene_params)
-    check_atol(settings["atol"], case.y0)
+    check_atol(settings["atol"], case.y0, settings["atol_asked"])
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     start = _time.perf_counter()
     problem = case.problem()
@@ -624,7 +625,7 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
     from .engines.base import StepStatistics
     from .engines.stiff import StiffSolver, check_memory, scheme_problem
 
-    check_atol(settings["atol"], case.state.data)
+    check_atol(settings["atol"], case.state.data, settings["atol_asked"])
     check_memory(case.pde, case.grid, settings["method"], choice)  # before the engine allocates
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     recorders = make_recorders(case, t_end, snap_times=sched.snap_times, progress=progress, **(outputs or {}))

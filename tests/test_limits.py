@@ -168,7 +168,7 @@ def test_atol_beyond_the_field_scale_is_refused(capsys):
     from icidr_pde.validation import ATOL_FRACTION
 
     for engine in ("auto", "pde"):
-        with pytest.raises(ParameterError, match=r"`atol` must be in \[2.2e-16, "):
+        with pytest.raises(ParameterError, match=r"`atol` must be in \["):
             run("icidr", "shear", 21, 1.0, atol=1e308, engine=engine)
     assert cli.main(["run", "--atol", "1e308", "--no-progress"]) == cli.EXIT_BAD_INPUT
     assert "`--atol`" in _error_line(capsys)
