@@ -146,6 +146,23 @@ def test_bump2d_agrees_with_cvode_and_conserves_mass():
     assert abs(petsc.mass_drift) < 1e-12
 
 
+@needs_petsc
+def test_bump2d_agrees_with_the_default_to_t_10():
+    """PETSc's TSBDF (order 2, as the default's CVODE) against the default path to t = 10 at 32^2:
+    max|w|, max|phi - phi0| and the l2 velocity at t = 2, 5 and 10 within the time error of the
+    tolerance (the default against itself at rtol 1e-8 moves them by ~1e-5 at rtol 1e-6)."""
+    from icidr_pde import run
+
+    times = ["2", "5", "10"]
+    kwargs = dict(N=(32, 32), t_end=10.0, times=times, series_times=[], rtol=1e-6, atol=1e-9)
+    petsc = run("icidr", "bump2d", engine="petsc", **kwargs).to_dict()
+    default = run("icidr", "bump2d", **kwargs).to_dict()
+    assert petsc["settings"]["max_order"] == default["settings"]["max_order"] == 2
+    for q in ("max_w", "max_phi_dev", "l2_velocity"):
+        for t in times:
+            assert petsc[q][t] == pytest.approx(default[q][t], rel=1e-3), (q, t)
+
+
 def test_serial_runs_say_one_rank():
     from icidr_pde import run
 
