@@ -28,6 +28,8 @@ class Result:
         times, phi, u, w: snapshots at the requested times that were reached
         final: (phi, u, w) at t_final
         max_w_t, max_w: time series of max|w| over the nodes
+        last_times, last_states: the last states (up to 6, shape (n, 3, ...) as the snapshots)
+            the run passed at its max|w| series times before t_final: what a failure grew from
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
         mass_drift: relative change of the integral of phi between 0 and t_final
         wall_s, cpu_s: wall-clock and CPU time of the solve (kernel set-up, compile_s, excluded)
@@ -80,6 +82,8 @@ class Result:
     L: float | None = None
     measures: list | None = None
     not_written: dict = field(default_factory=dict)
+    last_times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    last_states: np.ndarray | None = None
 
     def max_w_at_times(self) -> dict[str, float]:
         """max|w| at each requested time reached (label as requested -> value)."""
