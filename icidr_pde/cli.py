@@ -297,6 +297,19 @@ def cmd_run(args) -> int:
     if args.Nx is not None or args.Nz is not None:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
+    from .rheology.cidr import is_file_law
+
+    rheology = args.rheology
+    if is_file_law(rheology):  # loaded once (a Python file is run once), checked, then run by its name
+        from stability.workbench import check_summary
+
+        from .rheology.cidr import load_law_file
+
+        law = load_law_file(rheology)
+        note = None if quiet else check_summary(law(None))
+        if note:
+            print(f"icidr-pde: {note}", file=sys.stderr)
+        rheology = law.name
     written = {}  # "result", then "status" once --json and --plot are written
 
     def write_results(result):  # the finished outputs, before the movie is rendered
@@ -322,7 +335,7 @@ def cmd_run(args) -> int:
 
             with warnings.catch_warnings():  # an output not written: said below, once
                 warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
-                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                result = run(rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
                              engine=args.engine, on_result=write_results, **options)
         except KeyboardInterrupt:
             if "result" not in written and not quiet:  # before the integration started: nothing computed

@@ -63,3 +63,71 @@ def test_plot_of_a_failed_2d_run_draws_the_failure():
     assert any(np.array_equal(a, np.asarray(res.last_states[-1][2]).T) for a in images)
     titles = " ".join(ax.get_title() for ax in fig.axes)
     assert f"t = {res.t_star:.4g}" in titles
+
+
+# --- item 2: law check reports the CIDR conditions and the symbol separately ---------------
+
+K_LAW = """name = "researcher-k"
+yield_function = "M * I / Psi * p"
+dilatancy_function = "k * M * (I / Psi - Psi / I)"
+[parameters]
+k = 0.5
+"""
+
+
+@pytest.fixture(scope="module")
+def k_law(tmp_path_factory):
+    path = tmp_path_factory.mktemp("laws") / "researcher-k.toml"
+    path.write_text(K_LAW)
+    return path
+
+
+def test_law_failing_43_but_with_a_negative_symbol_is_reported_well_posed(k_law):
+    import sympy as sp
+
+    from stability.workbench import law_report
+
+    report = law_report(str(k_law), with_curves=False)
+    c43 = report["conditions"]["(4.3)"]
+    # by hand: Y = M I p/Psi, f = k M (I/Psi - Psi/I): Y_p - I/(2p) Y_I - (f + I f_I) = M I/Psi (1/2 - 2k)
+    I, M, Psi = sp.symbols("I M Psi", positive=True)
+    assert sp.simplify(sp.sympify(c43["expression"], locals=dict(I=I, M=M, Psi=Psi)) + I * M / (2 * Psi)) == 0
+    assert (c43["status"], c43["method"]) == ("fails", "symbolic")
+    assert report["conditions_hold"] is False
+    assert report["stability"]["one_d"]["well_posed"] and report["stability"]["two_d"]["well_posed"]
+    assert report["well_posed"] is True  # the symbol's verdict; (4.3)-(4.5) are only sufficient
+
+
+def test_law_check_prints_the_conditions_and_the_symbol_separately(k_law, capsys):
+    assert cli.main(["law", "check", str(k_law), "--no-curves"]) == 0
+    out = capsys.readouterr().out
+    assert "(4.3): fails (symbolic: -I*M/(2*Psi) != 0)" in out
+    assert "CIDR conditions (4.3)-(4.5), sufficient: not shown ((4.3))" in out
+    assert "verdict: WELL-POSED (the symbol at the 312 sampled states)" in out
+
+
+def test_run_says_in_one_line_that_a_law_file_fails_its_check(k_law, tmp_path, capsys):
+    status = cli.main(["run", "--rheology", str(k_law), "--scene", "sine", "--t-end", "0.01", "--no-progress"])
+    assert status == 0
+    err = [line for line in capsys.readouterr().err.splitlines() if "researcher-k" in line and "(4.3)" in line]
+    assert len(err) == 1 and "(4.3) fails" in err[0] and "well-posed at the 312 sampled states" in err[0]
+    good = tmp_path / "researcher-icidr.toml"  # iCIDR itself: k = 1/4, (4.3)-(4.5) hold
+    good.write_text(K_LAW.replace("researcher-k", "researcher-icidr").replace("0.5", "0.25"))
+    assert cli.main(["run", "--rheology", str(good), "--scene", "sine", "--t-end", "0.01", "--no-progress"]) == 0
+    assert "(4.3)" not in capsys.readouterr().err
+
+
+def test_symbol_of_a_fresh_law_file_does_not_hang(tmp_path):
+    """Generating a law's kernels loads its material's functions under the same lock."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    law = tmp_path / "researcher-fresh.toml"
+    law.write_text(K_LAW.replace("researcher-k", "researcher-fresh"))
+    code = ("from icidr_pde.rheology.cidr import load_law_file; from stability.workbench import symbol_grid; "
+            f"print(symbol_grid(load_law_file({str(law)!r})(None)).phi.size)")
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=120,
+                          env=dict(__import__("os").environ, PYTHONPATH=str(root)))
+    assert done.returncode == 0 and done.stdout.strip() == "312", done.stderr
