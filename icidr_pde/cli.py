@@ -209,7 +209,7 @@ def write_outputs(writers, report=None) -> int:
 def add_run_parser(subparsers):
     # names from the catalog: building this parser imports neither py-pde nor scipy
     from .catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
-    from .engines.choose import REQUESTS
+    from .engines.choose import DENSE_2D_CELLS, REQUESTS
     from .presets import PRESETS
     from .rheology import RHEOLOGIES
     from .scenes import SCENES, scene_parameters
@@ -246,9 +246,12 @@ def add_run_parser(subparsers):
     p.add_argument("--method", choices=METHODS, default=None, help="integrator (default: from --accuracy)")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="Jacobian of the implicit solves (default: the method's best: analytic for "
-                        "BDF/Radau/CVODE, banded-fd for LSODA; on 2-D grids CVODE's GMRES: 'krylov' "
-                        "unpreconditioned, 'amg' preconditioned by algebraic multigrid, 'fourier' by the x-averaged "
-                        "Jacobian, exactly inverted by the FFT in x)")
+                        "BDF/Radau/CVODE, banded-fd for LSODA). On 2-D grids (CVODE): 'fourier' (default: GMRES "
+                        "preconditioned by the x-averaged Jacobian, exactly inverted by the FFT in x), 'krylov' "
+                        "(GMRES unpreconditioned), 'amg' (GMRES + algebraic multigrid), 'sparse' (SuperLU_MT); "
+                        "BDF/Radau: 'analytic' (SuperLU), 'sparse-fd', 'colored-fd'. Dense Newton matrices "
+                        "(CVODE 'analytic' or 'none', BDF/Radau 'none', LSODA) are refused on 2-D grids "
+                        f"beyond {DENSE_2D_CELLS} cells")
     for key, (defaults, valid) in DISCRETIZATION_OPTIONS.items():
         p.add_argument(f"--{key}", choices=valid, default=None,
                        help="option of " + ", ".join(f"{name} (default {value})" for name, value in defaults.items()))
@@ -307,9 +310,9 @@ def cmd_run(args) -> int:
 
         law = load_law_file(rheology)
         note = None if quiet else check_summary(law(None))
-        if note:
-            print(f"icidr-pde: {note}", file=sys.stderr)
         rheology = law.name
+    else:
+        note = None
     written = {}  # "result", then "status" once --json and --plot are written
 
     def write_results(result):  # the finished outputs, before the movie is rendered
@@ -317,6 +320,8 @@ def cmd_run(args) -> int:
         if quiet:
             written["status"] = EXIT_OK
             return
+        if note:  # a law that was run (one refused says why instead)
+            print(f"icidr-pde: {note}", file=sys.stderr)
         summary = sys.stderr if is_stdout(args.json) else sys.stdout  # stdout then holds only the JSON
         print(result, file=summary)
         print(json.dumps({k: v for k, v in result.to_dict().items()

@@ -131,3 +131,67 @@ def test_symbol_of_a_fresh_law_file_does_not_hang(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=120,
                           env=dict(__import__("os").environ, PYTHONPATH=str(root)))
     assert done.returncode == 0 and done.stdout.strip() == "312", done.stderr
+
+
+# --- item 3: no silent dense Newton matrix on the 2-D cell ----------------------------------
+
+def _choose_2d(cells=64 * 64, **kw):
+    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+
+    return choose(structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d", dim=2, cells=cells, request="pde", **kw)
+
+
+def _suggested(message):
+    """(method, jacobian) pairs an error suggests: "with --method M: --jacobian a or b; ..." or "use 'a' or 'b' with method 'M'"."""
+    import re
+
+    pairs = []
+    for method, modes in re.findall(r"with --method (\w+): --jacobian ([\w-]+(?: or [\w-]+)*)", message):
+        pairs += [(method, m) for m in modes.split(" or ")]
+    found = re.search(r"use ((?:'[\w-]+'(?: or )?)+) with method '(\w+)'", message)
+    if found:
+        pairs += [(found.group(2), m) for m in re.findall(r"'([\w-]+)'", found.group(1))]
+    return pairs
+
+
+@pytest.mark.parametrize("method, jacobian", [("CVODE", "analytic"), ("CVODE", "none"), ("LSODA", None),
+                                              ("BDF", "none"), ("CVODE", "banded-fd")])
+def test_dense_or_impossible_2d_choices_are_refused_with_choices_that_work(method, jacobian):
+    from icidr_pde.engines.choose import DENSE_2D_CELLS
+    from icidr_pde.validation import ParameterError
+
+    with pytest.raises(ParameterError) as err:
+        _choose_2d(method=method, jacobian=jacobian)
+    pairs = _suggested(str(err.value))
+    assert pairs, str(err.value)
+    for m, j in pairs:  # every suggestion is taken, and is not a dense LU
+        assert "dense" not in _choose_2d(method=m, jacobian=j).linear_solver
+    if jacobian != "banded-fd":  # allowed on a small grid
+        assert "dense" in _choose_2d(cells=DENSE_2D_CELLS, method=method, jacobian=jacobian).linear_solver
+
+
+def test_cli_refuses_the_dense_2d_solver_in_one_line(capsys):
+    assert cli.main(["run", "--scene", "bump2d", "--Nx", "64", "--Nz", "64", "--jacobian", "analytic",
+                     "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "dense" in err and "'fourier'" in err and "12288 unknowns" in err
+
+
+def test_help_and_cli_doc_list_the_same_2d_choices(capsys):
+    import re
+    from pathlib import Path
+
+    from icidr_pde.engines.choose import CHOICES_2D, DENSE_2D_CELLS
+
+    with pytest.raises(SystemExit):
+        cli.main(["run", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text()
+    for method, modes in CHOICES_2D.items():
+        assert all(f"'{m}'" in help_text for m in modes), method
+    doc_2d = re.search(r"--scene bump2d.*?(?=\nicidr-pde run \.\.\.)", doc, re.S).group(0)
+    assert set(re.search(r"--jacobian \{([^}]*)\}", doc_2d).group(1).split(",")) == set(CHOICES_2D["CVODE"])
+    side = re.search(r"BDF/Radau: (.*?); dense", " ".join(doc_2d.replace("#", "").split())).group(1)
+    assert set(re.findall(r"[\w-]+", side.replace(" or ", " "))) == set(CHOICES_2D["BDF"])
+    assert f"{int(DENSE_2D_CELLS ** 0.5)}x{int(DENSE_2D_CELLS ** 0.5)} cells" in doc_2d
+    assert f"beyond {DENSE_2D_CELLS} cells" in help_text
