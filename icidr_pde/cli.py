@@ -276,10 +276,17 @@ def add_run_parser(subparsers):
     p.set_defaults(func=cmd_run)
 
 
+def _scenes_2d() -> list:
+    from .scenes import SCENES
+
+    return [name for name, scene in SCENES.items() if getattr(scene, "dim", 1) != 1]
+
+
 def cmd_run(args) -> int:
     from .engines.choose import PETSC_METHOD
     from .outputs import check_outputs
-    from .scenes import scene_parameters
+    from .scenes import SCENES, scene_parameters
+    from .validation import ParameterError
 
     # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes. Every
     # rank checks the input the same way, so that bad input ends every rank with the same status
@@ -297,7 +304,11 @@ def cmd_run(args) -> int:
     check_outputs({"--json": args.json, "--save": args.save, "--movie": args.movie, "--plot": plot})
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
     N = args.N
-    if args.Nx is not None or args.Nz is not None:
+    given = [f"--{k}" for k in ("Nx", "Nz") if getattr(args, k) is not None]
+    if given and getattr(SCENES.get(args.scene), "dim", 1) == 1:  # else "--N must be ... got (64, 64)"
+        raise ParameterError(f"`{given[0]}` sets the cells of a 2-D scene ({', '.join(_scenes_2d())}); "
+                             f"scene {args.scene!r} is 1-D: use --N; got {given[0]} {getattr(args, given[0][2:])}")
+    if given:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
     from .rheology.cidr import is_file_law

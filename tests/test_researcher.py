@@ -195,3 +195,22 @@ def test_help_and_cli_doc_list_the_same_2d_choices(capsys):
     assert set(re.findall(r"[\w-]+", side.replace(" or ", " "))) == set(CHOICES_2D["BDF"])
     assert f"{int(DENSE_2D_CELLS ** 0.5)}x{int(DENSE_2D_CELLS ** 0.5)} cells" in doc_2d
     assert f"beyond {DENSE_2D_CELLS} cells" in help_text
+
+
+# --- item 7: errors that name the real problem ----------------------------------------------
+
+def _one_error(capsys, argv):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_nx_on_a_1d_scene_says_the_scene_is_1d(capsys):
+    err = _one_error(capsys, ["run", "--scene", "shear", "--Nx", "64", "--no-progress"])
+    assert "`--Nx`" in err and "'shear' is 1-D" in err and "--N" in err and "(64, 64)" not in err
+
+
+def test_a_time_beyond_t_end_says_so(capsys):
+    err = _one_error(capsys, ["run", "--times", "20", "--no-progress"])
+    assert "got 20 (> t_end = 10)" in err and "str" not in err
