@@ -214,3 +214,37 @@ def test_nx_on_a_1d_scene_says_the_scene_is_1d(capsys):
 def test_a_time_beyond_t_end_says_so(capsys):
     err = _one_error(capsys, ["run", "--times", "20", "--no-progress"])
     assert "got 20 (> t_end = 10)" in err and "str" not in err
+
+
+# --- item 5: wall_s is the solve's, the Jacobian's compilation is set-up ---------------------
+
+def test_the_jacobian_is_compiled_in_the_set_up_not_the_solve(monkeypatch):
+    """The compiled Jacobian's first call compiles it (seconds on an empty cache): it is made
+    before the timed solve starts, so that wall_s excludes it (compile_s has it)."""
+    import dataclasses
+
+    import icidr_pde.api as api
+    import icidr_pde.engines.stiff as stiff
+
+    calls, seen = [], []
+    scheme_problem, drive = stiff.scheme_problem, api._drive
+
+    def counted_problem(*args, **kwargs):
+        problem, ordering = scheme_problem(*args, **kwargs)
+        jac = problem.jacobian.jac
+
+        def counted(t, y):
+            calls.append(t)
+            return jac(t, y)
+
+        spec = dataclasses.replace(problem.jacobian, jac=counted)
+        return dataclasses.replace(problem, jacobian=spec), ordering
+
+    def watched_drive(*args, **kwargs):
+        seen.append(len(calls))
+        return drive(*args, **kwargs)
+
+    monkeypatch.setattr(stiff, "scheme_problem", counted_problem)
+    monkeypatch.setattr(api, "_drive", watched_drive)
+    res = run("icidr", "shear", N=21, t_end=0.1, method="BDF")
+    assert res.settings["engine"] == "scipy" and seen == [1] and len(calls) > 1
