@@ -248,3 +248,82 @@ def test_the_jacobian_is_compiled_in_the_set_up_not_the_solve(monkeypatch):
     monkeypatch.setattr(api, "_drive", watched_drive)
     res = run("icidr", "shear", N=21, t_end=0.1, method="BDF")
     assert res.settings["engine"] == "scipy" and seen == [1] and len(calls) > 1
+
+
+# --- item 4: numbers quoted in the docs are the code's ---------------------------------------
+
+DOCS = __import__("pathlib").Path(__file__).resolve().parents[1] / "docs"
+
+
+def _paragraphs():
+    for path in sorted(DOCS.glob("*.md")):
+        for paragraph in path.read_text(encoding="utf-8").split("\n\n"):
+            yield path.name, " ".join(paragraph.split())
+
+
+PACKAGES = ("engines", "discretizations", "dem", "rheology", "studies", "native", "figures", "movies")
+
+
+def test_quoted_constants_name_code_that_exists():
+    """`engines.base.KRYLOV_EPS_LIN` and the like: each dotted name ending in a CONSTANT resolves."""
+    import importlib
+    import re
+
+    missing = []
+    for name, text in _paragraphs():
+        for dotted in set(re.findall(r"`((?:[a-z_0-9]+\.)+[A-Z][A-Z_0-9]+)`", text)):
+            module, _, constant = dotted.rpartition(".")
+            found = False  # the docs abbreviate: choose.X is icidr_pde.engines.choose.X
+            for candidate in [module, f"icidr_pde.{module}"] + [f"icidr_pde.{package}.{module}" for package in PACKAGES]:
+                try:
+                    found = found or hasattr(importlib.import_module(candidate), constant)
+                except ImportError:
+                    pass
+            if not found:
+                missing.append((name, dotted))
+    assert not missing
+
+
+def test_the_native_fv2d_threshold_quoted_is_the_code_s():
+    import re
+
+    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS
+
+    quoted = [(name, m) for name, text in _paragraphs() if "NATIVE_FV2D_AUTO_CELLS" in text
+              for m in re.findall(r"up to (\d+)²(?: = (\d+) cells)?", text)]
+    assert quoted
+    for name, (n, cells) in quoted:
+        assert int(n) ** 2 == NATIVE_FV2D_AUTO_CELLS and cells in ("", str(NATIVE_FV2D_AUTO_CELLS)), name
+
+
+def test_the_bump2d_t_star_in_results_is_the_gallery_s():
+    import json
+    import re
+
+    numbers = json.loads((DOCS / "figures" / "numbers.json").read_text())
+    t_star = numbers["figures"]["bump2d"]["t_star_mui"]
+    quoted = re.search(r"μ\(I\) on 64² at 98 % of its t\* = ([0-9.]+)", " ".join((DOCS / "results.md").read_text().split()))
+    assert float(quoted.group(1)) == pytest.approx(t_star, abs=5e-4)
+
+
+# --- items 8, 9: the 2-D py-pde class first-class, a clean namespace ------------------------
+
+def test_the_2d_class_is_exported_and_its_make_state_takes_f_of_x_and_z():
+    import icidr_pde
+    from icidr_pde import ShearCell2DPDE
+
+    eq = ShearCell2DPDE("icidr")
+    grid = eq.make_grid((8, 6), H=30)
+    state = eq.make_state(grid, 0.78, lambda x, z: z / 30, "0.01 * sin(2 * pi * x / 30)")
+    xz = eq.nodes(grid)
+    assert np.allclose(state.data[1], xz[..., 1] / 30)
+    assert np.allclose(state.data[2], 0.01 * np.sin(2 * np.pi * xz[..., 0] / 30))
+    assert np.all(state.data[0] == 0.78)
+    assert "ShearCell2DPDE" in icidr_pde.__all__
+
+
+def test_dir_lists_public_names_only():
+    import icidr_pde
+
+    assert {"annotations", "importlib"}.isdisjoint(dir(icidr_pde))
+    assert set(icidr_pde.__all__) <= set(dir(icidr_pde))

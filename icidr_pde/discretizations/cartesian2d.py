@@ -159,15 +159,20 @@ class ShearCell2DPDE(ShearCellBase):
         return grid.cell_coords
 
     def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
-        """FieldCollection of phi, u, w from callables of the node positions (Nx, Nz, 2) or arrays."""
+        """FieldCollection of phi, u, w, each a number, an array (Nx, Nz), a callable f(x, z) of
+        the cell centres' coordinates (arrays (Nx, Nz); the 1-D class calls f(z)) or a py-pde
+        expression in x and z (e.g. ``"z / 30 + 0.01 * sin(2 * pi * x / 30)"``)."""
         from pde import ScalarField
+        from pde.tools.expressions import ScalarExpression
 
         self.check_grid(grid)
-        xz = self.nodes(grid)
+        x, z = np.moveaxis(self.nodes(grid), -1, 0)
         fields = []
         for label, f in zip(("phi", "u", "w"), (phi, u, w)):
-            data = f(xz) if callable(f) else np.broadcast_to(np.asarray(f, float), grid.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+            if isinstance(f, str):
+                f = ScalarExpression(f, signature=["x", "z"])
+            data = f(x, z) if callable(f) else np.asarray(f, float)
+            fields.append(ScalarField(grid, np.array(np.broadcast_to(data, grid.shape), dtype=float), label=label))
         return FieldCollection(fields)
 
     def integral(self, values: np.ndarray, grid) -> float:
