@@ -24,7 +24,7 @@ import numpy as np
 from .engines.base import check_tolerances
 from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
 from .presets import resolve
-from .result import Result
+from .result import Fields, Result
 from .rheology import Material
 from .scenes import SCENES, Scene, get_scene
 from .times import (check_t_end, chi_times, dense_times, merged_output_times, time_labels as _time_labels)
@@ -185,7 +185,7 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
         rtol=float(rtol), atol=float(atol), method=method, jacobian=choice.jacobian, blew_up=outcome.blew_up,
         t_star=outcome.t_star, reason=outcome.reason, t_final=float(outcome.t_final), z=z,
         times=np.asarray(recorded.times, float), time_labels=labels[:n_snap], requested_times=labels,
-        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(outcome.final),
+        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=Fields(*outcome.final),
         max_w_t=np.array(max_w_t), max_w=np.array(max_w),
         last_times=recorded.last_times,
         last_states=recorded.last_states if recorded.last_states is not None else data[:0],

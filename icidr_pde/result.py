@@ -4,13 +4,21 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .outputs import write_atomically
 
-__all__ = ["Result"]
+__all__ = ["Result", "Fields"]
+
+
+class Fields(NamedTuple):
+    """phi, u, w of one state (a tuple: ``phi, u, w = res.final`` and ``res.final[2]`` work)."""
+
+    phi: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
 
 
 @dataclass
@@ -26,7 +34,7 @@ class Result:
             interrupted)
         z: positions of the unknowns
         times, phi, u, w: snapshots at the requested times that were reached
-        final: (phi, u, w) at t_final
+        final: :class:`Fields` (phi, u, w) at t_final (``res.final.w``)
         max_w_t, max_w: time series of max|w| over the nodes
         last_times, last_states: the last states (up to 6, shape (n, 3, ...) as the snapshots)
             the run passed at its max|w| series times before t_final: what a failure grew from
@@ -125,6 +133,13 @@ class Result:
             for key in ("max_phi_dev", "l2_velocity"):
                 out[key] = {label: m[key] for label, m in zip(self.time_labels, self.measures)}
         return out
+
+    def plot(self, path=None):
+        """The figure of ``icidr-pde run --plot``: snapshots, max|w|(t) and, for a failed run,
+        the last states before t* and the state at t* (:func:`icidr_pde.plotting.plot_result`)."""
+        from .plotting import plot_result
+
+        return plot_result(self, path)
 
     @property
     def interrupted(self) -> bool:

@@ -327,3 +327,48 @@ def test_dir_lists_public_names_only():
 
     assert {"annotations", "importlib"}.isdisjoint(dir(icidr_pde))
     assert set(icidr_pde.__all__) <= set(dir(icidr_pde))
+
+
+def test_result_plots_itself_and_names_its_final_fields(mui_failed):
+    res = mui_failed
+    phi, u, w = res.final
+    assert res.final.w is w and res.final.phi is phi and res.final[1] is u
+    fig = res.plot()
+    assert any(np.array_equal(line.get_ydata(), res.final.w) for line in _lines(fig))
+
+
+# --- items 6, 10: the small ones -------------------------------------------------------------
+
+def test_dem_help_states_each_default_once(capsys):
+    import re
+
+    for command in ("steady", "transient", "pool", "audit"):
+        with pytest.raises(SystemExit):
+            cli.main(["dem", command, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        for option_help in re.split(r"\s--", text):
+            assert len(re.findall(r"\(default: ", option_help)) <= 1, option_help
+
+
+def test_dem_ctrl_c_is_one_line_not_a_traceback(monkeypatch, capsys):
+    import icidr_pde.dem.cli as dem_cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(dem_cli, "cmd_steady", interrupted)
+    wrapped = dem_cli._needs_lammps(dem_cli.cmd_steady)
+
+    class Args:
+        dem_command = "steady"
+
+    assert wrapped(Args()) == 130
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "interrupted" in err
+
+
+def test_tstar_says_no_failure_rather_than_null(capsys, tmp_path):
+    assert cli.main(["tstar", "--rheology", "icidr", "--N", "21:23:2", "--t-end", "0.05", "--no-progress",
+                     "--cache", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "null" not in out and "no failure by --t-end" in out
