@@ -28,7 +28,8 @@ def _check(args) -> int:
     from .outputs import check_outputs
 
     check_outputs({"--json": args.json})  # before the law file is run
-    report = law_report(args.law, with_curves=not args.no_curves)
+    report = law_report(args.law, with_curves=not args.no_curves,  # stages on stderr: stdout is the report
+                        progress=lambda text: print(text, file=sys.stderr, flush=True))
     print(f"law {report['law']} ({report['kind']}; phi in ({report['phi_domain'][0]:g}, "
           f"{report['phi_domain'][1]:g}))")
     for key, c in report["conditions"].items():

@@ -387,18 +387,27 @@ def curves(rheology, phis=None) -> dict:
 
 # --- the report --------------------------------------------------------------------------
 
-def law_report(law, material=None, *, with_curves: bool = True) -> dict:
-    """The report of `law` as a JSON-ready dict (schema: docs/laws.md, 'Command line, Python, JSON')."""
+def law_report(law, material=None, *, with_curves: bool = True, progress=None) -> dict:
+    """The report of `law` as a JSON-ready dict (schema: docs/laws.md, 'Command line, Python, JSON');
+    `progress(text)`, if given, is told each stage as it starts."""
     from icidr_pde.rheology.cidr import CIDRLaw, LawError
 
+    def stage(text):
+        if progress is not None:
+            progress(text)
+
     rheology = resolve_law(law, material)
+    stage("law check: p and c on the sample ...")
     defined = _definedness(rheology)
+    stage("law check: conditions (4.3)-(4.5) ...")
     conditions = check_conditions(rheology)
     report = {"law": rheology.name, "label": rheology.label, "kind": getattr(rheology, "kind", "direct"),
               "material": rheology.material.to_dict(), "phi_domain": list(law_domain(rheology))}
     if isinstance(rheology, CIDRLaw):
+        stage("law check: equation of state ...")
         rheology.verify_closed_form()
         report["equation_of_state"] = _eos_summary(rheology)
+    stage("law check: the symbol over the grid of states ...")
     grid = symbol_grid(rheology)
     sym = grid.to_json()
     symbol_ok = sym["one_d"]["well_posed"] and sym["two_d"]["well_posed"]
@@ -421,6 +430,7 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
             report["stability"]["notes"].append("(4.3)-(4.5) hold but the symbol is not negative on the grid: "
                                                 "inconsistent, please report")
     if with_curves:
+        stage("law check: curves ...")
         report["curves"] = curves(rheology)
     report["runnable"] = not (isinstance(rheology, CIDRLaw) and report["equation_of_state"]["no_positive_root_at"]) \
         and all(f["what"] == "c < 0" for f in defined["failures"])

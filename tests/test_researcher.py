@@ -372,3 +372,29 @@ def test_tstar_says_no_failure_rather_than_null(capsys, tmp_path):
                      "--cache", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "null" not in out and "no failure by --t-end" in out
+
+
+def test_readme_says_how_long_the_tests_and_dem_steady_take():
+    from pathlib import Path
+
+    lines = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8").splitlines()
+    assert any("python -m pytest" in line and "min" in line.partition("#")[2] for line in lines[:8])
+    assert any(line.startswith("icidr-pde dem steady") and "min" in line.partition("#")[2] for line in lines)
+
+
+def test_law_check_says_what_it_is_doing_on_stderr(k_law, capsys):
+    assert cli.main(["law", "check", str(k_law), "--no-curves"]) == 0
+    captured = capsys.readouterr()
+    stages = [line for line in captured.err.splitlines() if line.startswith("law check: ")]
+    assert len(stages) >= 3 and "law check:" not in captured.out
+
+
+def test_verify_tells_each_group_as_it_starts(monkeypatch):
+    from stability import report
+
+    for module in (report.rheologies, report.cidr, report.icidr, report.linearize, report.mui, report.dissipation):
+        monkeypatch.setattr(module, "checks", lambda: [])
+    monkeypatch.setattr(report, "crosscheck_rows", lambda: [])
+    told = []
+    assert report.run_checks(True, told.append) == []
+    assert told[0].startswith("verify [1/8]") and len(told) == 7 and "cross-checks" in told[-1]
