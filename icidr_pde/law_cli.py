@@ -22,14 +22,22 @@ import sys
 from .argtypes import subcommand
 
 
+def stderr_progress():
+    """A progress(text) that tells a person at a terminal each stage, on stderr (stdout holds the
+    report; a pipe or a log gets only the report and, on bad input, the one error line); None
+    where stderr is not a terminal."""
+    if not sys.stderr.isatty():
+        return None
+    return lambda text: print(text, file=sys.stderr, flush=True)
+
+
 def _check(args) -> int:
     from stability.workbench import law_report, write_report
 
     from .outputs import check_outputs
 
     check_outputs({"--json": args.json})  # before the law file is run
-    report = law_report(args.law, with_curves=not args.no_curves,  # stages on stderr: stdout is the report
-                        progress=lambda text: print(text, file=sys.stderr, flush=True))
+    report = law_report(args.law, with_curves=not args.no_curves, progress=stderr_progress())
     print(f"law {report['law']} ({report['kind']}; phi in ({report['phi_domain'][0]:g}, "
           f"{report['phi_domain'][1]:g}))")
     for key, c in report["conditions"].items():

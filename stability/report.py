@@ -8,7 +8,6 @@ detail), ``fails`` (does not hold; the corrected expression is given).
 from __future__ import annotations
 
 import json
-import sys
 import textwrap
 import time
 
@@ -114,12 +113,13 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
 
     check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
-    def progress(text):  # on stderr: stdout holds the table
-        print(text, file=sys.stderr, flush=True)
+    from icidr_pde.law_cli import stderr_progress  # noqa: PLC0415
 
+    progress = stderr_progress()  # at a terminal, on stderr: stdout holds the table
     checks = run_checks(crosscheck, progress)
     n_groups = 7 + bool(crosscheck)
-    progress(f"verify [{n_groups}/{n_groups}] plane waves ...")
+    if progress is not None:
+        progress(f"verify [{n_groups}/{n_groups}] plane waves ...")
     checks += plane.checks()
     stream(format_table(checks))
     n = {s: sum(c.status == s for c in checks) for s in ("exact", "numeric", "fails")}

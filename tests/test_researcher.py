@@ -382,11 +382,17 @@ def test_readme_says_how_long_the_tests_and_dem_steady_take():
     assert any(line.startswith("icidr-pde dem steady") and "min" in line.partition("#")[2] for line in lines)
 
 
-def test_law_check_says_what_it_is_doing_on_stderr(k_law, capsys):
+def test_law_check_says_what_it_is_doing_at_a_terminal(k_law, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     assert cli.main(["law", "check", str(k_law), "--no-curves"]) == 0
     captured = capsys.readouterr()
     stages = [line for line in captured.err.splitlines() if line.startswith("law check: ")]
     assert len(stages) >= 3 and "law check:" not in captured.out
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)  # a log or a pipe: the report only
+    assert cli.main(["law", "check", str(k_law), "--no-curves"]) == 0
+    assert "law check:" not in capsys.readouterr().err
 
 
 def test_verify_tells_each_group_as_it_starts(monkeypatch):
