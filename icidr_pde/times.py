@@ -78,8 +78,9 @@ def time_labels(times, t_end):
             value = float(t) if isinstance(t, str) else real("times", t)
         except (ValueError, TypeError):
             raise ParameterError(f"`times` must be {wanted}; got {shown(t)}") from None
-        if not (np.isfinite(value) and 0 <= value <= t_end):
-            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}")
+        if not (np.isfinite(value) and 0 <= value <= t_end):  # a number: say which end it is beyond
+            where = f" (> t_end = {t_end:g})" if value > t_end else " (< 0)" if value < 0 else ""
+            raise ParameterError(f"`times` must be {wanted}; got {value:g}{where}")
         labels.append(t if isinstance(t, str) else f"{value:g}")
         values.append(value)
     order = np.argsort(values, kind="stable")

@@ -163,7 +163,7 @@ def cmd_tstar(args) -> int:
               f"every N >= {thr} fails" if thr is not None else
               f"{disc}: {len(failed)}/{len(mapping)} runs failed; the largest N did not fail")
         for n, t in sorted((int(n), t) for n, t in mapping.items()):
-            print(f"  N={n:4d}  t*={'null' if t is None else f'{t:.6g}'}")
+            print(f"  N={n:4d}  " + ("no failure by --t-end" if t is None else f"t*={t:.6g}"))  # JSON: null
     if args.json and mappings:
         payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
         write_json(payload, args.json)

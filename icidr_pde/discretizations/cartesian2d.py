@@ -102,6 +102,19 @@ class Patches:
     measured: int = 2
 
 
+def _takes_two(f) -> bool:
+    """True if f can be called as f(x, z) (not only f(nodes))."""
+    import inspect
+
+    try:
+        inspect.signature(f).bind(0, 0)
+    except TypeError:
+        return False
+    except ValueError:  # no signature (a builtin, a numpy ufunc): as f(x, z)
+        return True
+    return True
+
+
 class ShearCell2DPDE(ShearCellBase):
     """Gravity-free 2-D shear cell, x-periodic, closed by a rheology; finite volumes.
 
@@ -161,15 +174,21 @@ class ShearCell2DPDE(ShearCellBase):
         return grid.cell_coords
 
     def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
-        """FieldCollection of phi, u, w from callables of the node positions (Nx, Nz, 2) or arrays."""
+        """FieldCollection of phi, u, w, each a number, an array (Nx, Nz), a callable f(x, z) of
+        the cell centres' coordinates (arrays (Nx, Nz); the 1-D class calls f(z)) or a py-pde
+        expression in x and z (e.g. ``"z / 30 + 0.01 * sin(2 * pi * x / 30)"``). A callable of
+        one argument gets the nodes (Nx, Nz, 2), as before."""
         from pde import ScalarField
+        from pde.tools.expressions import ScalarExpression
 
         self.check_grid(grid)
-        xz = self.nodes(grid)
+        x, z = np.moveaxis(self.nodes(grid), -1, 0)
         fields = []
         for label, f in zip(("phi", "u", "w"), (phi, u, w)):
-            data = f(xz) if callable(f) else np.broadcast_to(np.asarray(f, float), grid.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+            if isinstance(f, str):
+                f = ScalarExpression(f, signature=["x", "z"])
+            data = (f(x, z) if _takes_two(f) else f(self.nodes(grid))) if callable(f) else np.asarray(f, float)
+            fields.append(ScalarField(grid, np.array(np.broadcast_to(data, grid.shape), dtype=float), label=label))
         return FieldCollection(fields)
 
     def integral(self, values: np.ndarray, grid) -> float:

@@ -94,8 +94,9 @@ class StiffSolver(SolverBase):
     def _choose(self, state) -> Choice:
         if self.choice is None:
             thin = getattr(self.pde, "line_pattern", lambda state: None)(state) is not None
+            cells = int(np.prod(state.data.shape[1:])) if state.data.ndim > 2 else None  # fields first
             self.choice = choose(method=self.method, jacobian=self._asked, request="pde",
-                                 structure=JacobianStructure.of(self.pde, state), thin_cell=thin)
+                                 structure=JacobianStructure.of(self.pde, state), thin_cell=thin, cells=cells)
         return self.choice
 
     def check_memory(self, state) -> None:
