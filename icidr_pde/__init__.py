@@ -17,7 +17,7 @@ _EXPORTS = {
     "run": "api",
     "build_case": "case", "make_pde": "case",
     "DISCRETIZATIONS": "discretizations", "ChebyshevShearCellPDE": "discretizations",
-    "ShearCellPDE": "discretizations",
+    "ShearCellPDE": "discretizations", "ShearCell2DPDE": "discretizations",
     "SimulationFailed": "engines.base", "StiffSolver": "engines.stiff",
     "Result": "result",
     "ICIDR": "rheology", "RHEOLOGIES": "rheology", "Material": "rheology", "MuIPhiI": "rheology",
@@ -27,7 +27,7 @@ _EXPORTS = {
 
 __all__ = [
     "run", "build_case", "make_pde", "Result", "Material", "MuIPhiI", "ICIDR", "get_rheology",
-    "define_rheology", "RHEOLOGIES", "ShearCellPDE", "ChebyshevShearCellPDE", "DISCRETIZATIONS",
+    "define_rheology", "RHEOLOGIES", "ShearCellPDE", "ShearCell2DPDE", "ChebyshevShearCellPDE", "DISCRETIZATIONS",
     "StiffSolver", "SimulationFailed", "SCENES", "get_scene",
 ]
 __version__ = "0.1.0"
@@ -42,5 +42,5 @@ def __getattr__(name: str):
     return value
 
 
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+def __dir__():  # the public names, not the module's own imports
+    return sorted(set(__all__) | {"__version__"})

@@ -24,7 +24,7 @@ import numpy as np
 from .engines.base import check_tolerances
 from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
 from .presets import resolve
-from .result import Result
+from .result import Fields, Result
 from .rheology import Material
 from .scenes import SCENES, Scene, get_scene
 from .times import (check_t_end, chi_times, dense_times, merged_output_times, time_labels as _time_labels)
@@ -157,6 +157,8 @@ class Recorded:
     chi_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     chi_z: np.ndarray | None = None
     chi: np.ndarray | None = None
+    last_times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    last_states: np.ndarray | None = None
 
 
 def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, material: dict, t_end: float,
@@ -183,8 +185,10 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
         rtol=float(rtol), atol=float(atol), method=method, jacobian=choice.jacobian, blew_up=outcome.blew_up,
         t_star=outcome.t_star, reason=outcome.reason, t_final=float(outcome.t_final), z=z,
         times=np.asarray(recorded.times, float), time_labels=labels[:n_snap], requested_times=labels,
-        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=tuple(outcome.final),
+        phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=Fields(*outcome.final),
         max_w_t=np.array(max_w_t), max_w=np.array(max_w),
+        last_times=recorded.last_times,
+        last_states=recorded.last_states if recorded.last_states is not None else data[:0],
         mass_drift=(mass(outcome.final) - mass0) / mass0,
         wall_s=outcome.wall_s, compile_s=outcome.compile_s, cpu_s=outcome.cpu_s, n_steps=n_steps, n_rhs=n_rhs,
         n_jac=n_jac, n_lu=n_lu, scene_params=scene.parameters(), material=material,
@@ -285,6 +289,7 @@ def run(
         discretization = getattr(scene_cls, "discretization", None)
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     settings["rtol"], settings["atol"] = check_tolerances(settings["rtol"], settings["atol"])
+    settings["atol_asked"] = atol is not None
     two_d = isinstance(settings["N"], (tuple, list)) or getattr(scene_cls, "dim", 1) != 1
     outputs = [what for what, value in (("--save", save), ("--movie", movie), ("a live plot", live_plot),
                                         ("a wall-clock limit", max_wall)) if value]
@@ -327,8 +332,11 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
         if "advection" not in get_discretization(settings["discretization"]).options:
             raise ValueError(f"`advection` is not an option of discretization {settings['discretization']!r}")
         options["advection"] = advection
+    from .engines.stiff import check_memory
+
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
-                      options=options, scene_params=scene_params)
+                      options=options, scene_params=scene_params,
+                      check_grid=lambda pde, grid: check_memory(pde, grid, settings["method"], choice))
     outputs = dict(save=save, live_plot=live_plot, movie=movie, frame_dt=frame_dt, max_wall=max_wall)
     result, recorders = _run_scheme(case, settings, t_end, times, choice, accuracy=accuracy, progress=progress,
                                     series_times=series_times, backend=backend, outputs=outputs)
@@ -365,6 +373,9 @@ def _plane_grid(scene, N, scene_params) -> dict:
 #: act between calls, and a call costs ~1 us of Python
 _CHUNK = (8, 1, 1024)  # first, smallest, largest
 
+#: states kept at the last max|w| series times before the end of a run (Result.last_states)
+LAST_STATES = 6
+
 
 def _native_case(rheology, scene, settings, *, material, advection, scene_params):
     """The py-pde-free case of the native engine's scheme (:mod:`icidr_pde.native`)."""
@@ -393,6 +404,7 @@ class _Outputs:
     states: np.ndarray
     max_w: np.ndarray
     at_recorders: list = field(default_factory=list)
+    at_last: np.ndarray = field(default_factory=lambda: np.empty(0, int))
 
     @classmethod
     def of(cls, sched: Schedule, t_end: float, n: int, recorders=()) -> "_Outputs":
@@ -407,8 +419,15 @@ class _Outputs:
         ring = min(_CHUNK[2], passing.size)  # a chunk holds at most _CHUNK[2] consecutive outputs
         if ring:
             store[passing] = kept.size + np.arange(passing.size) % ring
-        return cls(times, at_series, at_snap, at_chi, store, np.empty((max(kept.size + ring, 1), n)),
-                   np.full(times.size, np.nan), at_recorders)
+        # the series' other states cycle through LAST_STATES slots: the last ones before the
+        # end (a failure's t*) stay, to be drawn (only read once the run has ended)
+        at_last = np.setdiff1d(np.unique(np.asarray(at_series, int)), np.concatenate([kept, passing]))
+        at_last = at_last[at_last >= 0]
+        last = min(LAST_STATES, at_last.size)
+        if last:
+            store[at_last] = kept.size + ring + np.arange(at_last.size) % last
+        return cls(times, at_series, at_snap, at_chi, store, np.empty((max(kept.size + ring + last, 1), n)),
+                   np.full(times.size, np.nan), at_recorders, at_last)
 
 
 class _Recording:
@@ -564,10 +583,11 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
 
     case = _native_case(rheology, scene, settings, material=material, advection=advection,
                         scene_params=scene_params)
-    check_atol(settings["atol"], case.y0)
+    check_atol(settings["atol"], case.y0, settings["atol_asked"])
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     start = _time.perf_counter()
     problem = case.problem()
+    _check_stiffness(problem, case.y0, t_end)
     compile_s = _time.perf_counter() - start
     start, cpu_start = _time.perf_counter(), _time.process_time()
     bar = None
@@ -598,6 +618,19 @@ def _run_native(rheology, scene, settings, t_end, times, choice, *, accuracy, ma
                     y0_data=case.fields(case.y0), plane=getattr(case, "plane", lambda data: {})(recorded.data))
 
 
+def _check_stiffness(problem, y0, t_end):
+    """NativeUnavailable where the run is stiffer than the native problem's linear solver follows
+    (its ``max_stiffness``: t_end over the fastest time scale), so that the run takes the py-pde
+    path, whose Krylov solves are preconditioned, instead of failing as if the law did."""
+    limit = getattr(problem, "max_stiffness", None)
+    stiffness = 0.0 if limit is None else t_end / problem.time_scale(y0)
+    if limit is not None and stiffness > limit:
+        from .native import NativeUnavailable
+
+        raise NativeUnavailable(f"t_end / fastest time scale = {stiffness:.2g} > {limit:.0e}, too stiff for its "
+                                "GMRES without a preconditioner")
+
+
 def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, series_times, backend,
                 outputs=None):
     """A run of a py-pde case on a Python engine (scipy, scikit-sundae) driven by the run path:
@@ -607,8 +640,8 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
     from .engines.base import StepStatistics
     from .engines.stiff import StiffSolver, check_memory, scheme_problem
 
-    check_atol(settings["atol"], case.state.data)
-    check_memory(case.pde, case.state, settings["method"], choice)  # before anything is allocated
+    check_atol(settings["atol"], case.state.data, settings["atol_asked"])
+    check_memory(case.pde, case.grid, settings["method"], choice)  # before the engine allocates
     sched = schedule(case.scene, t_end, times, series_times=series_times)
     recorders = make_recorders(case, t_end, snap_times=sched.snap_times, progress=progress, **(outputs or {}))
     bar = None
@@ -623,6 +656,7 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
                           backend=backend, choice=choice).rates(case.state)
         rhs(np.array(case.state.data), 0.0)  # compile or load now, so that it counts as set-up time
         problem, ordering = scheme_problem(case.pde, case.state, choice, rhs, stats)
+        _compile_jacobian(problem)
     except BaseException:
         for recorder in recorders:
             recorder.abandon()
@@ -659,6 +693,16 @@ def _run_scheme(case, settings, t_end, times, choice, *, accuracy, progress, ser
                       outcome=outcome, counts=(stats.n_steps, stats.n_rhs, stats.n_jac, stats.n_lu),
                       y0_data=case.state.data, plane=_plane_kwargs(case, recorded.data), ranks=ranks)
     return result, recorders
+
+
+def _compile_jacobian(problem) -> None:
+    """Call the compiled analytic Jacobian once at y0: its first call compiles it (seconds on an
+    empty cache), set-up time (compile_s) rather than the solve's (wall_s)."""
+    spec, y0 = problem.jacobian, np.array(problem.y0)
+    if spec.jac is not None:
+        spec.jac(0.0, y0)
+    elif spec.band_jac is not None and y0.size <= 3000:  # into a dense array: small grids only
+        spec.band_jac(y0, np.zeros((y0.size, y0.size)))
 
 
 def _close_bar(bar, failure, interrupted, engine, t_end, stop=None):
@@ -716,6 +760,13 @@ def _recorded(view, sched: Schedule, out: _Outputs, n_done: int) -> Recorded:
                 values.append(chi)
         recorded.chi_t, recorded.chi_z = np.array([float(sched.chi_times[k]) for k in chi_done]), z_f
         recorded.chi = np.array(values)
+    # the last states passed before the run ended: the series' ring and the kept snapshots
+    ring = out.at_last[out.at_last < n_done][-LAST_STATES:]
+    kept = [i for i in np.flatnonzero(out.store >= 0) if i < n_done and i not in out.at_last]
+    kept = [i for i in kept if i not in set(np.concatenate(out.at_recorders or [np.empty(0, int)]).tolist())]
+    last = sorted(set(int(i) for i in ring) | set(int(i) for i in kept))[-LAST_STATES:]
+    recorded.last_times = np.array([float(out.times[i]) for i in last])
+    recorded.last_states = np.array([fields(state_at(i)) for i in last]).reshape(len(last), *shape)
     return recorded
 
 

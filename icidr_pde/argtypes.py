@@ -14,17 +14,17 @@ from .validation import _integer_wanted, integer
 __all__ = ["int_at_least", "positive_int", "subcommand", "option_names"]
 
 
-def int_at_least(lowest: int):
-    """argparse type: the text as an integer >= `lowest` (the check of :func:`~.validation.integer`), else
-    argparse's error naming that range and the text received. The one such type of every
-    command line, the studies' ``--jobs``/``--workers`` among them."""
+def int_at_least(lowest: int, highest: int | None = None):
+    """argparse type: the text as an integer >= `lowest` (and <= `highest` if given: the check of
+    :func:`~.validation.integer`), else argparse's error naming that range and the text received.
+    The one such type of every command line, the studies' ``--jobs``/``--workers`` among them."""
     def parse(text):
         try:
-            return integer("value", int(text), lowest)
+            return integer("value", int(text), lowest, highest)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be {_integer_wanted(lowest, None)}; got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"must be {_integer_wanted(lowest, highest)}; got {text!r}") from None
 
-    parse.__name__ = _integer_wanted(lowest, None)
+    parse.__name__ = _integer_wanted(lowest, highest)
     return parse
 
 

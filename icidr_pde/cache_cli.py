@@ -21,7 +21,8 @@ def add_parser(subparsers):
     sub = p.add_subparsers(dest="cache_command", required=True)
     i = subcommand(sub, "info", _info, help="folder, size, number of kernels, how many belong to this code version")
     i.add_argument("--json", action="store_true", help="print the figures as JSON")
-    c = subcommand(sub, "clear", _clear, help="remove every kernel (they are rebuilt when next needed)")
+    c = subcommand(sub, "clear", _clear, help="remove every kernel (they are rebuilt when next needed); files "
+                                              "a running process is writing are left, and runs go on")
     c.add_argument("--stale", action="store_true", help="remove only the kernels of other code versions")
     return p
 
@@ -55,6 +56,6 @@ def _clear(args) -> int:
     from . import kernel_cache
 
     path, count, size = kernel_cache.clear(stale_only=args.stale)
-    what = "stale files" if args.stale else "files"
+    what = ("stale " if args.stale else "") + ("file" if count == 1 else "files")
     print(f"removed {count} {what} ({_size(size)}) from {path}")
     return 0

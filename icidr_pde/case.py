@@ -74,9 +74,11 @@ def make_pde(rheology="icidr", discretization="fd", material: Material | None = 
 
 def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | None = None, *,
                material: Material | None = None, options: dict | None = None,
-               scene_params: dict | None = None) -> Case:
+               scene_params: dict | None = None, check_grid=None) -> Case:
     """Build the case: scene `scene` (with `scene_params`), `rheology` with `material`,
-    `discretization` with its `options` on N points (default: the scheme's ``default_N``)."""
+    `discretization` with its `options` on N points (default: the scheme's ``default_N``).
+    ``check_grid(pde, grid)``, if given, is called with the py-pde scheme and its grid before the
+    state, the first array of the grid's size, is allocated (the run's memory check)."""
     scene_obj = get_scene(scene, **(scene_params or {}))
     entry = get_scheme(discretization) if isinstance(discretization, str) else None
     dim = getattr(scene_obj, "dim", 1)
@@ -93,5 +95,7 @@ def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | No
                          f"{dims[1]}-D; choose a {dims[0]}-D discretization")
     grid_options = scene_obj.grid_options() if hasattr(scene_obj, "grid_options") else {}
     grid = pde.make_grid(type(pde).default_N if N is None else N, scene_obj.H, **grid_options)
+    if check_grid is not None:
+        check_grid(pde, grid)
     state = pde.make_state(grid, *scene_obj.initial_condition(pde.nodes(grid)))
     return Case(scene_obj, pde=pde, grid=grid, state=state)

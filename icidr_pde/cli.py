@@ -132,6 +132,8 @@ def figure_path(option: str, path):
     """The file a figure is written to: a supported suffix, '.png' appended if none."""
     if path is None:
         return None
+    if not os.fspath(path):  # the empty path is no directory: check_outputs names what it is
+        check_output_path(option, path)
     from matplotlib.figure import Figure
 
     if Path(path).is_dir():
@@ -209,7 +211,7 @@ def write_outputs(writers, report=None) -> int:
 def add_run_parser(subparsers):
     # names from the catalog: building this parser imports neither py-pde nor scipy
     from .catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
-    from .engines.choose import REQUESTS
+    from .engines.choose import DENSE_2D_CELLS, REQUESTS
     from .presets import PRESETS
     from .rheology import RHEOLOGIES
     from .scenes import SCENES, scene_parameters
@@ -246,9 +248,12 @@ def add_run_parser(subparsers):
     p.add_argument("--method", choices=METHODS, default=None, help="integrator (default: from --accuracy)")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="Jacobian of the implicit solves (default: the method's best: analytic for "
-                        "BDF/Radau/CVODE, banded-fd for LSODA; on 2-D grids CVODE's GMRES: 'krylov' "
-                        "unpreconditioned, 'amg' preconditioned by algebraic multigrid, 'fourier' by the x-averaged "
-                        "Jacobian, exactly inverted by the FFT in x)")
+                        "BDF/Radau/CVODE, banded-fd for LSODA). On 2-D grids (CVODE): 'fourier' (default: GMRES "
+                        "preconditioned by the x-averaged Jacobian, exactly inverted by the FFT in x), 'krylov' "
+                        "(GMRES unpreconditioned), 'amg' (GMRES + algebraic multigrid), 'sparse' (SuperLU_MT); "
+                        "BDF/Radau: 'analytic' (SuperLU), 'sparse-fd', 'colored-fd'. Dense Newton matrices "
+                        "(CVODE 'analytic' or 'none', BDF/Radau 'none', LSODA) are refused on 2-D grids "
+                        f"beyond {DENSE_2D_CELLS} cells")
     p.add_argument("--max-order", type=positive_int, default=None,
                    help="highest BDF order of CVODE and PETSc, 1-5 (default: 2 on 2-D grids, A-stable: no "
                         "advected wave is amplified; 5 in 1-D; a higher order in 2-D runs with a warning)")
@@ -276,10 +281,17 @@ def add_run_parser(subparsers):
     p.set_defaults(func=cmd_run)
 
 
+def _scenes_2d() -> list:
+    from .scenes import SCENES
+
+    return [name for name, scene in SCENES.items() if getattr(scene, "dim", 1) != 1]
+
+
 def cmd_run(args) -> int:
     from .engines.choose import PETSC_METHOD
     from .outputs import check_outputs
-    from .scenes import scene_parameters
+    from .scenes import SCENES, scene_parameters
+    from .validation import ParameterError
 
     # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes. Every
     # rank checks the input the same way, so that bad input ends every rank with the same status
@@ -297,9 +309,26 @@ def cmd_run(args) -> int:
     check_outputs({"--json": args.json, "--save": args.save, "--movie": args.movie, "--plot": plot})
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}
     N = args.N
-    if args.Nx is not None or args.Nz is not None:
+    given = [f"--{k}" for k in ("Nx", "Nz") if getattr(args, k) is not None]
+    if given and getattr(SCENES.get(args.scene), "dim", 1) == 1:  # else "--N must be ... got (64, 64)"
+        raise ParameterError(f"`{given[0]}` sets the cells of a 2-D scene ({', '.join(_scenes_2d())}); "
+                             f"scene {args.scene!r} is 1-D: use --N; got {given[0]} {getattr(args, given[0][2:])}")
+    if given:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
+    from .rheology.law_files import is_file_law
+
+    rheology = args.rheology
+    if is_file_law(rheology):  # loaded once (a Python file is run once), checked, then run by its name
+        from stability.workbench import check_summary
+
+        from .rheology.law_files import load_law_file
+
+        law = load_law_file(rheology)
+        note = None if quiet else check_summary(law(None))
+        rheology = law.name
+    else:
+        note = None
     written = {}  # "result", then "status" once --json and --plot are written
 
     def write_results(result):  # the finished outputs, before the movie is rendered
@@ -307,6 +336,8 @@ def cmd_run(args) -> int:
         if quiet:
             written["status"] = EXIT_OK
             return
+        if note:  # a law that was run (one refused says why instead)
+            print(f"icidr-pde: {note}", file=sys.stderr)
         summary = sys.stderr if is_stdout(args.json) else sys.stdout  # stdout then holds only the JSON
         print(result, file=summary)
         print(json.dumps({k: v for k, v in result.to_dict().items()
@@ -326,7 +357,7 @@ def cmd_run(args) -> int:
 
             with warnings.catch_warnings():  # an output not written: said below, once
                 warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
-                result = run(args.rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
+                result = run(rheology, args.scene, N, args.t_end, args.times, frame_dt=args.frame_dt,
                              engine=args.engine, on_result=write_results, **options)
         except KeyboardInterrupt:
             if "result" not in written and not quiet:  # before the integration started: nothing computed
@@ -446,6 +477,10 @@ def main(argv=None) -> int:
     except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
         print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
         return EXIT_WRITE_FAILED
+    except KeyboardInterrupt as interrupt:  # a subcommand that keeps nothing of an interrupted computation
+        if not getattr(args, "quiet", False):
+            print(f"{PREFIX} interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED[signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT]
 
 
 if __name__ == "__main__":

@@ -11,11 +11,12 @@ import contextlib
 
 from .argtypes import int_at_least
 from .studies.distributed import cluster
+from .studies.parallel import max_processes
 
 __all__ = ["add_cluster_options", "client_of"]
 
 
-_count_argument = int_at_least(1)  # argparse type of --workers and --jobs
+_count_argument = int_at_least(1, max_processes())  # argparse type of --workers and --jobs
 
 
 def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs", *, jobs: int = 1) -> None:

@@ -43,8 +43,9 @@ import sys
 import threading
 import time
 
-__all__ = ["KernelCacheError", "digest", "version", "sympy_version", "folder", "stem", "read", "store", "build",
-           "scratch", "numba_setup", "prune", "info", "clear", "PRUNE_AFTER_S"]
+__all__ = ["KernelCacheError", "untrusted", "digest", "version", "sympy_version", "folder", "stem", "read", "store",
+           "build", "scratch", "numba_setup", "numba_saves_may_fail", "prune", "info", "clear",
+           "PRUNE_AFTER_S"]
 
 PREFIX = "icidr_pde_"
 TEMP_PREFIX = ".icidr_pde-"
@@ -118,8 +119,10 @@ def configured() -> tuple[pathlib.Path | None, str]:
     return pathlib.Path(home) / ".cache" / "icidr_pde" / "kernels", "HOME"
 
 
-def _untrusted(st: os.stat_result) -> str | None:
-    """Why a file or folder with this status cannot be trusted, or None."""
+def untrusted(st: os.stat_result) -> str | None:
+    """Why a file or folder with this status cannot be trusted, or None: owned by another user or
+    writable by group or others (also the check of a dask scheduler file, which names a cluster
+    trusted with the account: :mod:`icidr_pde.studies.distributed`)."""
     if st.st_uid != os.geteuid():
         return f"owned by uid {st.st_uid}, not by this user (uid {os.geteuid()})"
     if st.st_mode & 0o022:
@@ -131,7 +134,7 @@ def _check_file(st: os.stat_result) -> None:
     """_Refused unless `st` is that of a regular file this user owns and only this user can write."""
     if not stat.S_ISREG(st.st_mode):
         raise _Refused("not a regular file")
-    reason = _untrusted(st)
+    reason = untrusted(st)
     if reason:
         raise _Refused(reason)
 
@@ -146,7 +149,7 @@ def _prepare(path: pathlib.Path) -> None:
             raise _Refused(err.strerror or str(err)) from None
         if not stat.S_ISDIR(st.st_mode):
             raise _Refused("not a directory")
-        reason = _untrusted(st)
+        reason = untrusted(st)
         if reason:
             raise _Refused(reason)
         if st.st_mode & 0o077:  # readable by others: a folder made before the cache was private
@@ -353,13 +356,24 @@ def numba_setup() -> None:
         from numba.core import caching
 
         class KernelFolderLocator(caching.InTreeCacheLocator):
-            """numba's in-tree locator, for the files of the kernel folder only."""
+            """numba's in-tree locator, for the files of the kernel folder only. A kernel's name
+            holds the hash of its bytes, so the name is its source stamp: the module runs from the
+            bytes read, and a `cache clear` of another process that removes the file after they
+            were read (numba's own locators then find no file and refuse to cache) changes nothing."""
 
             @classmethod
             def from_function(cls, py_func, py_file):
                 if os.path.dirname(os.path.abspath(py_file)) != str(folder()):
                     return None
-                return super().from_function(py_func, py_file)
+                self = cls(py_func, py_file)
+                try:
+                    self.ensure_cache_path()
+                except OSError:
+                    return None
+                return self
+
+            def get_source_stamp(self):
+                return os.path.basename(self._py_file)
 
         caching.CacheImpl._locator_classes.insert(0, KernelFolderLocator)
         files = caching.IndexDataCacheFile
@@ -399,8 +413,37 @@ def numba_setup() -> None:
 
         files._load_index, files._load_data, files._open_for_write = _load_index, _load_data, _open_for_write
         _STATE["numba"] = True
+    numba_saves_may_fail()
 
 
+
+
+def numba_saves_may_fail() -> None:
+    """Make a failure to save numba's compiled code (a full disk, a read-only folder under
+    NUMBA_CACHE_DIR or beside the package) one line on stderr, once per process, instead of an
+    exception out of the first call of a function: the code compiled is used all the same, only
+    not kept for the next run. Covers every cached function, the package's own (``engines/``,
+    which call this at import) and the kernels' (:func:`numba_setup`). Idempotent."""
+    with _LOCK:
+        if _STATE.get("numba_saves"):
+            return
+        from numba.core import caching
+
+        save_overload = caching.Cache.save_overload
+
+        def tolerant_save_overload(self, sig, data):
+            try:
+                save_overload(self, sig, data)
+            except OSError as err:
+                if not _STATE.get("numba_save_failed"):
+                    _STATE["numba_save_failed"] = True
+                    where = getattr(self, "_cache_path", None) or getattr(err, "filename", None) or "?"
+                    sys.stderr.write(f"icidr-pde: numba cache {where}: compiled code not saved "
+                                     f"({err.strerror or err}); it is compiled again in every run\n")
+                    sys.stderr.flush()
+
+        caching.Cache.save_overload = tolerant_save_overload
+        _STATE["numba_saves"] = True
 
 
 def _numba_miss(path, err) -> None:
@@ -427,17 +470,24 @@ def _entries(path: pathlib.Path):
                     yield file, os.lstat(file), name.startswith(current)
 
 
+def _temporary(name: str) -> bool:
+    """Whether `name` is a file being written: this module's (:func:`scratch`) or numba's
+    (``<index or data file>.tmp.<uuid>``, renamed into place when whole)."""
+    return name.startswith(TEMP_PREFIX) or ".tmp." in name
+
+
 def prune(older_than: float = PRUNE_AFTER_S, stale_only: bool = True, path: pathlib.Path | None = None):
     """Remove the files of other code versions (and temporary files older than :data:`PRUNE_AFTER_S`)
     in the folder last modified more than `older_than` seconds ago; every file of this package if not
-    `stale_only`.
+    `stale_only`. A temporary file younger than :data:`PRUNE_AFTER_S` is never removed: another
+    process may be writing it, and would fail without it.
     Returns (files removed, bytes)."""
     path = folder() if path is None else path
     now, count, size = time.time(), 0, 0
     for file, st, current in list(_entries(path)):
         age = now - st.st_mtime
-        in_progress = file.name.startswith(TEMP_PREFIX) and age < PRUNE_AFTER_S  # another process writing it
-        if (stale_only and (current or in_progress)) or age < older_than:
+        in_progress = _temporary(file.name) and age < PRUNE_AFTER_S  # another process writing it
+        if in_progress or (stale_only and current) or age < older_than:
             continue
         try:
             file.unlink()
@@ -460,7 +510,7 @@ def info() -> dict:
         return out
     try:
         st = os.stat(path)
-        out["refused"] = _untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
+        out["refused"] = untrusted(st) or (None if stat.S_ISDIR(st.st_mode) else "not a directory")
     except FileNotFoundError:
         return out
     except OSError as err:
@@ -482,8 +532,10 @@ def info() -> dict:
 
 def clear(stale_only: bool = False) -> tuple[pathlib.Path | None, int, int]:
     """Remove every file of this package from the configured folder (those of other code versions
-    only with `stale_only`). Returns (folder, files removed, bytes); a folder owned by another user is
-    left alone (ValueError)."""
+    only with `stale_only`), but for the files other processes are writing (:func:`prune`): a run
+    that is compiling while the cache is cleared goes on (its kernels are in memory, and files it
+    publishes later are new files). Returns (folder, files removed, bytes); a folder owned by
+    another user is left alone (ValueError)."""
     path, setting = configured()
     if path is None or not path.is_dir():
         return path, 0, 0
@@ -496,7 +548,6 @@ def clear(stale_only: bool = False) -> tuple[pathlib.Path | None, int, int]:
 def _reset() -> None:
     """Forget the folder chosen and the listing (the environment changed: tests)."""
     with _LOCK:
-        numba = _STATE.get("numba")
+        kept = {k: _STATE[k] for k in ("numba", "numba_saves") if _STATE.get(k)}
         _STATE.clear()
-        if numba:
-            _STATE["numba"] = numba
+        _STATE.update(kept)

@@ -2,8 +2,9 @@
 
 ``law check NAME|FILE [--json out.json]`` prints conditions (4.3)-(4.5) (status, method,
 counterexample), whether p and c are finite and >= 0 on the sample (else the verdict is
-ILL-DEFINED, with the state), the equation of state and the verdict of the symbol in 1-D
-and 2-D, and writes the full report (:func:`stability.workbench.law_report`) as JSON.
+ILL-DEFINED, with the state), the equation of state, the symbol in 1-D, 2-D and 3-D and,
+separately, the verdict: the symbol's on its grid of states ((4.3)-(4.5) are sufficient,
+not necessary: they prove well-posedness at every state where they hold), and writes the full report (:func:`stability.workbench.law_report`) as JSON.
 ``law list`` lists the registered laws. Exit codes: 0 (the report was made, whatever the
 verdict), 2 (bad input: unknown law, a law file that cannot be used, a law whose p or c is
 not finite; one line).
@@ -21,19 +22,30 @@ import sys
 from .argtypes import subcommand
 
 
+def stderr_progress():
+    """A progress(text) that tells a person at a terminal each stage, on stderr (stdout holds the
+    report; a pipe or a log gets only the report and, on bad input, the one error line); None
+    where stderr is not a terminal."""
+    if not sys.stderr.isatty():
+        return None
+    return lambda text: print(text, file=sys.stderr, flush=True)
+
+
 def _check(args) -> int:
     from stability.workbench import law_report, write_report
 
     from .outputs import check_outputs
 
     check_outputs({"--json": args.json})  # before the law file is run
-    report = law_report(args.law, with_curves=not args.no_curves)
+    report = law_report(args.law, with_curves=not args.no_curves, progress=stderr_progress())
     print(f"law {report['law']} ({report['kind']}; phi in ({report['phi_domain'][0]:g}, "
           f"{report['phi_domain'][1]:g}))")
     for key, c in report["conditions"].items():
         where = "" if c["counterexample"] is None else "  e.g. at " + ", ".join(
             f"{k} = {v:.4g}" for k, v in c["counterexample"].items())
         method = f" ({c['method']})" if c["method"] else ""
+        if c["status"] == "fails" and c["method"] == "symbolic":  # proved: the expression says why
+            method = f" (symbolic: {c['expression']} {'!= 0' if key == '(4.3)' else ''})".replace(" )", ")")
         print(f"  {key}: {c['status']}{method}{where}")
     pos = report.get("positivity")
     if pos:
@@ -58,7 +70,18 @@ def _check(args) -> int:
               f"(max Re Lambda_+ = {w['Lambda_plus']:.4g} at phi = {w['phi']:.4g}, gamma-dot = {w['gamma_dot']:.4g}, "
               f"div u/||S|| = {w['div_u_over_norm_S']:.3g}; {w['ill_posed_states']} of {st['grid']['states']} "
               "states ill-posed)")
-    verdict = "WELL-POSED" if report["well_posed"] else "ILL-POSED"
+    w3 = st["three_d"]["max_Lambda_plus"]
+    print(f"  symbol three-d: {'well-posed' if st['three_d']['well_posed'] else 'ILL-POSED'} (max Re Lambda_+ = "
+          f"{w3['Lambda_plus']:.4g} at phi = {w3['phi']:.4g}, gamma-dot = {w3['gamma_dot']:.4g}, div u/||S|| = "
+          f"{w3['div_u_over_norm_S']:.3g}, Lode angle {w3['lode_deg']:g} deg; {w3['ill_posed_states']} of "
+          f"{st['three_d']['states']} states ill-posed, each over {st['three_d']['directions']} directions)")
+    hold = report["conditions_hold"]
+    if hold is not None:  # a CIDR law: (4.3)-(4.5) prove well-posedness at every state, the symbol samples it
+        failed = [k for k, c in report["conditions"].items() if c["status"] != "holds"]
+        print("  CIDR conditions (4.3)-(4.5), sufficient: " + ("hold: well-posed at every state" if hold else
+              "not shown (" + ", ".join(failed) + "): no proof for every state, the symbol decides"))
+    verdict = ("WELL-POSED" if report["well_posed"] else "ILL-POSED") + f" (the symbol at the {st['grid']['states']} " \
+        "sampled states" + (", and (4.3)-(4.5) hold" if hold else "") + ")"
     if defined["failures"]:
         verdict = "ILL-DEFINED (" + ", ".join(f["what"] for f in defined["failures"]) + ")"
     print(f"  verdict: {verdict}")

@@ -231,12 +231,14 @@ def _probe(folder) -> None:
 def check_outputs(outputs) -> None:
     """Refuse, before any work, outputs that cannot be written: a mapping option -> path
     (None: not asked for). Raises OutputError naming the option for a directory, a missing
-    or unwritable folder, an unwritable file, or two options that reach one file (also
-    through symbolic links); devices and FIFOs may be shared."""
+    or unwritable folder, an unwritable file, an empty path, or two options that reach one
+    file (also through symbolic links); devices and FIFOs may be shared."""
     seen: dict[Path, str] = {}
     for option, path in outputs.items():
-        if path is None or path == "":
+        if path is None:
             continue
+        if os.fspath(path) == "":  # names no file: refused now, not found out after the run
+            raise OutputError(f"`{option}` must be a file path; got ''")
         reason = _problem(path)
         if reason:
             raise OutputError(f"`{option}` {str(path)!r} {reason}")

@@ -2,24 +2,32 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import matplotlib.pyplot as plt
 import numpy as np
 
 from .outputs import save_figure
-from .result import Result
 
-__all__ = ["plot_result", "plot_fields", "field_panel", "plot_profiles", "plot_max_w", "demo_figure"]
+if TYPE_CHECKING:  # a Result is what these draw; result.py's Result.plot imports this module
+    from .result import Result
+
+__all__ = ["plot_result", "plot_fields", "field_panel", "plot_profiles", "plot_max_w", "demo_figure",
+           "last_states_after"]
 
 
 def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_prefix: str = "",
-                  t_min: float = -1.0, show_final: bool = False):
+                  t_min: float = -1.0, show_final: bool = False, show_last: bool = False):
     """Snapshots of `field` against z, one line per requested time reached after `t_min`.
 
-    The state at t* of a failed run is not drawn unless `show_final`: it is the integrator's
-    last accepted state, grid-scale noise (often largest at the walls) that hides where the
-    growth began; its size is written in the panel instead.
+    A failed run's state at t* is the integrator's last accepted state, grid-scale noise
+    (often largest at the walls) whose size hides where the growth began: it is drawn here
+    only if `show_final` (:func:`plot_result` draws it in a panel of its own), otherwise its
+    size is written in the panel. `show_last` adds, dashed, the last states the run passed
+    after the last snapshot (:attr:`Result.last_states`): the growth before t*.
     """
     data = getattr(result, field)
+    index = {"phi": 0, "u": 1, "w": 2}[field]
     shown = [(t, profile) for t, profile in zip(result.times, data) if t > t_min]
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(shown), 1)))
     marker = "o" if style == "o" else None
@@ -27,8 +35,11 @@ def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_
     for (t, profile), c in zip(shown, colors):
         ax.plot(result.z, profile, ls=ls, marker=marker, mfc="none", ms=4, color=c,
                 label=f"{label_prefix}t = {t:g}")
+    if show_last:
+        last = last_states_after(result, result.times[-1] if len(result.times) else -1.0)
+        for (t, state), c in zip(last, plt.cm.autumn(np.linspace(0.6, 0, max(len(last), 1)))):
+            ax.plot(result.z, state[index], ls="--", lw=0.9, color=c, label=f"{label_prefix}t = {t:.4g}")
     if result.blew_up:
-        index = {"phi": 0, "u": 1, "w": 2}[field]
         if show_final:
             ax.plot(result.z, result.final[index], color="r", lw=0.8,
                     label=f"{label_prefix}t* = {result.t_star:.4g}")
@@ -38,6 +49,13 @@ def plot_profiles(ax, result: Result, field: str = "w", style: str = "-", label_
                     transform=ax.transAxes, fontsize=7, color="r")
     ax.set_xlabel("z")
     ax.set_ylabel(field)
+
+
+def last_states_after(result: Result, t_after: float) -> list:
+    """(t, state) of the run's last states (:attr:`Result.last_states`) later than `t_after`."""
+    if result.last_states is None:
+        return []
+    return [(float(t), state) for t, state in zip(result.last_times, result.last_states) if t > t_after]
 
 
 def plot_max_w(ax, result: Result, label: str | None = None, **kwargs):
@@ -54,16 +72,24 @@ def plot_max_w(ax, result: Result, label: str | None = None, **kwargs):
 
 
 def plot_result(result: Result, path=None):
-    """Four panels: w, u, phi snapshots and max|w|(t); a 2-D run: :func:`plot_fields`."""
+    """w, u, phi snapshots and max|w|(t); a failed run adds the last states before t*
+    (dashed) and, in panels of their own, w and phi at t*. A 2-D run: :func:`plot_fields`."""
     if result.measures is not None:
         return plot_fields(result, path)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
-    plot_profiles(axes[0, 0], result, "w")
-    plot_profiles(axes[0, 1], result, "u")
-    plot_profiles(axes[1, 0], result, "phi")
+    failed = result.blew_up
+    fig, axes = plt.subplots(2, 3 if failed else 2, figsize=(15 if failed else 10, 7))
+    plot_profiles(axes[0, 0], result, "w", show_last=failed)
+    plot_profiles(axes[0, 1], result, "u", show_last=failed)
+    plot_profiles(axes[1, 0], result, "phi", show_last=failed)
     plot_max_w(axes[1, 1], result)
     axes[0, 0].legend(fontsize=7)
-    status = f"failed at t* = {result.t_star:.5g}" if result.blew_up else "reached t_end"
+    if failed:
+        for ax, k, name in ((axes[0, 2], 2, "w"), (axes[1, 2], 0, "phi")):
+            ax.plot(result.z, result.final[k], color="r", lw=0.8)
+            ax.set_title(f"{name} at t* = {result.t_star:.5g} (the last accepted state)", fontsize=9)
+            ax.set_xlabel("z")
+            ax.set_ylabel(name)
+    status = f"failed at t* = {result.t_star:.5g}" if failed else "reached t_end"
     fig.suptitle(f"{result.rheology}, scene {result.scene}, {result.discretization} N = {result.N}: {status}")
     fig.tight_layout()
     if path:
@@ -71,31 +97,49 @@ def plot_result(result: Result, path=None):
     return fig
 
 
-def field_panel(ax, result, k, frame, label):
-    """Image of w (k = "w") or phi - phi0 of snapshot `frame` of a 2-D run of scene bump2d."""
+def field_panel(ax, result, k, frame, label, state=None, t=None):
+    """Image of w (k = "w") or phi - phi0 of snapshot `frame` of a 2-D run of scene bump2d,
+    or of `state` (fields first) at time `t` if given."""
     from .scenes2d import Bump2DScene
 
     scene = Bump2DScene(**{k_: v for k_, v in result.scene_params.items() if k_ in ("L", "H", "phi0", "eps", "ell")})
-    field = (result.w if k == "w" else result.phi - scene.phi0)[frame]
+    if state is None:
+        state, t = (result.phi[frame], result.u[frame], result.w[frame]), result.times[frame]
+    field = np.asarray(state[2] if k == "w" else state[0] - scene.phi0)
     vmax = float(np.max(np.abs(field))) or 1.0
     im = ax.imshow(field.T, origin="lower", extent=(0, scene.L, 0, scene.H), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
-    ax.set_title(f"{label}: {'w' if k == 'w' else 'phi - phi0'}, t = {result.times[frame]:.3g}", fontsize=8)
+    ax.set_title(f"{label}: {'w' if k == 'w' else 'phi - phi0'}, t = {t:.4g}", fontsize=8)
     ax.set_xlabel("x")
     ax.set_ylabel("z")
     return im
 
 
 def plot_fields(result: Result, path=None):
-    """w and phi - phi0 at the last snapshot of a 2-D run, and max|w|(t)."""
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), constrained_layout=True)
-    if len(result.times):
-        for ax, k in zip(axes[:2], ("w", "phi")):
-            fig.colorbar(field_panel(ax, result, k, len(result.times) - 1, result.rheology), ax=ax, shrink=0.8)
+    """w and phi - phi0 at the last snapshot of a 2-D run, and max|w|(t); a failed run: at the
+    last state before t* (top) and at t* (bottom)."""
+    failed = result.blew_up
+    fig, axes = plt.subplots(2 if failed else 1, 3, figsize=(13, 7.4 if failed else 3.8), constrained_layout=True,
+                             squeeze=False)
+    rows = []
+    if failed:
+        last = last_states_after(result, -1.0)
+        if last:
+            rows.append((last[-1][1], last[-1][0], result.rheology))
+        elif len(result.times):
+            rows.append((None, None, result.rheology))
+        rows.append((result.final, result.t_star, f"{result.rheology} at t*"))
+    elif len(result.times):
+        rows.append((None, None, result.rheology))
+    for row, (state, t, label) in zip(axes, rows):
+        for ax, k in zip(row[:2], ("w", "phi")):
+            fig.colorbar(field_panel(ax, result, k, len(result.times) - 1, label, state, t), ax=ax, shrink=0.8)
     if len(result.max_w_t):
-        axes[2].semilogy(result.max_w_t, result.max_w)
-    axes[2].set_xlabel("t")
-    axes[2].set_ylabel("max |w|")
-    state = f"fails at t* = {result.t_star:.4g}" if result.blew_up else "reached t_end"
+        axes[0, 2].semilogy(result.max_w_t, result.max_w)
+    axes[0, 2].set_xlabel("t")
+    axes[0, 2].set_ylabel("max |w|")
+    if failed:
+        axes[1, 2].axis("off")
+    state = f"fails at t* = {result.t_star:.4g}" if failed else "reached t_end"
     fig.suptitle(f"{result.rheology}, {result.scene}, {result.Nx}x{result.N}: {state}")
     if path:
         save_figure(fig, path, dpi=90)

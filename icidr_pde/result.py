@@ -4,13 +4,21 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .outputs import write_atomically
 
-__all__ = ["Result"]
+__all__ = ["Result", "Fields"]
+
+
+class Fields(NamedTuple):
+    """phi, u, w of one state (a tuple: ``phi, u, w = res.final`` and ``res.final[2]`` work)."""
+
+    phi: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
 
 
 @dataclass
@@ -26,8 +34,10 @@ class Result:
             interrupted)
         z: positions of the unknowns
         times, phi, u, w: snapshots at the requested times that were reached
-        final: (phi, u, w) at t_final
+        final: :class:`Fields` (phi, u, w) at t_final (``res.final.w``)
         max_w_t, max_w: time series of max|w| over the nodes
+        last_times, last_states: the last states (up to 6, shape (n, 3, ...) as the snapshots)
+            the run passed at its max|w| series times before t_final: what a failure grew from
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
         mass_drift: relative change of the integral of phi between 0 and t_final
         wall_s, cpu_s: wall-clock and CPU time of the solve (kernel set-up, compile_s, excluded)
@@ -80,6 +90,8 @@ class Result:
     L: float | None = None
     measures: list | None = None
     not_written: dict = field(default_factory=dict)
+    last_times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    last_states: np.ndarray | None = None
 
     def max_w_at_times(self) -> dict[str, float]:
         """max|w| at each requested time reached (label as requested -> value)."""
@@ -121,6 +133,13 @@ class Result:
             for key in ("max_phi_dev", "l2_velocity"):
                 out[key] = {label: m[key] for label, m in zip(self.time_labels, self.measures)}
         return out
+
+    def plot(self, path=None):
+        """The figure of ``icidr-pde run --plot``: snapshots, max|w|(t) and, for a failed run,
+        the last states before t* and the state at t* (:func:`icidr_pde.plotting.plot_result`)."""
+        from .plotting import plot_result
+
+        return plot_result(self, path)
 
     @property
     def interrupted(self) -> bool:

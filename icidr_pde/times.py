@@ -10,7 +10,7 @@ import numpy as np
 
 from .validation import ParameterError, real, shown
 
-__all__ = ["dense_times", "time_labels", "time_tolerance", "check_t_end", "MAX_T_END", "chi_times",
+__all__ = ["dense_times", "time_labels", "time_tolerance", "check_t_end", "MIN_T_END", "MAX_T_END", "chi_times",
            "merged_output_times"]
 
 #: the largest t_end: beyond it the round-off of the rates at the steady state, integrated over
@@ -18,15 +18,21 @@ __all__ = ["dense_times", "time_labels", "time_tolerance", "check_t_end", "MAX_T
 #: |drift| <= 3e-16 up to t_end = 1e16, then proportional to t_end: 2e-14 at 1e20, 1e-9 at 1e25,
 #: 1e-4 at 1e30, 5e-2 at 1e40); nothing of the shear cell happens after t ~ 1e3
 MAX_T_END = 1e15
+#: the smallest t_end: output times closer than :func:`time_tolerance` (0) = 1e-8 to t = 0 are the
+#: initial time, so a shorter run has no output time and no final state
+MIN_T_END = 1e-8
 
 
 def check_t_end(t_end) -> float:
-    """t_end as a float in (0, :data:`MAX_T_END`], refused with the reason beyond it."""
+    """t_end as a float in [:data:`MIN_T_END`, :data:`MAX_T_END`], refused with the reason outside."""
     t_end = real("t_end", t_end, 0)
+    wanted = f"`t_end` must be a finite number in [{MIN_T_END:g}, {MAX_T_END:g}]; got {shown(t_end)}"
+    if t_end < MIN_T_END:
+        raise ParameterError(f"{wanted} (output times within {MIN_T_END:g} of 0 are the initial time: "
+                             "a shorter run has no output)")
     if t_end > MAX_T_END:
-        raise ParameterError(
-            f"`t_end` must be a finite number in (0, {MAX_T_END:g}]; got {shown(t_end)} (beyond "
-            f"{MAX_T_END:g} the round-off of the rates, integrated over t, drifts the mass of phi)")
+        raise ParameterError(f"{wanted} (beyond {MAX_T_END:g} the round-off of the rates, integrated "
+                             "over t, drifts the mass of phi)")
     return t_end
 
 
@@ -62,8 +68,9 @@ def time_labels(times, t_end):
             value = float(t) if isinstance(t, str) else real("times", t)
         except (ValueError, TypeError):
             raise ParameterError(f"`times` must be {wanted}; got {shown(t)}") from None
-        if not (np.isfinite(value) and 0 <= value <= t_end):
-            raise ParameterError(f"`times` must be {wanted}; got {shown(t)}")
+        if not (np.isfinite(value) and 0 <= value <= t_end):  # a number: say which end it is beyond
+            where = f" (> t_end = {t_end:g})" if value > t_end else " (< 0)" if value < 0 else ""
+            raise ParameterError(f"`times` must be {wanted}; got {value:g}{where}")
         labels.append(t if isinstance(t, str) else f"{value:g}")
         values.append(value)
     order = np.argsort(values, kind="stable")

@@ -9,7 +9,8 @@ the run reached t-end without failing). ``--engine native`` runs each case on th
 instead of scipy's BDF at rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the
 paper's t* are pinned on). Several discretizations at once
 (``--discretization fd cheb``) give one such mapping per discretization, keyed by its
-name; ``--load label=file.json`` adds saved sweeps to the plot.
+name; ``--load label=file.json`` adds saved sweeps to the plot. Interrupted (Ctrl-C, SIGTERM), the
+workers are stopped and the cases that finished are written (exit 130, 143).
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
+import sys
 
 from .discretizations import DISCRETIZATIONS
 from .engines import JACOBIAN_MODES, METHODS
@@ -27,8 +30,10 @@ from .rheology import RHEOLOGIES
 from .scenes import SCENES
 from .studies.case_cache import add_cache_option, check_cache_option
 from .cluster_cli import add_cluster_options, client_of
+from .studies.parallel import StudyInterrupted
 from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
 from .times import check_t_end
+from .validation import integer, real
 
 __all__ = ["add_parser", "cmd_tstar"]
 
@@ -55,6 +60,14 @@ def _load_curve(text: str) -> tuple[str, dict]:
     if not isinstance(curve, dict):
         raise ValueError(f"`--load` {text!r}: {path!r} must hold a JSON object {{N: t*}}; got a "
                          f"{type(curve).__name__}")
+    for n, t_star in curve.items():  # checked here, not found out by the plot after the sweep
+        try:
+            integer("N", int(n) if n.strip().lstrip("+-").isdigit() else n, 1)
+            if t_star is not None:
+                real("t*", t_star, 0, low_open=False)
+        except ValueError:
+            raise ValueError(f"`--load` {text!r}: {path!r} must map each N (an integer >= 1) to t* (a finite "
+                             f"number >= 0, or null: no failure); got {n!r}: {json.dumps(t_star)}") from None
     return label, curve
 
 
@@ -62,7 +75,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``tstar`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser(
         "tstar", help="failure time t*(N) sweep (fig 4b)",
-        description="Sweep N and record the failure time t* (null: no failure by --t-end).")
+        description="Sweep N and record the failure time t* (null: no failure by --t-end). "
+                    "Interrupted (Ctrl-C: exit 130, SIGTERM: 143), the cases that finished are written.")
     p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="mui", help="constitutive law")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear", help="initial condition")
     p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=["fd"],
@@ -97,11 +111,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_tstar(args) -> int:
+    from .cli import EXIT_INTERRUPTED, PREFIX, interrupt_signals
+
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
         label, curve = _load_curve(spec)
         curves[label] = curve
+    interrupted = None
     if args.N is None and args.load:
         results = {}
     else:
@@ -116,12 +133,24 @@ def cmd_tstar(args) -> int:
         check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
         check_t_end(args.t_end)
         check_cache_option(args)
-        with client_of(args, dashboard=not args.no_progress) as client:
-            results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
-                            progress=not args.no_progress, client=client, cache=args.cache, rheology=args.rheology,
-                            scene=args.scene, t_end=args.t_end, method=method,
-                            rtol=rtol, atol=atol, jacobian=args.jacobian,
-                            backend=args.backend, engine=args.engine)
+        with interrupt_signals() as signals:
+            try:
+                with client_of(args, dashboard=not args.no_progress) as client:
+                    results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
+                                    progress=not args.no_progress, client=client, cache=args.cache,
+                                    rheology=args.rheology, scene=args.scene, t_end=args.t_end, method=method,
+                                    rtol=rtol, atol=atol, jacobian=args.jacobian,
+                                    backend=args.backend, engine=args.engine)
+            except StudyInterrupted as stop:  # the workers are stopped; what finished is written
+                results, interrupted = stop.done, signals.received or signal.SIGINT
+            except KeyboardInterrupt:  # before the first case started
+                print(f"{PREFIX} interrupted before the sweep started; nothing written", file=sys.stderr)
+                return EXIT_INTERRUPTED[signals.received or signal.SIGINT]
+    if interrupted is not None:
+        finished = sum(len(r) for r in results.values())
+        print(f"{PREFIX} interrupted after {finished} of {len(Ns) * len(results)} cases; writing those that "
+              "finished", file=sys.stderr)
+        results = {d: r for d, r in results.items() if r}
     mappings = {d: tstar_mapping(r) for d, r in results.items()}
     for disc, mapping in mappings.items():
         curves[disc] = mapping
@@ -134,7 +163,7 @@ def cmd_tstar(args) -> int:
               f"every N >= {thr} fails" if thr is not None else
               f"{disc}: {len(failed)}/{len(mapping)} runs failed; the largest N did not fail")
         for n, t in sorted((int(n), t) for n, t in mapping.items()):
-            print(f"  N={n:4d}  t*={'null' if t is None else f'{t:.6g}'}")
+            print(f"  N={n:4d}  " + ("no failure by --t-end" if t is None else f"t*={t:.6g}"))  # JSON: null
     if args.json and mappings:
         payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
         write_json(payload, args.json)
@@ -142,9 +171,11 @@ def cmd_tstar(args) -> int:
     if args.plot:
         from .figures.tstar_plot import plot_tstar
 
+        if not curves and interrupted is not None:
+            return EXIT_INTERRUPTED[interrupted]  # nothing finished: no plot
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
         plot_tstar(curves, args.plot, t_end=args.t_end,
                    paper=args.rheology == "mui" and args.scene == "shear")
         print(f"plot written to {args.plot}")
-    return 0
+    return 0 if interrupted is None else EXIT_INTERRUPTED[interrupted]

@@ -13,12 +13,13 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import stat
 
 import numpy as np
 
 __all__ = ["ParameterError", "real", "integer", "choice", "shown", "memory_bytes", "format_bytes",
            "MEMORY_ENV", "FIELDS", "ATOL_FRACTION", "check_atol", "nonfinite_rates",
-           "output_path"]
+           "output_path", "input_file"]
 
 
 class ParameterError(ValueError):
@@ -97,10 +98,14 @@ def memory_bytes() -> int | None:
     MemAvailable (/proc/meminfo), else the physical memory (None where the OS says neither)."""
     override = os.environ.get(MEMORY_ENV)
     if override:
+        wanted = f"`${MEMORY_ENV}` must be a finite number of bytes > 0; got {override!r}"
         try:
-            return int(float(override))
+            amount = float(override)
         except ValueError:
-            raise ParameterError(f"${MEMORY_ENV} must be a number of bytes; got {override!r}") from None
+            raise ParameterError(wanted) from None
+        if not (math.isfinite(amount) and amount > 0):  # 'inf', '1e400' parse as inf: no int of it
+            raise ParameterError(wanted)
+        return int(amount)
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
@@ -130,13 +135,17 @@ FIELDS = ("phi", "u", "w")
 ATOL_FRACTION = 1e-3
 
 
-def check_atol(atol: float, data) -> float:
-    """atol below :data:`ATOL_FRACTION` of the field scale max|data| of the initial state."""
+def check_atol(atol: float, data, asked: bool = True) -> float:
+    """atol between the round-off of the field scale max|data| of the initial state (a smaller one
+    asks the error test to control round-off: the integrator fails, or crawls, as if the law had
+    blown up; checked where the atol was `asked` for, not a preset's on absurd data, whose rates
+    say what is wrong) and :data:`ATOL_FRACTION` of it (a larger one controls no error)."""
     scale = float(np.max(np.abs(data))) if np.size(data) else 1.0
-    high = ATOL_FRACTION * scale
-    if atol > high:
-        raise ParameterError(f"`atol` must be in (0, {high:g}] ({ATOL_FRACTION:g} of the initial fields' "
-                             f"largest magnitude {scale:g}: a larger one controls no error); got {shown(atol)}")
+    low, high = (np.finfo(float).eps * scale if asked else 0.0), ATOL_FRACTION * scale
+    if not low <= atol <= high:
+        raise ParameterError(f"`atol` must be in [{low:.3g}, {high:g}] (from the round-off of the initial fields' "
+                             f"largest magnitude {scale:g} to {ATOL_FRACTION:g} of it: beyond, it controls no "
+                             f"error); got {shown(atol)}")
     return atol
 
 
@@ -158,3 +167,28 @@ def output_path(name: str, value):
                                                   and isinstance(os.fspath(value), str)):
         return value
     raise TypeError(f"`{name}` must be a file path (a str or os.PathLike) or None; got {shown(value)}")
+
+
+def input_file(name: str, path) -> str:
+    """`path` if it names a regular file (a symbolic link to one included); ParameterError
+    naming the parameter and saying what it is otherwise: missing, a directory, a FIFO (reading
+    one waits for a writer), a device or a socket are not files of data."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ParameterError(f"`{name}` must be an existing file; {str(path)!r} does not exist") from None
+    except OSError as err:
+        raise ParameterError(f"`{name}` must be a readable file; {str(path)!r} cannot be examined "
+                             f"({err.strerror})") from None
+    if stat.S_ISREG(mode):
+        try:
+            with open(path, "rb"):
+                pass
+        except OSError as err:
+            raise ParameterError(f"`{name}` must be a readable file; {str(path)!r} cannot be read "
+                                 f"({err.strerror})") from None
+        return path
+    what = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode) else
+            "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else
+            "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+    raise ParameterError(f"`{name}` must be a regular file; {str(path)!r} is {what}")

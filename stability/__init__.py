@@ -12,6 +12,8 @@ Modules (one concept each):
 * :mod:`stability.numeric` -- compiled symbols, item-7 numbers;
 * :mod:`stability.growth` -- numerical cross-checks (eigenvalues, time integration, FD spectrum);
 * :mod:`stability.linear2d` -- the 2-D cell's equations linearized about an x-independent state, per x-wave number;
+* :mod:`stability.plane`, :mod:`stability.directional` -- plane waves in the x-z plane (2-D conventions);
+* :mod:`stability.spatial` -- plane waves in every direction of space (3-D conventions, S = D - div u/3 I);
 * :mod:`stability.incompressible` -- incompressible mu(I) in 2-D: Barker et al. (2015)'s criterion, derived;
 * :mod:`stability.workbench` -- the rheology workbench's report of a law;
 * :mod:`stability.report`, :mod:`stability.cli` -- ``verify`` / ``stability`` / ``plot-growth``.

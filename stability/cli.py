@@ -61,9 +61,14 @@ def _stability(args) -> int:
 
     from .numeric import stability_numbers  # noqa: PLC0415
     material = None
+    if args.dim == 3:
+        return _stability_3d(args)
     two_d = args.velocity_gradient is not None or args.angles is not None or args.plot is not None
     try:
         check_outputs({"--json": args.json, "--plot": args.plot})
+        if args.directions is not None:
+            raise ValueError(f"`directions` samples the sphere of `--dim 3`; got {args.directions} with --dim 2 "
+                             "(2-D directions: --angles)")
         if args.velocity_gradient is not None:
             if args.uz is not None or args.wz is not None:
                 raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
@@ -100,6 +105,74 @@ def _stability(args) -> int:
     return 0
 
 
+def _stability_3d(args) -> int:
+    """``--dim 3``: the 3-D symbol over the sphere of wave directions (:mod:`stability.spatial`)."""
+    from icidr_pde.argtypes import option_names  # noqa: PLC0415
+    from icidr_pde.outputs import check_outputs  # noqa: PLC0415
+
+    from . import spatial  # noqa: PLC0415
+    try:
+        check_outputs({"--json": args.json, "--plot": args.plot})
+        if args.angles is not None:
+            raise ValueError(f"`angles` are the directions of the x-z plane (--dim 2); got {args.angles!r} with "
+                             "--dim 3, whose directions are --directions N on the sphere")
+        if args.velocity_gradient is not None:
+            if args.uz is not None or args.wz is not None:
+                raise ValueError("give either `--velocity-gradient` or `--uz`/`--wz`, not both")
+            g = args.velocity_gradient
+            if len(g) == 4:
+                from .directional import check_gradient  # noqa: PLC0415
+                L = spatial.planar_gradient(*check_gradient(g))
+            elif len(g) == 9:
+                L = spatial.check_gradient(g)
+            else:
+                raise ValueError("`velocity_gradient` with --dim 3 must be 9 numbers U_X U_Y U_Z V_X V_Y V_Z W_X W_Y "
+                                 f"W_Z (row-major grad u) or 4 numbers U_X U_Z W_X W_Z (a planar flow); got {len(g)}")
+        elif args.uz is None or args.wz is None:
+            raise ValueError("need `--velocity-gradient` (9 numbers, or 4 of a planar flow), or both `--uz` and "
+                             f"`--wz`; got uz={args.uz}, wz={args.wz}")
+        else:
+            from .directional import check_gradient  # noqa: PLC0415
+            L = spatial.planar_gradient(*check_gradient((0.0, args.uz, 0.0, args.wz)))
+        directions = spatial.DIRECTIONS if args.directions is None else args.directions
+        r = spatial.spatial_stability(args.rheology, args.phi, L, directions)
+    except ValueError as e:
+        print(f"icidr-pde: error: {option_names(str(e), args)}", file=sys.stderr)
+        return 2
+    _print_spatial(r)
+    if args.plot:
+        import matplotlib  # noqa: PLC0415
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt  # noqa: PLC0415
+        from icidr_pde.outputs import save_figure  # noqa: PLC0415
+
+        fig, ax = plt.subplots(figsize=(7, 3.8))
+        spatial.plot_sphere(r, ax)
+        fig.tight_layout()
+        try:
+            save_figure(fig, args.plot, dpi=120)
+        finally:
+            plt.close(fig)
+        print(f"  saved {args.plot}")
+    if args.json:
+        _write_json(args.json, r.to_json())
+    return 0
+
+
+def _print_spatial(r):
+    rows = "; ".join(", ".join(f"{v:g}" for v in row) for row in r.velocity_gradient)
+    print(f"3-D plane waves, n on the unit sphere: rheology={r.rheology} phi={r.phi:g} grad u = [{rows}] "
+          f"({r.directions} Fibonacci directions, spacing {r.spacing_deg:.2g} deg)")
+    w = r.to_json()["worst_direction_deg"]
+    print(f"  {'max_lambda':<24} {r.max_lambda!r}")
+    print(f"  {'worst_direction':<24} ({', '.join(f'{v:.6g}' for v in r.worst_direction)}) (polar "
+          f"{w['polar']:.4g} deg from z, azimuth {w['azimuth']:.4g} deg from x)")
+    print(f"  {'ill_posed_fraction':<24} {r.ill_posed_fraction!r}")
+    verdict = (f"ILL-POSED for {100 * r.ill_posed_fraction:.4g} % of the wave directions" if not r.well_posed
+               else "well-posed in every sampled direction (Lambda_max < 0)")
+    print(f"  {'verdict':<24} {verdict}")
+
+
 def _title(ds):
     ux, uz, wx, wz = ds.velocity_gradient
     return (rf"{ds.rheology}: $\phi_0$ = {ds.phi:g}, $\nabla u$ = [[{ux:.4g}, {uz:.4g}], [{wx:.4g}, {wz:.4g}]]")
@@ -129,26 +202,38 @@ def _positive_float(text):
 
 
 def add_stability_parser(subparsers):
-    """Add ``stability --rheology NAME --phi (--uz --wz | --velocity-gradient ...) [--angles] [--xi] [--json] [--plot]``."""
+    """Add ``stability --rheology NAME --phi (--uz --wz | --velocity-gradient ...) [--dim 2|3] [--angles | --directions]
+    [--xi] [--json] [--plot]``."""
     p = subparsers.add_parser("stability", help="symbols of the linearised 1-D system / 2-D plane waves at one state",
                               description="1-D (--uz --wz): print M, chi (A18), tr/det Gamma, Lambda_pm (A9), "
                                           "max Re eig A(xi)/xi^2 and -C/B for a uniform base state. 2-D "
                                           "(--velocity-gradient U_X U_Z W_X W_Z): Lambda_max(theta) of plane waves "
                                           "n = (cos theta, sin theta), ill-posed angle intervals, worst angle "
-                                          "(theta = 90 deg is the 1-D direction).")
+                                          "(theta = 90 deg is the 1-D direction). 3-D (--dim 3): the symbol with the 3-D "
+                                          "deviator for any 3x3 gradient, over the sphere of wave directions.")
     from icidr_pde.rheology import RHEOLOGIES  # noqa: PLC0415
 
     p.add_argument("--rheology", choices=sorted(RHEOLOGIES), required=True)
     p.add_argument("--phi", type=_positive_float, required=True, help="packing fraction, in (0, phi_c)")
     p.add_argument("--uz", type=_positive_float, default=None, help="1-D base shear rate d_z u")
     p.add_argument("--wz", type=_positive_float, default=None, help="1-D base dilation rate d_z w")
-    p.add_argument("--velocity-gradient", type=_positive_float, nargs=4, metavar=("U_X", "U_Z", "W_X", "W_Z"),
-                   default=None, help="2-D base velocity gradient grad u = [[u_x, u_z], [w_x, w_z]]")
+    p.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                   help="2 (default): the 1-D symbol and plane waves in the x-z plane; 3: plane waves in every "
+                        "direction of space with the 3-D deviator S = D - (div u/3) I (worst direction, rate, "
+                        "ill_posed_fraction of the sphere)")
+    p.add_argument("--velocity-gradient", type=_positive_float, nargs="+", metavar="L",
+                   default=None, help="base velocity gradient: U_X U_Z W_X W_Z, grad u = [[u_x, u_z], [w_x, w_z]] "
+                                      "(--dim 2, or a planar flow with --dim 3); with --dim 3 also the nine "
+                                      "U_X U_Y U_Z V_X V_Y V_Z W_X W_Y W_Z (row-major, L[i, j] = d_j u_i)")
+    p.add_argument("--directions", type=int, default=None, metavar="N",
+                   help="--dim 3: Fibonacci directions on the sphere (default 2000, spacing about 4.5 deg)")
     p.add_argument("--angles", default=None, metavar="START:STOP:STEP",
                    help="plane-wave angles in degrees (default 0:180:1; theta and theta + 180 are one direction)")
     p.add_argument("--xi", type=_positive_float, default=1e4, help="wavenumber for eig A(xi) (default 1e4)")
     p.add_argument("--json", metavar="PATH", help="write the numbers as JSON to PATH")
-    p.add_argument("--plot", metavar="PNG", default=None, help="write the polar plot of Lambda_max(theta) to PNG")
+    p.add_argument("--plot", metavar="PNG", default=None,
+                   help="write the polar plot of Lambda_max(theta) (--dim 3: the map of Lambda_max(n) on the sphere) "
+                        "to PNG")
     p.set_defaults(func=_stability)
     return p
 

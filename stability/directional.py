@@ -34,42 +34,45 @@ from .material import RATE_RANGE, check_phi, check_rheology_name, default_materi
 from .symbols import Mf, Psif, d, phi, rho
 
 GRADIENT_NAMES = ("u_x", "u_z", "w_x", "w_z")
-_ARGS = (phi, plane.ux, plane.uz, plane.wx, plane.wz)
 
 
 # --- compiled principal part -------------------------------------------------------------
 
-def _expressions(kind, law, laws):
-    """Sympy expressions of `kind` ('principal': the 4 a_ij then the 16 B_ijkl; 'stress': sigma_ij) for `law`
-    with the material functions of `laws` (parameters as symbols) and d = rho_* = 1."""
-    sigma = plane.stress_tensor(law, material=laws)
+def _expressions(kind, law, laws, grad_u=plane.VELOCITY_GRADIENT):
+    """Sympy expressions of `kind` ('principal': the a_ij then the B_ijkl, row-major; 'stress': sigma_ij) for
+    `law` with the material functions of `laws` (parameters as symbols) and d = rho_* = 1, at the symbolic
+    velocity gradient `grad_u` (2x2 here; 3x3 for :mod:`stability.spatial`)."""
+    sigma = plane.stress_tensor(law, grad_u, material=laws)
+    r = range(grad_u.shape[0])
     if kind == "stress":
-        exprs = [sigma[i, j] for i in range(2) for j in range(2)]
+        exprs = [sigma[i, j] for i in r for j in r]
     else:
-        a, B = plane.principal_part(sigma)
-        exprs = [a[i][j] for i in range(2) for j in range(2)]
-        exprs += [B[i][j][k][l] for i in range(2) for j in range(2) for k in range(2) for l in range(2)]
+        a, B = plane.principal_part(sigma, grad_u)
+        exprs = [a[i][j] for i in r for j in r]
+        exprs += [B[i][j][k][l] for i in r for j in r for k in r for l in r]
     subs = rheologies.concrete_functions(laws)
     return [(e.subs(subs).doit() if e.has(Mf) or e.has(Psif) else e).subs({d: 1, rho: 1}) for e in exprs]
 
 
 @lru_cache(maxsize=64)
-def _lambdified(kind, law, laws):
-    exprs = _expressions(kind, law, laws)
+def _lambdified(kind, law, laws, grad_u=sp.ImmutableMatrix(plane.VELOCITY_GRADIENT)):
+    exprs = _expressions(kind, law, laws, grad_u)
     params = rheologies.parameter_symbols(laws)
-    extra = set().union(*(e.free_symbols for e in exprs)) - set(_ARGS) - set(params)
+    args = (phi, *grad_u)
+    extra = set().union(*(e.free_symbols for e in exprs)) - set(args) - set(params)
     if extra:
         raise ValueError(f"`rheology` {plane.law_name(law)!r}: its stress depends on {sorted(map(str, extra))}, "
-                         f"which are neither state variables {[str(s) for s in _ARGS]} nor parameters "
+                         f"which are neither state variables {[str(s) for s in args]} nor parameters "
                          f"{[str(s) for s in params]} of the material")
-    return sp.lambdify((*_ARGS, *params), exprs, modules="numpy", cse=True)
+    return sp.lambdify((*args, *params), exprs, modules="numpy", cse=True)
 
 
-def compiled(kind, law, material=None):
-    """(f, params): f(phi, u_x, u_z, w_x, w_z, *params) evaluates :func:`_expressions` (numpy, complex allowed).
+def compiled(kind, law, material=None, grad_u=plane.VELOCITY_GRADIENT):
+    """(f, params): f(phi, *grad_u (row-major), *params) evaluates :func:`_expressions` (numpy, complex allowed);
+    in 2-D f(phi, u_x, u_z, w_x, w_z, *params).
 
-    Compiled once per law and pair of material laws (the values enter as arguments); a
-    Rheology instance brings its own material when `material` is None.
+    Compiled once per law, pair of material laws and symbolic gradient (the values enter as
+    arguments); a Rheology instance brings its own material when `material` is None.
     """
     from icidr_pde.rheology import Rheology  # noqa: PLC0415
 
@@ -77,10 +80,11 @@ def compiled(kind, law, material=None):
         material = law.material
     material = default_material(material)
     laws = rheologies._law_representative(material)
+    grad_u = sp.ImmutableMatrix(grad_u)
     try:
-        f = _lambdified(kind, law, laws)
+        f = _lambdified(kind, law, laws, grad_u)
     except TypeError:                                # unhashable user law: compile without the cache
-        f = _lambdified.__wrapped__(kind, law, laws)
+        f = _lambdified.__wrapped__(kind, law, laws, grad_u)
     return f, material.params
 
 

@@ -123,10 +123,15 @@ def law_name(law) -> str:
 # --- kinematics and the stress tensor ------------------------------------------------
 
 def kinematics(grad_u=VELOCITY_GRADIENT):
-    """D (2.4), div u, S (2.5) and ||S|| = sqrt(tr(S^2)/2) of a 2x2 velocity gradient."""
+    """D (2.4), div u, S (2.5) and ||S|| = sqrt(tr(S^2)/2) of a square velocity gradient.
+
+    S = D - (div u/dim) I is trace-free in the gradient's own dimension: the paper's
+    S = D - (div u/2) I for a 2x2 gradient, D - (div u/3) I for a 3x3 one (:mod:`stability.spatial`).
+    """
+    dim = grad_u.shape[0]
     D = (grad_u + grad_u.T) / 2
     div = D.trace()
-    S = D - div / 2 * sp.eye(2)
+    S = D - div / dim * sp.eye(dim)
     normS = sp.sqrt(sp.expand((S * S).trace() / 2))
     return {"D": D, "div": div, "S": S, "normS": normS}
 
@@ -134,39 +139,41 @@ def kinematics(grad_u=VELOCITY_GRADIENT):
 def stress_tensor(law, grad_u=VELOCITY_GRADIENT, phi_=phi, M_=None, Psi_=None, material=None):
     """sigma = -p I + c S (2.3) for the law's (p, c) at the invariants of `grad_u`.
 
-    The one place where a rheology becomes a 2-D stress tensor for this analysis; a
-    registered rheology comes from its one definition in :mod:`icidr_pde.rheology`.
+    The one place where a rheology becomes a stress tensor for this analysis (2-D here, 3-D
+    with a 3x3 `grad_u`); a registered rheology comes from its one definition in
+    :mod:`icidr_pde.rheology`.
     """
     k = kinematics(grad_u)
     p, c = resolve_law(law, M_, Psi_, material).symbolic_stress(phi_, k["div"], k["normS"])
-    return -p * sp.eye(2) + c * k["S"]
+    return -p * sp.eye(grad_u.shape[0]) + c * k["S"]
 
 
 def principal_part(sigma, grad_u=VELOCITY_GRADIENT, phi_=phi):
     """a[i][j] = d sigma_ij/d phi /(rho phi), B[i][j][k][l] = d sigma_ij/d L_kl /(rho phi) (nested lists)."""
     den = rho * phi_
-    a = [[sp.diff(sigma[i, j], phi_) / den for j in range(2)] for i in range(2)]
-    B = [[[[sp.diff(sigma[i, j], grad_u[k, l]) / den for l in range(2)] for k in range(2)] for j in range(2)]
-         for i in range(2)]
+    r = range(grad_u.shape[0])
+    a = [[sp.diff(sigma[i, j], phi_) / den for j in r] for i in r]
+    B = [[[[sp.diff(sigma[i, j], grad_u[k, l]) / den for l in r] for k in r] for j in r] for i in r]
     return a, B
 
 
 def acoustic_tensor(B, n):
     """Gamma_ik(n) = B_ijkl n_j n_l: the matrix multiplying -xi^2 in A(xi, n) ((A5) at n = e_z)."""
-    return sp.Matrix(2, 2, lambda i, k: sum(B[i][j][k][l] * n[j] * n[l] for j in range(2) for l in range(2)))
+    r = range(len(n))
+    return sp.Matrix(len(n), len(n), lambda i, k: sum(B[i][j][k][l] * n[j] * n[l] for j in r for l in r))
 
 
 def phi_coupling(a, n):
     """alpha_i(n) = a_ij n_j: the i xi alpha phi terms of A(xi, n) ((a1, a2) of (A2) at n = e_z)."""
-    return sp.Matrix([sum(a[i][j] * n[j] for j in range(2)) for i in range(2)])
+    r = range(len(n))
+    return sp.Matrix([sum(a[i][j] * n[j] for j in r) for i in r])
 
 
 def symbol_matrix(G, alpha, n, xi, phi_=phi):
-    """A(xi, n) of the plane wave exp(i xi n.x + lambda t) ((A4) with w0 = 0 at n = e_z)."""
+    """A(xi, n) of the plane wave exp(i xi n.x + lambda t) ((A4) with w0 = 0 at n = e_z); 3x3 in 2-D, 4x4 in 3-D."""
     i = sp.I
-    return sp.Matrix([[0, -i * xi * phi_ * n[0], -i * xi * phi_ * n[1]],
-                      [i * xi * alpha[0], -xi**2 * G[0, 0], -xi**2 * G[0, 1]],
-                      [i * xi * alpha[1], -xi**2 * G[1, 0], -xi**2 * G[1, 1]]])
+    top = sp.Matrix([[0] + [-i * xi * phi_ * nj for nj in n]])
+    return top.col_join((i * xi * alpha).row_join(-xi**2 * G))
 
 
 def direction(angle=theta):
@@ -182,7 +189,9 @@ def invariant_gamma(p_of, c_of, n, grad_u=VELOCITY_GRADIENT, phi_=phi):
     ``p_of(phi, delta, s)``, ``c_of(...)`` give p and c; their partial derivatives are
     taken in (phi, delta, s) and evaluated at the invariants of `grad_u`:
     rho phi Gamma = (c/2) I - n (p_delta n + p_s m/(2s))^T + m (c_delta n + c_s m/(2s))^T,
-    rho phi alpha = -p_phi n + c_phi m, with m = S n.
+    rho phi alpha = -p_phi n + c_phi m, with m = S n.  With a 3x3 `grad_u` and 3-vector `n`
+    the trace-free part of dS/dL adds c (1/2 - 1/3) n n^T = (c/6) n n^T (:mod:`stability.spatial`);
+    in 2-D that term is c (1/2 - 1/2) n n^T = 0.
     """
     k = kinematics(grad_u)
     s_ = sp.Symbol("s_", positive=True)
@@ -196,7 +205,8 @@ def invariant_gamma(p_of, c_of, n, grad_u=VELOCITY_GRADIENT, phi_=phi):
     m = k["S"] * n
     rowp = ev(sp.diff(p, dl)) * n.T + ev(sp.diff(p, s_) / (2 * s_)) * m.T
     rowc = ev(sp.diff(c, dl)) * n.T + ev(sp.diff(c, s_) / (2 * s_)) * m.T
-    G = ev(c) / 2 * sp.eye(2) - n * rowp + m * rowc
+    dim = len(n)
+    G = ev(c) / 2 * sp.eye(dim) + ev(c) * (sp.Rational(1, 2) - sp.Rational(1, dim)) * n * n.T - n * rowp + m * rowc
     alpha = -ev(sp.diff(p, phi_)) * n + ev(sp.diff(c, phi_)) * m
     return G, alpha
 

@@ -52,13 +52,18 @@ def crosscheck_rows() -> list[Check]:
     return out
 
 
-def run_checks(crosscheck: bool = True) -> list[Check]:
-    """Run all symbolic checks (and, optionally, the fast numerical cross-checks)."""
+def run_checks(crosscheck: bool = True, progress=None) -> list[Check]:
+    """Run all symbolic checks (and, optionally, the fast numerical cross-checks);
+    `progress(text)`, if given, is told each group as it starts."""
     out = []
-    for mod in (rheologies, cidr, icidr, linearize, mui, dissipation):
-        out.extend(mod.checks())
+    groups = [(mod.__name__.rpartition(".")[2], mod.checks) for mod in (rheologies, cidr, icidr, linearize, mui,
+                                                                        dissipation)]
     if crosscheck:
-        out.extend(crosscheck_rows())
+        groups.append(("numerical cross-checks", crosscheck_rows))
+    for k, (name, checks) in enumerate(groups):
+        if progress is not None:
+            progress(f"verify [{k + 1}/{len(groups) + 1}] {name} ...")
+        out.extend(checks())
     return out
 
 
@@ -105,10 +110,18 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
     from icidr_pde.outputs import check_outputs, write_atomically  # noqa: PLC0415
 
     from . import plane  # noqa: PLC0415  (2-D plane waves: the direction the 1-D appendix A leaves out)
+    from . import spatial  # noqa: PLC0415  (3-D plane waves: the deformations the x-z plane leaves out)
 
     check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
-    checks = run_checks(crosscheck) + plane.checks()
+    from icidr_pde.law_cli import stderr_progress  # noqa: PLC0415
+
+    progress = stderr_progress()  # at a terminal, on stderr: stdout holds the table
+    checks = run_checks(crosscheck, progress)
+    n_groups = 7 + bool(crosscheck)
+    if progress is not None:
+        progress(f"verify [{n_groups}/{n_groups}] plane waves ...")
+    checks += plane.checks() + spatial.checks()
     stream(format_table(checks))
     n = {s: sum(c.status == s for c in checks) for s in ("exact", "numeric", "fails")}
     stream(f"\n{len(checks)} checks: {n['exact']} exact, {n['numeric']} numeric, {n['fails']} fail "

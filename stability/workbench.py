@@ -19,8 +19,12 @@ For a law of :mod:`icidr_pde.rheology` (a registered name, a law file, or an ins
   and the steady (div u = 0) mu(I), Phi(I) the law implies (at ||S|| = 1/2, gamma-dot = 1).
 
 ``well_posed`` is the verdict of the symbol on the grid (strictly negative Re Lambda_+ at
-every state, 1-D and 2-D); for a CIDR law the report also says whether (4.3)-(4.5) hold,
-which by Barker et al. (2017) makes it well-posed at *every* state.
+every state, 1-D, 2-D and 3-D: :mod:`stability.spatial`, waves in every direction of space with
+the 3-D deviator; and p, c defined); for a CIDR law the report also says, separately
+(``conditions_hold``), whether (4.3)-(4.5) hold, which by Barker et al. (2017) makes it
+well-posed at *every* state: they are sufficient, not necessary, and a law failing them may
+still have a negative symbol everywhere. :func:`check_summary` is the one line ``run`` prints
+for a law file whose check fails.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["resolve_law", "check_conditions", "symbol_grid", "curves", "law_report", "write_report",
-           "condition_sample", "law_list"]
+           "condition_sample", "law_list", "check_summary"]
 
 #: the sample of (4.3)-(4.5) where sympy cannot decide (stated in every report): phi uniform in the
 #: law's domain, plus `near_phi_c` points uniform in [phi_c - 0.03, phi_c + 0.015] (within the domain)
@@ -163,20 +167,27 @@ def _decide(rheology, expr, sign, name):
     text = sp.sstr(expr)
     symbolic = {0: expr == 0, 1: expr.is_positive, -1: expr.is_negative}[sign]
     if sign == 0 and symbolic is False:
-        symbolic = None  # a non-zero-looking expression may still vanish: sample it
+        # a non-zero-looking expression may still vanish: decided only if sympy proves it has
+        # a sign (e.g. -I*M/(2*Psi) with I, M, Psi > 0), else sampled
+        symbolic = False if (expr.is_positive or expr.is_negative) else None
     P, I, F, sample = condition_sample(rheology)
     if symbolic is True:
         return Condition("holds", "symbolic", None, text)
     values = _evaluate(rheology, expr, P, I, F)
-    if sign == 0:
+    if sign == 0 and symbolic is False:  # proved non-zero: every state is a counterexample
+        bad = np.isfinite(values)
+    elif sign == 0:
         scale = _evaluate(rheology, sp.Add(*[abs(t) for t in sp.Add.make_args(sp.expand(expr))]), P, I, F)
         bad = ~(np.abs(values) <= 1e-9 * np.maximum(scale, 1e-300))
     elif sign > 0:
         bad = ~(values > 0)
     else:
         bad = ~(values < 0)
-    bad &= np.isfinite(values) | (sign != 0)
+    if sign == 0:
+        bad &= np.isfinite(values)
     method = "symbolic" if symbolic is False else "sampled"
+    if sign == 0 and symbolic is False and not np.any(bad):  # proved non-zero, not finite on the sample
+        return Condition("fails", method, None, text, sample=sample)
     if not np.any(bad):
         return Condition("holds", method, None, text, sample=sample)
     i = int(np.argmax(bad))
@@ -377,20 +388,30 @@ def curves(rheology, phis=None) -> dict:
 
 # --- the report --------------------------------------------------------------------------
 
-def law_report(law, material=None, *, with_curves: bool = True) -> dict:
-    """The report of `law` as a JSON-ready dict (schema: docs/laws.md, 'Command line, Python, JSON')."""
+def law_report(law, material=None, *, with_curves: bool = True, progress=None) -> dict:
+    """The report of `law` as a JSON-ready dict (schema: docs/laws.md, 'Command line, Python, JSON');
+    `progress(text)`, if given, is told each stage as it starts."""
     from icidr_pde.rheology.cidr import CIDRLaw, LawError
 
+    def stage(text):
+        if progress is not None:
+            progress(text)
+
     rheology = resolve_law(law, material)
+    stage("law check: p and c on the sample ...")
     defined = _definedness(rheology)
+    stage("law check: conditions (4.3)-(4.5) ...")
     conditions = check_conditions(rheology)
     report = {"law": rheology.name, "label": rheology.label, "kind": getattr(rheology, "kind", "direct"),
               "material": rheology.material.to_dict(), "phi_domain": list(law_domain(rheology))}
     if isinstance(rheology, CIDRLaw):
+        stage("law check: equation of state ...")
         rheology.verify_closed_form()
         report["equation_of_state"] = _eos_summary(rheology)
+    stage("law check: the symbol over the grid of states ...")
     grid = symbol_grid(rheology)
     sym = grid.to_json()
+    sym["three_d"] = _three_d(rheology)
     symbol_ok = sym["one_d"]["well_posed"] and sym["two_d"]["well_posed"]
     hold = all(c.status == "holds" for c in conditions.values())
     report["conditions"] = {k: c.to_json() for k, c in conditions.items()}
@@ -398,8 +419,11 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
     report["positivity"] = None if positivity is None else positivity.to_json()
     report["conditions_hold"] = hold if isinstance(rheology, CIDRLaw) else None
     report["defined"] = defined
-    report["well_posed"] = bool(symbol_ok and (hold or not isinstance(rheology, CIDRLaw)) and defined["status"] == "holds")
+    # the verdict is the symbol's: (4.3)-(4.5) are sufficient, not necessary (a law may fail them
+    # and still be well-posed); reported beside it as `conditions_hold`
+    report["well_posed"] = bool(symbol_ok and defined["status"] == "holds")
     report["stability"] = sym
+    report["well_posed"] = report["well_posed"] and sym["three_d"]["well_posed"]   # waves in every direction of space
     if isinstance(rheology, CIDRLaw) and hold and not symbol_ok:
         if positivity is not None and positivity.status == "fails":
             report["stability"]["notes"].append("(4.3)-(4.5) hold but Y < 0 on part of the sample (see "
@@ -409,11 +433,40 @@ def law_report(law, material=None, *, with_curves: bool = True) -> dict:
             report["stability"]["notes"].append("(4.3)-(4.5) hold but the symbol is not negative on the grid: "
                                                 "inconsistent, please report")
     if with_curves:
+        stage("law check: curves ...")
         report["curves"] = curves(rheology)
     report["runnable"] = not (isinstance(rheology, CIDRLaw) and report["equation_of_state"]["no_positive_root_at"]) \
         and all(f["what"] == "c < 0" for f in defined["failures"])
     del LawError
     return report
+
+
+def _three_d(rheology) -> dict:
+    """The symbol in 3-D over the grid's states and every deviator shape (:func:`stability.spatial.grid_symbol`)."""
+    from .spatial import grid_symbol
+
+    return grid_symbol(rheology, _grid_states(rheology))
+
+
+def check_summary(rheology) -> str | None:
+    """One line if the law fails its check ((4.3)-(4.5) for a CIDR law, the symbol on the grid
+    of states), None if it passes: what ``run`` prints before running a law file."""
+    from icidr_pde.rheology.cidr import CIDRLaw
+
+    rheology = resolve_law(rheology)
+    failed = [f"{k} fails ({c.method})" for k, c in check_conditions(rheology).items() if c.status == "fails"]
+    grid = symbol_grid(rheology)
+    bad = [(dim, int(b.sum())) for dim, b in (("1-D", grid.ill_posed_1d()), ("2-D", grid.ill_posed_2d())) if b.any()]
+    if not failed and not bad:
+        return None
+    states = grid.phi.size
+    symbol = ("the symbol is ILL-POSED at " + ", ".join(f"{n} of {states} states in {dim}" for dim, n in bad)
+              if bad else f"the symbol is well-posed at the {states} sampled states (1-D and 2-D)")
+    conditions = ""
+    if isinstance(rheology, CIDRLaw):
+        conditions = ("(4.3)-(4.5) (sufficient) " + ("hold" if not failed else "not shown: " + ", ".join(failed))
+                      + "; ")
+    return f"law {rheology.name}: {conditions}{symbol} (`icidr-pde law check` for the report)"
 
 
 def _definedness(rheology) -> dict:

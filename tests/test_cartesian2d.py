@@ -287,28 +287,26 @@ def test_2d_default_is_second_order_central_and_1d_stays_upwind():
     assert ShearCellPDE("icidr").advection == "upwind"
 
 
-def test_upwind_reproduces_the_first_order_study(monkeypatch):
+def test_upwind_reproduces_the_first_order_study():
     """`advection='upwind'` still gives the first-order study of data/sim2d/convergence_upwind.json
-    (written by ``python -m icidr_pde.studies2d convergence`` (today ``icidr_pde.studies.sim2d``) when upwind was the default, with
-    SUNDIALS' Krylov tolerance 0.05: with today's 5e-5 the values move by ~1e-8, inside rtol)."""
+    (``python -m icidr_pde.studies.sim2d convergence --advection upwind``)."""
     import json
     import pathlib
 
     from icidr_pde import run
-    from icidr_pde.engines import sundae as integrator
-
-    monkeypatch.setattr(integrator, "KRYLOV_EPS_LIN", 0.05)
 
     path = pathlib.Path(__file__).resolve().parents[1] / "data" / "sim2d" / "convergence_upwind.json"
     study = json.loads(path.read_text())
     times = study["times"]
+    settings = dict(study["settings"])
+    assert settings.pop("advection") == "upwind"
     d = run("icidr", "bump2d", (16, 16), float(times[-1]), times, advection="upwind", engine="pde", jacobian="krylov",
-            **study["settings"]).to_dict()  # the study's solver: the py-pde path's unpreconditioned GMRES at its
+            **settings).to_dict()  # the study's solver: the py-pde path's unpreconditioned GMRES at its
     # Krylov tolerance (the native one agrees to ~1e-8, the x-Fourier preconditioned one to ~1e-7: rtol)
     for q in ("max_w", "max_phi_dev", "l2_velocity"):
         for t in times:
             assert d[q][t] == pytest.approx(study["runs"]["16"][q][t], rel=1e-9), (q, t)
-    default = run("icidr", "bump2d", (16, 16), float(times[-1]), times, **study["settings"]).to_dict()
+    default = run("icidr", "bump2d", (16, 16), float(times[-1]), times, **settings).to_dict()
     assert abs(default["max_w"]["10"] / d["max_w"]["10"] - 1) > 0.1  # the default is not upwind
 
 

@@ -153,7 +153,7 @@ def test_t_end_beyond_the_float_axis_is_refused(capsys):
     from icidr_pde.times import MAX_T_END
 
     for engine in ("auto", "pde"):
-        with pytest.raises(ParameterError, match=r"`t_end` must be a finite number in \(0, 1e\+15\]; got 1e\+200"):
+        with pytest.raises(ParameterError, match=r"`t_end` must be a finite number in \[1e-08, 1e\+15\]; got 1e\+200"):
             run("icidr", "shear", 21, 1e200, engine=engine)
     assert cli.main(["run", "--t-end", "1e40", "--no-progress"]) == cli.EXIT_BAD_INPUT
     line = _error_line(capsys)
@@ -169,7 +169,7 @@ def test_atol_beyond_the_field_scale_is_refused(capsys):
     from icidr_pde.validation import ATOL_FRACTION
 
     for engine in ("auto", "pde"):
-        with pytest.raises(ParameterError, match=r"`atol` must be in \(0, "):
+        with pytest.raises(ParameterError, match=r"`atol` must be in \["):
             run("icidr", "shear", 21, 1.0, atol=1e308, engine=engine)
     assert cli.main(["run", "--atol", "1e308", "--no-progress"]) == cli.EXIT_BAD_INPUT
     assert "`--atol`" in _error_line(capsys)

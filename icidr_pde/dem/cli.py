@@ -32,10 +32,15 @@ _seed = int_at_least(0)
 
 
 def _needs_lammps(command):
-    """`command` with a missing LAMMPS reported as bad input (one line, exit 2), not a traceback."""
+    """`command` with a missing LAMMPS reported as bad input (one line, exit 2) and Ctrl-C as one
+    line (exit 130), not a traceback."""
     def run(args) -> int:
         try:
             return command(args)
+        except KeyboardInterrupt:  # Ctrl-C: one line, the status of the other commands, no traceback
+            print(f"icidr-pde: dem {args.dem_command} interrupted; runs already finished are kept in the per-run "
+                  "cache (--cache) and reused by the same command", file=sys.stderr)
+            return 130
         except ImportError as err:
             if "LAMMPS" not in str(err):
                 raise
@@ -60,13 +65,22 @@ def _common(p, what):
     p.add_argument("--no-progress", action="store_true", help="no progress output")
 
 
+class _Defaults(argparse.ArgumentDefaultsHelpFormatter):
+    """Adds '(default: ...)' to the help texts that do not already say their default."""
+
+    def _get_help_string(self, action):
+        if "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
 def add_parser(subparsers):
     """Add ``dem`` with ``steady``, ``transient`` and ``audit`` to an argparse subparsers object."""
     dem = subparsers.add_parser("dem", help="LAMMPS DEM validation (appendix C, figs 1 and 8)",
                                 description=__doc__,
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                                formatter_class=_Defaults)
     sub = dem.add_subparsers(dest="dem_command", required=True)
-    fmt = argparse.ArgumentDefaultsHelpFormatter
+    fmt = _Defaults
     st = sub.add_parser("steady", help="steady mu(I), Phi(I) sweep, fits of (2.10)-(2.11), fig 1",
                         description="Steady Lees-Edwards shear at each phi0; writes steady.json and fig1_dem.png.",
                         formatter_class=fmt)
@@ -159,10 +173,17 @@ def _params(args):
                      dt_fraction=args.dt_fraction)
 
 
-def _cache(args):
+def _cache(args, *, writes: bool = True) -> Path:
+    """The per-run cache folder, checked before any run: one a command `writes` to is made and
+    probed as every output folder is; one it only reads must be a folder where it exists."""
     from .cache import default_cache_dir
 
-    return Path(args.cache) if args.cache else default_cache_dir()
+    path = Path(args.cache) if args.cache else default_cache_dir()
+    if writes:
+        return writable_folder("--cache", path)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"`--cache` must be a directory; got the file {str(path)!r}")
+    return path
 
 
 # ------------------------------------------------------------------ commands
@@ -175,11 +196,12 @@ def cmd_steady(args) -> int:
     json_path = _output(args.json, out, "steady.json", "--json")
     fig_path = _output(args.fig, out, "fig1_dem.png", "--fig")
     check_outputs({"--json": json_path, "--fig": fig_path})  # not one file
+    cache_dir = _cache(args)
     params = _params(args)
     protocol = Protocol(t_shear=args.t_shear, t_avg=args.t_avg)
     with client_of(args, dashboard=not args.no_progress) as client:
         s = run_steady_study(args.phi0, repeats=args.repeats, base_seed=args.seed, jobs=args.jobs, client=client,
-                             cache_dir=_cache(args), protocol=protocol, params=params, json_path=json_path,
+                             cache_dir=cache_dir, protocol=protocol, params=params, json_path=json_path,
                              progress=not args.no_progress)
     if "fit" in s and fig_path:
         plots.fig1(s, fig_path)
@@ -206,6 +228,7 @@ def cmd_transient(args) -> int:
     npz_path = _output(args.npz, out, "transient_ensemble.npz", "--npz")
     fig_path = _output(args.fig, out, "fig8_dem.png", "--fig")
     check_outputs({"--json": json_path, "--npz": npz_path, "--fig": fig_path})  # not one file
+    cache_dir = _cache(args)
     steady = Path(args.steady_json) if args.steady_json else committed("steady.json")
     if not steady.is_file():
         raise ValueError(f"`--steady-json` {str(steady)!r} not found: run `icidr-pde dem steady` first")
@@ -220,7 +243,7 @@ def cmd_transient(args) -> int:
                                  dt_fraction=args.transient_dt_fraction)
     with client_of(args, dashboard=not args.no_progress) as client:
         members = ensemble.run_ensemble(base, ensemble.seeds(args.repeats, args.seed, base.phi0), [pert],
-                                        _cache(args), jobs=args.jobs, client=client, progress=not args.no_progress)
+                                        cache_dir, jobs=args.jobs, client=client, progress=not args.no_progress)
     results = [member[0] for member in members]
     S = analysis.stack(results, args.bin_height, args.u_definition, args.u_frame)
     ens = {"times": S["times"], "z": S["z"], "repeats": len(results), "phi0": base.phi0, "H": args.H,
@@ -269,8 +292,9 @@ def cmd_pool(args) -> int:
         return 0
     from .plots import fig1_pool
 
+    cache_dir = _cache(args, writes=False)
     out = _writable_dir(args.out)
-    s = pool.summary(_cache(args), names)
+    s = pool.summary(cache_dir, names)
     write_json(s, out / "steady_pool.json")
     fig1_pool(s, out / "fig1_dem.png")
     print(pool.markdown(s))
@@ -281,7 +305,7 @@ def cmd_pool(args) -> int:
 def cmd_audit(args) -> int:
     from . import audit
 
-    cache_dir = _cache(args)
+    cache_dir = _cache(args, writes=args.action == "run")
     if args.action == "run":
         unknown = [f for f in args.factors if f not in audit.FACTORS]
         if not args.factors or unknown:

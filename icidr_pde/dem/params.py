@@ -14,6 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 DIAMETER_CLASSES = (0.8, 0.9, 1.0, 1.1, 1.2)
+#: bytes of LAMMPS's memory per disk of a run: 0.57 kB measured (peak RSS of a random 2-D
+#: packing after ``run 0``, 1e5 to 4e5 disks, docs/dem.md), taken twice over for the neighbour
+#: lists and contact histories of a sheared dense packing, which were not measured
+LAMMPS_BYTES_PER_DISK = 1200.0
 
 
 def _check_range(name, value, lo, hi, lo_open=True, hi_open=True):
@@ -69,6 +73,23 @@ class DEMParams:
         _check_range("bin_height", self.bin_height, 0.0, self.H, hi_open=False)
         if abs(self.H / self.bin_height - round(self.H / self.bin_height)) > 1e-9:
             raise ValueError(f"`bin_height` must divide H={self.H}; got {self.bin_height}")
+        self.check_memory()
+
+    def memory_bytes(self) -> float:
+        """Bytes a run of this cell needs, roughly: LAMMPS's per disk and the analysis's copies of
+        the positions, velocities, radii, masses, ids and of the coarse-graining weights (three
+        periodic images x the bins) of every disk. Computed from n_particles, before anything is
+        allocated."""
+        bins = max(1.0, self.H / self.bin_height)
+        return self.n_particles * (LAMMPS_BYTES_PER_DISK + 8.0 * (9 + 3 * bins))
+
+    def check_memory(self) -> None:
+        """Refuse (ValueError naming `n_particles`) a cell whose run needs more than half the memory
+        available: the PDE paths' check (:func:`icidr_pde.discretizations.grid_size.check_memory`)."""
+        from ..discretizations.grid_size import check_memory
+
+        check_memory(f"`n_particles` = {self.n_particles} is too large: a DEM run of it", self.memory_bytes(),
+                     "LAMMPS's atoms, neighbour lists and contacts, the analysis's copies")
 
     # ---- derived quantities -------------------------------------------------
     @property

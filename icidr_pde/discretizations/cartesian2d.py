@@ -102,6 +102,19 @@ class Patches:
     measured: int = 2
 
 
+def _takes_two(f) -> bool:
+    """True if f can be called as f(x, z) (not only f(nodes))."""
+    import inspect
+
+    try:
+        inspect.signature(f).bind(0, 0)
+    except TypeError:
+        return False
+    except ValueError:  # no signature (a builtin, a numpy ufunc): as f(x, z)
+        return True
+    return True
+
+
 class ShearCell2DPDE(ShearCellBase):
     """Gravity-free 2-D shear cell, x-periodic, closed by a rheology; finite volumes.
 
@@ -161,15 +174,21 @@ class ShearCell2DPDE(ShearCellBase):
         return grid.cell_coords
 
     def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
-        """FieldCollection of phi, u, w from callables of the node positions (Nx, Nz, 2) or arrays."""
+        """FieldCollection of phi, u, w, each a number, an array (Nx, Nz), a callable f(x, z) of
+        the cell centres' coordinates (arrays (Nx, Nz); the 1-D class calls f(z)) or a py-pde
+        expression in x and z (e.g. ``"z / 30 + 0.01 * sin(2 * pi * x / 30)"``). A callable of
+        one argument gets the nodes (Nx, Nz, 2), as before."""
         from pde import ScalarField
+        from pde.tools.expressions import ScalarExpression
 
         self.check_grid(grid)
-        xz = self.nodes(grid)
+        x, z = np.moveaxis(self.nodes(grid), -1, 0)
         fields = []
         for label, f in zip(("phi", "u", "w"), (phi, u, w)):
-            data = f(xz) if callable(f) else np.broadcast_to(np.asarray(f, float), grid.shape)
-            fields.append(ScalarField(grid, np.array(data, dtype=float), label=label))
+            if isinstance(f, str):
+                f = ScalarExpression(f, signature=["x", "z"])
+            data = (f(x, z) if _takes_two(f) else f(self.nodes(grid))) if callable(f) else np.asarray(f, float)
+            fields.append(ScalarField(grid, np.array(np.broadcast_to(data, grid.shape), dtype=float), label=label))
         return FieldCollection(fields)
 
     def integral(self, values: np.ndarray, grid) -> float:
@@ -291,6 +310,14 @@ class ShearCell2DPDE(ShearCellBase):
         self.check_grid(state.grid)
         return _pattern(*state.grid.shape)
 
+    def is_thin(self, grid) -> bool:
+        """Whether the cells of `grid` are thin (hx > THIN_CELL hz): the Krylov solves of the py-pde
+        path are then preconditioned along z (:meth:`line_pattern`)."""
+        self.check_grid(grid)
+        nx, nz = grid.shape
+        L, H = (float(np.diff(b)[0]) for b in grid.axes_bounds)
+        return cartesian2d_core.thin_cell(nx, nz, L, H)
+
     def line_pattern(self, state) -> sparse.csc_matrix | None:
         """The part of :meth:`jacobian_sparsity` along z in a thin cell (hx > THIN_CELL hz), else
         None: every field of cell (i, j) and of cells (i, j +- 1), the couplings within each x
@@ -299,11 +326,9 @@ class ShearCell2DPDE(ShearCellBase):
         Measured, iCIDR bump2d 32^2, L = 30, t_end = 5, CVODE + GMRES(20) without/with it:
         H = 30: 138/221 steps (64^2), H = 3: 258/297, H = 0.3: 2814/156, H = 0.01: failed at
         t = 2e-3/97 steps."""
-        self.check_grid(state.grid)
-        nx, nz = state.grid.shape
-        L, H = (float(np.diff(b)[0]) for b in state.grid.axes_bounds)
-        if not cartesian2d_core.thin_cell(nx, nz, L, H):
+        if not self.is_thin(state.grid):
             return None
+        nx, nz = state.grid.shape
         cz = sparse.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(nz, nz))
         P = sparse.csc_matrix(sparse.kron(np.ones((3, 3)), sparse.kron(sparse.identity(nx), cz)))
         P.sort_indices()

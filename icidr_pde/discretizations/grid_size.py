@@ -25,7 +25,8 @@ numba loaded is ~250 MB):
   -- 2.5 kB a cell (the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each); with
   SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in); with
   GMRES + AMG ('amg', whole run to t = 10, benchmarks/amg2d.py): 854 MB at 256^2 against 383 MB
-  without -- 7.2 kB a cell more (the Jacobian, the hierarchy and pyamg's set-up).
+  without -- 7.2 kB a cell more (the Jacobian, the hierarchy and pyamg's set-up); a thin cell's
+  GMRES with the line preconditioner: 4.2 kB a cell more (:data:`LINE_BYTES`).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from typing import Callable
 from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
 __all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "path_bytes", "check_path",
-           "check_memory"]
+           "check_memory", "LINE_BYTES"]
 
 
 @dataclass(frozen=True)
@@ -124,6 +125,14 @@ AMG_BYTES = 7_200.0 / 3
 #: Jacobian while it is averaged, the banded LU factors of the Nx / 2 + 1 wave numbers; peak RSS
 #: 627 MB against 405 MB without it at 256^2 (benchmarks/amg2d.py): 3.4 kB a 2-D cell
 FOURIER_BYTES = 3_400.0 / 3
+#: the line preconditioner of a thin 2-D cell's GMRES (mode 'krylov' where hx > THIN_CELL hz), per
+#: unknown beyond the scheme's estimate: at its set-up the analytic sparse Jacobian, its restriction
+#: to the couplings along z and I - gamma J_line (1.05 kB at the peak, tracemalloc), SuperLU's factors
+#: (0.11 kB, from their entries: C memory tracemalloc does not see) and the line pattern (0.11 kB),
+#: 1.27 kB in all, the same per unknown at 256 x 32, 512 x 64 and 1024 x 64 (benchmarks/line_memory.py),
+#: taken with 10 % to spare; without it a thin 4096 x 256 cell was estimated at 2.44 GiB and peaked at
+#: 4.78 GB (RSS)
+LINE_BYTES = 1_400.0
 
 
 def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
@@ -135,6 +144,9 @@ def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
         return AMG_BYTES * n, "the analytic sparse Jacobian and the algebraic-multigrid hierarchy"
     if mode == "fourier":
         return FOURIER_BYTES * n, "the analytic sparse Jacobian and the banded LU factors of the x-Fourier preconditioner"
+    if mode == "line":
+        return LINE_BYTES * n, ("the analytic sparse Jacobian and the SuperLU factors of the line preconditioner "
+                                "of a thin cell")
     count, note = DENSE_ARRAYS.get((method, mode), (0, ""))
     return 8.0 * count * n * n, (f"{count} dense {n} x {n} array{'s' if count > 1 else ''}: {note}"
                                  if count else "")
@@ -180,5 +192,6 @@ def check_path(what: str, n: int, scheme_bytes: float, method: str, mode: str, h
     """Refuse a run of n unknowns (`what`: its grid, e.g. "`N` = 20000") whose scheme needs
     `scheme_bytes` (holding `scheme_note`) and whose linear algebra (:func:`path_bytes`) does not fit."""
     extra, note = path_bytes(n, method, mode)
-    shown = "'analytic' (band)" if mode == "analytic-band" else repr(mode)
+    shown = {"analytic-band": "'analytic' (band)", "line": "'krylov' (GMRES with the line preconditioner)"}.get(
+        mode, repr(mode))
     check_memory(f"{what} with method {method!r}, Jacobian {shown}", scheme_bytes + extra, note or scheme_note, hint)

@@ -14,7 +14,7 @@ from ..validation import ParameterError, choice as checked_choice, integer
 from . import ENGINES, METHODS
 
 __all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
-           "NATIVE_FV2D_AUTO_CELLS", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order",
+           "NATIVE_FV2D_AUTO_CELLS", "DENSE_2D_CELLS", "CHOICES_2D", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order",
            "AMG_SOLVER", "FOURIER_SOLVER", "PRECONDITIONED"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
@@ -78,6 +78,13 @@ NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d"
 #: x-Fourier preconditioner: where the native engine measured faster whole-process
 #: (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any grid
 NATIVE_FV2D_AUTO_CELLS = 64 * 64
+#: the largest 2-D grid (cells) on which a dense Newton matrix is allowed: 3 Nx Nz = 3072 unknowns,
+#: 75 MB and ~1e10 flops per LU; 64^2 is 1.2 GB and ~6e11 flops per LU, where the default GMRES
+#: takes seconds to t = 10
+DENSE_2D_CELLS = 32 * 32
+#: the Jacobian choices of the 2-D cell that are not dense, per method (the first: the default)
+CHOICES_2D = {"CVODE": ("fourier", "krylov", "amg", "sparse"), "BDF": ("analytic", "sparse-fd", "colored-fd"),
+              "Radau": ("analytic", "sparse-fd", "colored-fd")}
 #: the Jacobian structure of the registered schemes, known without importing them
 SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
                      "cheb": JacobianStructure(),
@@ -125,7 +132,8 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         dim: 1 or 2
         native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
         thin_cell: a 2-D cell with hx > THIN_CELL hz (the py-pde path preconditions its GMRES along z)
-        cells: the cells of a 2-D grid (Nx Nz), if known
+        cells: the cells of a 2-D grid (Nx Nz), if known: beyond :data:`DENSE_2D_CELLS` a dense
+            Newton matrix (CVODE 'analytic' or 'none', BDF/Radau 'none', LSODA) is refused
         max_order: the highest BDF order asked for (1-5), None: the scheme's stable one
             (:func:`time_order`)
 
@@ -150,7 +158,22 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
             return Choice("native", mode, NATIVE_SCHEMES[discretization], max_order=order, warning=warning)
     engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure, thin_cell)
-    return Choice(engine, mode, _linear_solver(method, mode, structure), reason, order, warning)
+    solver = _linear_solver(method, mode, structure)
+    if structure.amg and "dense" in solver and cells is not None and cells > DENSE_2D_CELLS:
+        raise ParameterError(_dense_2d(method, mode if jacobian is not None else None, solver, cells))
+    return Choice(engine, mode, solver, reason, order, warning)
+
+
+def _dense_2d(method, mode, solver, cells) -> str:
+    """Why a dense Newton matrix is refused on a 2-D grid of `cells` cells, and what works
+    (`mode` None: the method's only choice there)."""
+    n = 3 * cells
+    works = "; ".join(f"with --method {m}: --jacobian " + " or ".join(modes) for m, modes in CHOICES_2D.items())
+    asked = f"`jacobian`={mode!r} with method {method!r}" if mode else f"`method`={method!r}"
+    return (f"{asked} on the 2-D cell is a {solver} of 3 x {cells} = {n} "
+            f"unknowns ({8 * n * n / 1e9:.2g} GB, ~{n ** 3 / 3:.1e} flops per factorization); dense Newton "
+            f"matrices are refused above {DENSE_2D_CELLS} cells. Choices that work: {works} "
+            f"(default: CVODE with {CHOICES_2D['CVODE'][0]!r})")
 
 
 def time_order(method: str, structure: JacobianStructure, asked: int | None = None,
@@ -236,8 +259,10 @@ def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
         mode = "banded-fd"  # no analytic band: difference quotients in the band, or below
     if mode == "banded-fd" and not structure.banded:
         if jacobian is not None:
-            raise ParameterError("`jacobian`='banded-fd' needs a discretization with a banded "
-                                 "ordering (finite differences); use 'analytic' or 'none'")
+            works = [m for m in CHOICES_2D.get(method, ()) if m in valid] if structure.amg else ["analytic", "none"]
+            raise ParameterError("`jacobian`='banded-fd' needs a discretization with a banded ordering (finite "
+                                 "differences, 1-D); use " + " or ".join(repr(m) for m in works or ["analytic"])
+                                 + (f" with method {method!r}" if structure.amg else ""))
         # no banded ordering: Krylov where the Jacobian is sparse (2-D), preconditioned by the
         # x-average of the analytic one where there is one (the 2-D cell), else dense analytic (Chebyshev)
         mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
@@ -245,8 +270,8 @@ def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
             mode = "fourier"
     if mode in PRECONDITIONED and not structure.amg:
         raise ParameterError(f"`jacobian`={mode!r} (GMRES preconditioned by {PRECONDITIONED[mode]}) needs the "
-                             "analytic sparse Jacobian of a 2-D grid (discretization fv2d); use 'krylov' "
-                             "or 'analytic'")
+                             "analytic sparse Jacobian of a 2-D grid (discretization fv2d); use "
+                             + ("'krylov' or 'analytic'" if "krylov" in valid else "'analytic'"))
     if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
         raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
                              "discretization's is dense: use 'analytic' or 'none'")

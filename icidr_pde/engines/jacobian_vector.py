@@ -16,6 +16,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..kernel_cache import numba_saves_may_fail
+
+numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
+
 __all__ = ["INCREMENT", "difference_jtimes"]
 
 #: largest component of the perturbation sigma v, relative to max(1, max |y|)

@@ -8,6 +8,10 @@ these run on the integrator's own vector, phi being every `stride`-th entry from
 import numpy as np
 from numba import njit
 
+from ..kernel_cache import numba_saves_may_fail
+
+numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
+
 __all__ = ["margins_into", "inside"]
 
 

@@ -93,14 +93,15 @@ class StiffSolver(SolverBase):
     def _choose(self, state) -> Choice:
         if self.choice is None:
             thin = getattr(self.pde, "line_pattern", lambda state: None)(state) is not None
+            cells = int(np.prod(state.data.shape[1:])) if state.data.ndim > 2 else None  # fields first
             self.choice = choose(method=self.method, jacobian=self._asked, request="pde",
-                                 structure=JacobianStructure.of(self.pde, state), thin_cell=thin)
+                                 structure=JacobianStructure.of(self.pde, state), thin_cell=thin, cells=cells)
         return self.choice
 
     def check_memory(self, state) -> None:
         """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
         scheme and linear algebra need more than half the memory available."""
-        check_memory(self.pde, state, self.method, self._choose(state))
+        check_memory(self.pde, state.grid, self.method, self._choose(state))
 
     def rates(self, state):
         """The right-hand side: the discretization's cached kernels, else py-pde's backend."""
@@ -139,20 +140,24 @@ def controller_dt(t) -> float | None:
     return None if 4 * spacing < 1e-12 else 3.2e7 * spacing
 
 
-def check_memory(pde, state, method: str, choice: Choice) -> None:
-    """Refuse (ParameterError), before anything is allocated, a run on `state`'s grid whose
-    scheme and linear algebra need more than half the memory available: the scheme's
-    ``grid_limit`` checks it (:meth:`icidr_pde.discretizations.grid_size.GridLimit.check_run`:
-    a dense n x n array where this path has one)."""
+def check_memory(pde, grid, method: str, choice: Choice) -> None:
+    """Refuse (ParameterError), before anything is allocated, a run on `grid` whose scheme and
+    linear algebra need more than half the memory available: the scheme's ``grid_limit`` checks
+    it (:meth:`icidr_pde.discretizations.grid_size.GridLimit.check_run`: a dense n x n array
+    where this path has one). The grid alone is enough: the state need not exist yet."""
     limit = getattr(pde, "grid_limit", None)
     if limit is None:
         return
-    shape = tuple(state.grid.shape)
+    shape = tuple(grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
     mode = choice.memory_mode
+    if mode == "krylov" and choice.linear_solver.startswith("GMRES (line") and getattr(pde, "is_thin", None) \
+            and pde.is_thin(grid):  # GMRES with the line preconditioner (engines.sundae)
+        mode = "line"
     hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
-    limit.check_run(what, state.data.size, int(np.prod(shape)), method, mode, hint)
+    unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
+    limit.check_run(what, unknowns, int(np.prod(shape)), method, mode, hint)
 
 
 def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):

@@ -283,7 +283,9 @@ def _line_preconditioner(jac, pattern, weights=None, anchor=None):
     column's dropped mass-row entries are added to its anchor row, so that c P = c and the
     preconditioned Newton corrections keep the mass. Without it GMRES(20) cannot solve the
     Newton systems of a thin cell: bump2d 32^2 at H = 0.01 (L = 30) failed at t = 2e-3 with
-    h = 7e-9; at H = 0.3 it took 2814 steps (156 preconditioned)."""
+    h = 7e-9; at H = 0.3 it took 2814 steps (156 preconditioned). What it holds and what its set-up
+    allocates is in the memory check of the run
+    (:data:`icidr_pde.discretizations.grid_size.LINE_BYTES`)."""
     from scipy.sparse.linalg import splu
     from sksundae.cvode import CVODEPrecond
 

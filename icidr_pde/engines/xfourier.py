@@ -30,8 +30,11 @@ from numba import njit, prange
 from scipy import sparse
 from scipy.linalg import lapack
 
+from ..kernel_cache import numba_saves_may_fail
 from ..validation import ParameterError
 from .precond import jacobian_precond
+
+numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 
 __all__ = ["XFourierPreconditioner", "xfourier_preconditioner"]
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..outputs import writable_folder, write_atomically
 from .gallery import write_gallery
-from .make import make_figures, make_movies
+from .make import make_figures, make_movies, movie_names
 from .registry import FIGURES
 from .runs import RunCache
 
@@ -53,6 +53,8 @@ def cmd_figures(args) -> int:
     import datetime
 
     start = time.perf_counter()
+    if args.movies is not None:
+        movie_names(args.movies or None)  # before the folder is made and fig 3 computed for nothing
     out = writable_folder("--out", args.out if args.out is not None else DRAFT_OUT if args.draft else GALLERY)
     if args.draft and not args.force and _full_resolution(out):
         raise ValueError(f"`out` {out} holds a full-resolution gallery that a draft would overwrite: "

@@ -13,7 +13,7 @@ from .registry import FIGURES
 from .runs import RUNS, RunCache, at_resolution
 from .two_d import bump2d_pair
 
-__all__ = ["make_figures", "make_movies", "movie2d"]
+__all__ = ["make_figures", "make_movies", "movie_names", "movie2d"]
 
 
 def make_figures(only=None, out="docs/figures", *, draft=False, verbose=True, runs: RunCache | None = None,
@@ -63,13 +63,26 @@ def movie2d(runs, path, *, verbose=True, dpi=90, stride=1) -> dict:
     return info
 
 
+def movie_names(only=None) -> list[str]:
+    """The movies `only` names (default: all); ValueError naming the unknown ones, checked before
+    any figure or movie is computed."""
+    from ..movies.registry import MOVIES, MOVIES_2D
+
+    known = list(MOVIES) + list(MOVIES_2D)
+    names = known if not only else list(only)
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"`movies` must name movies of {known}; got {unknown}")
+    return names
+
+
 def make_movies(only=None, out="docs/figures", *, draft=False, runs: RunCache | None = None, verbose=True,
                 suffix=".mp4") -> dict:
     """Write the movies (default: supplementary movies 1-6 and movie2d) from the shared runs."""
-    from ..movies.registry import MOVIES, MOVIES_2D
     from ..movies.render import movie_from_result
+    from ..movies.registry import MOVIES, MOVIES_2D
 
-    names = list(MOVIES) + list(MOVIES_2D) if not only else list(only)
+    names = movie_names(only)
     runs = runs or RunCache(draft=draft, verbose=verbose)
     key_of = {spec.movie: key for key, spec in RUNS.items() if spec.movie}
     written = {}

@@ -171,22 +171,26 @@ def library(rheology, kinematics) -> ctypes.CDLL:
     with _LOCK:
         if name in _LIBRARIES:
             return _LIBRARIES[name]
-        try:
-            found = kernel_cache.read(name, ".so")
-            if found is None:
-                note = kernel_cache.read(name, ".unsupported")
-                if note is not None:
-                    raise NativeUnavailable(note[1].decode(errors="replace").strip())
-                path = _compile(rheology, kinematics, index, cc, libdir, libs, name)
-            else:
-                path = found[0]
-        except kernel_cache.KernelCacheError as err:
-            raise NativeUnavailable(str(err)) from None
-        try:
-            lib = ctypes.CDLL(str(path))
-        except OSError as err:
-            path.unlink(missing_ok=True)  # rebuilt by the next run
-            raise NativeUnavailable(f"native library not loadable: {err}") from None
+        for attempt in range(2):
+            try:
+                found = kernel_cache.read(name, ".so")
+                if found is None:
+                    note = kernel_cache.read(name, ".unsupported")
+                    if note is not None:
+                        raise NativeUnavailable(note[1].decode(errors="replace").strip())
+                    path = _compile(rheology, kinematics, index, cc, libdir, libs, name)
+                else:
+                    path = found[0]
+            except kernel_cache.KernelCacheError as err:
+                raise NativeUnavailable(str(err)) from None
+            try:
+                lib = ctypes.CDLL(str(path))
+                break
+            except OSError as err:
+                if not path.exists() and attempt == 0:  # removed by a `cache clear` of another process
+                    continue
+                path.unlink(missing_ok=True)  # rebuilt by the next run
+                raise NativeUnavailable(f"native library not loadable: {err}") from None
         _declare(lib)
         _LIBRARIES[name] = lib
         return lib

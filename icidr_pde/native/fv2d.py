@@ -36,6 +36,10 @@ class Fv2dProblem(NativeProblem):
 
     kernel_repeats = 50
     linear_solver = "gmres"
+    #: the largest t_end / (fastest time scale) its GMRES without a preconditioner follows: beyond it
+    #: Newton's solves stop converging as the steps grow (iCIDR bump2d 24^2 with H = L scaled down
+    #: failed at t / tau = 8.5e9 for H = 0.1 and H = 0.03 alike, ran at H = 0.3; a margin of 85)
+    max_stiffness = 1e8
 
     def __init__(self, rheology, Nx: int, Nz: int, hx: float, hz: float, *, advection: str = "central",
                  V0: float = 1.0, bounds=None, eps_lin: float | None = None, krylov_dim: int = KRYLOV_DIM):

@@ -59,7 +59,7 @@ __all__ = ["law_kernels", "law_expressions", "material_functions", "compose", "g
 
 _MODULES: dict[str, object] = {}  # module name -> module
 _BY_DEFINITION: dict[tuple, object] = {}  # (classes the module is generated from) -> module
-_LOCK = threading.Lock()
+_LOCK = threading.RLock()  # re-entrant: generating a law's kernels may load its material's functions
 
 
 _digest = kernel_cache.digest

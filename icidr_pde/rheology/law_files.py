@@ -14,6 +14,7 @@ import pathlib
 from .cidr import check_law_name, define_cidr_law, define_direct_law, placeholder_table, pressure_symbol
 from .declarative import LAW_SYMBOLS, _KEYS, _constants, _kind, _read_toml, is_declarative_law, parse_expression
 from .material import Material
+from ..validation import input_file
 
 __all__ = ["is_file_law", "load_law_file", "load_declarative_law"]
 
@@ -47,8 +48,7 @@ def load_law_file(path) -> type:
         return load_declarative_law(path)
     path = pathlib.Path(path)
     where = f"Python law file {str(path)!r} (it was run)"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
+    input_file("rheology", path)
     namespace = _run_law_file(path, where)
     name = namespace.get("name", path.stem)
     label = namespace.get("label")
@@ -140,9 +140,7 @@ def _declared_law(path) -> type:
 
     path = pathlib.Path(path)
     where = f"law file {str(path)!r}"
-    if not path.is_file():
-        raise ValueError(f"`rheology` file {str(path)!r} does not exist")
-    data = _read_toml(path)
+    data, text = _read_toml(path)
     kind = _kind(data, where)
     material = data.get("material")
     if material is not None and not isinstance(material, dict):
@@ -162,7 +160,7 @@ def _declared_law(path) -> type:
         if value is not None and not isinstance(value, str):
             raise ValueError(f"{where}: `{key}` must be a string; got {value!r}")
     check_law_name(name)
-    key = f"declarative {name}\n{path.read_text()}"
+    key = f"declarative {name}\n{text}"
     if kind == "cidr":
         return define_cidr_law(name, exprs["yield_function"], exprs["dilatancy_function"], label=label,
                                material=material, key=key,

@@ -14,11 +14,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..validation import shown
 from .laws import DILATANCY_LAWS, FRICTION_LAWS, DilatancyLaw, FrictionLaw, LinearDilatancy, MuOfI
 
 __all__ = ["Material", "mu_of_I"]
 
 _DEFAULT_FRICTION, _DEFAULT_DILATANCY = MuOfI.name, LinearDilatancy.name
+
+
+def _registered(registry: dict, spec, default=None):
+    """The registry's entry for the name `spec`; `default` for anything that is not a name
+    (a list from a law file is unhashable: no lookup of it)."""
+    return registry.get(spec, default) if isinstance(spec, str) else default
 
 
 def _law(kind: str, spec, registry: dict, base: type, params: dict):
@@ -28,10 +35,10 @@ def _law(kind: str, spec, registry: dict, base: type, params: dict):
             raise ValueError(f"parameters {sorted(params)} cannot be combined with a ready "
                              f"{kind} law instance {spec!r}")
         return spec
-    cls = spec if isinstance(spec, type) and issubclass(spec, base) else registry.get(spec)
+    cls = spec if isinstance(spec, type) and issubclass(spec, base) else _registered(registry, spec)
     if cls is None:
         raise ValueError(f"`{kind}` must be one of {sorted(registry)} (or a {base.__name__}); "
-                         f"got {spec!r}")
+                         f"got {shown(spec)}")
     return cls(**params)
 
 
@@ -57,7 +64,7 @@ class Material:
         for kind, spec, registry, base in (("friction", friction, FRICTION_LAWS, FrictionLaw),
                                            ("dilatancy", dilatancy, DILATANCY_LAWS, DilatancyLaw)):
             names = (spec if isinstance(spec, base) else
-                     (spec if isinstance(spec, type) else registry.get(spec, base))).parameter_names()
+                     (spec if isinstance(spec, type) else _registered(registry, spec, base))).parameter_names()
             mine = {k: parameters.pop(k) for k in list(parameters) if k in names}
             laws[kind] = _law(kind, spec, registry, base, mine)
         if parameters:

@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 from ..outputs import write_json, writable_folder
-from .parallel import run_cases
+from .parallel import StudyInterrupted, run_cases
 
 __all__ = ["CaseCache", "add_cache_option", "check_cache_option", "code_version", "run_cached"]
 
@@ -121,14 +121,20 @@ def _indexed(function, item):
 
 
 def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: bool, postfix=None,
-               **options) -> list:
-    """``function(case)`` for every case (:func:`~.parallel.run_cases`), in the order of `cases`.
+               expect=None, **options) -> list:
+    """``function(case)`` for every case (:func:`~.parallel.run_cases`), in the order of `cases`;
+    interrupted, :class:`~.parallel.StudyInterrupted` with the results so far (None: not finished).
 
     With `cache` (a folder) the study `name`'s cases found there are not run, and every result is
     kept there (JSON values only) as it arrives, so an interrupted study resumes; a result taken
     from the cache is its JSON form (a tuple comes back as a list). `postfix(case, result)`
     labels the progress bar; `options` go to run_cases (``desc``, ``client``, ``init_here``).
+    `expect`, (what, predicate): the shape every computed result must have; a result of another
+    shape (a cluster's worker that does not run this package's function, see
+    :func:`~.distributed.check_task_result`) is a ValueError, one line, before it is used.
     """
+    from .distributed import check_task_result
+
     store = None if cache is None else CaseCache(cache, name)
     results = [None] * len(cases)
     todo = []
@@ -138,10 +144,24 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
             todo.append((i, case))
         else:
             results[i] = kept
-    label = None if postfix is None else (lambda item: postfix(cases[item[0]], item[1]))
-    for i, result in run_cases(functools.partial(_indexed, function), todo, jobs, progress, ordered=False,
-                               postfix=label, **options):
-        if store is not None:
-            store.put(cases[i], result)
-        results[i] = result
+    pending = {i for i, _ in todo}
+
+    def checked(item):
+        check_task_result(item, "an (index, result) pair of a case not yet done",
+                          lambda x: isinstance(x, tuple) and len(x) == 2 and type(x[0]) is int
+                          and x[0] in pending)
+        if expect is not None:
+            check_task_result(item[1], *expect)
+        return item
+
+    label = None if postfix is None else (lambda item: postfix(cases[checked(item)[0]], item[1]))
+    try:
+        for i, result in map(checked, run_cases(functools.partial(_indexed, function), todo, jobs, progress,
+                                                ordered=False, postfix=label, **options)):
+            pending.discard(i)
+            if store is not None:
+                store.put(cases[i], result)
+            results[i] = result
+    except KeyboardInterrupt as interrupt:  # what finished goes with it (None: not run)
+        raise StudyInterrupted(results) from interrupt
     return results

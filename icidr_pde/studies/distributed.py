@@ -5,7 +5,8 @@
   (a cluster started by ``dask scheduler``/``dask worker`` or by dask-jobqueue);
 * :func:`run_many` -- :func:`icidr_pde.api.run` for a list of cases, the
   :class:`~icidr_pde.result.Result`\\ s in the order asked; a task that raised is a
-  :class:`TaskError` naming its case, in its place.
+  :class:`TaskError` naming its case, in its place;
+* :func:`check_task_result` -- a task's result of another shape refused in one line.
 
 The options ``--workers N`` / ``--scheduler ADDRESS`` of the commands that run independent
 runs open their client through :func:`cluster` (:mod:`icidr_pde.cluster_cli`).
@@ -27,9 +28,9 @@ import traceback
 from dataclasses import dataclass
 
 from ..validation import integer
-from .parallel import map_cases, run_cases, single_thread_environment
+from .parallel import map_cases, max_processes, run_cases, single_thread_environment
 
-__all__ = ["TaskError", "cluster", "run_many"]
+__all__ = ["TaskError", "check_task_result", "cluster", "run_many"]
 
 #: seconds to wait for a scheduler to answer before giving up (bad input, exit 2 on the CLI)
 CONNECT_TIMEOUT = 3.0
@@ -71,7 +72,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
         raise ValueError(f"give `workers` (a cluster on this machine) or `scheduler` (an existing one), "
                          f"not both; got workers={workers!r}, scheduler={scheduler!r}")
     if scheduler is None:
-        workers = integer("workers", workers, 1)
+        workers = integer("workers", workers, 1, max_processes())
     distributed = _distributed()
     with contextlib.ExitStack() as stack:
         if scheduler is None:
@@ -89,12 +90,16 @@ def cluster(workers: int | None = None, scheduler: str | None = None, *, dashboa
 
 
 def _connect(distributed, address: str):
-    """A Client on the scheduler at `address` (or named by the scheduler file `address`). The
-    scheduler's port is probed first: a Client that fails to start can hang in its own clean-up
-    (distributed's LoopRunner.stop, seen under load), so it is made only once the port answers."""
+    """A Client on the scheduler at `address` (or named by the scheduler file `address`, which
+    must be trusted: :func:`_scheduler_address`). The scheduler is probed first, its port and then
+    its answer as a dask scheduler: a Client that fails to start can hang in its own clean-up
+    (distributed's LoopRunner.stop, seen under load), and one on a port that accepts but never
+    speaks waits without end in distributed's handshake, so it is made only once the scheduler
+    has answered."""
+    target = _scheduler_address(address)
     try:
-        target = _scheduler_address(address)
         _probe(target)
+        _ask_identity(target)
         return distributed.Client(address=target, timeout=CLIENT_TIMEOUT)
     except Exception as err:  # OSError, TimeoutError, ValueError of a malformed address, ...
         reason = (str(err).strip().splitlines() or [type(err).__name__])[0]
@@ -104,11 +109,31 @@ def _connect(distributed, address: str):
 
 
 def _scheduler_address(address: str) -> str:
-    """The address itself, or the one the scheduler file `address` holds."""
-    if os.path.isfile(address):
-        with open(address) as f:
-            return json.load(f)["address"]
-    return address
+    """The address itself, or the one the scheduler file `address` holds. The file names the
+    cluster this process will trust with its account (docs/security.md), so it is read only if
+    this user owns it and nobody else can write it: the kernel cache's check
+    (:func:`icidr_pde.kernel_cache.untrusted`), a ValueError naming the option otherwise."""
+    if not os.path.isfile(address):
+        return address
+    from ..kernel_cache import untrusted
+
+    try:
+        with open(address, "rb") as f:
+            reason = untrusted(os.fstat(f.fileno()))  # the file read, not the name: no race
+            text = None if reason else f.read(1 << 20)
+    except OSError as err:
+        raise ValueError(f"`scheduler` file {address!r} cannot be read: {err.strerror or err}") from None
+    if reason:
+        raise ValueError(f"`scheduler` file {address!r} is {reason}: it names the cluster this process "
+                         f"trusts with your account, so it is not used")
+    try:
+        target = json.loads(text)["address"]
+    except (ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"`scheduler` file {address!r} must be the JSON a dask scheduler writes "
+                         f"(--scheduler-file), with its address; {type(err).__name__}: {err}") from None
+    if not isinstance(target, str):
+        raise ValueError(f"`scheduler` file {address!r}: its address must be a string; got {target!r}")
+    return target
 
 
 def _probe(address: str) -> None:
@@ -119,6 +144,50 @@ def _probe(address: str) -> None:
     host, _, port = rest.rpartition(":")
     with socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT):
         pass
+
+
+def _ask_identity(address: str) -> None:
+    """Raise unless a dask scheduler at `address` completes distributed's handshake and says
+    who it is within CONNECT_TIMEOUT seconds (distributed's own connect waits for the handshake
+    without a time limit)."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(address, timeout=CONNECT_TIMEOUT)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    async def within_timeout():
+        try:
+            return await asyncio.wait_for(ask(), CONNECT_TIMEOUT)
+        except asyncio.TimeoutError:
+            raise TimeoutError(f"no answer as a dask scheduler within {CONNECT_TIMEOUT:g} s") from None
+
+    # its own event loop in its own thread: the caller may be running one (a notebook)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        reply = pool.submit(asyncio.run, within_timeout()).result()
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        kind = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
+        raise ValueError(f"it answered, but as {kind!r}, not as a dask scheduler")
+
+
+def check_task_result(value, what: str, predicate) -> None:
+    """A ValueError, one line, unless the result `value` of a task is `what` (``predicate(value)``).
+    A cluster's workers run what their own installation and start-up (``--preload``) make them
+    run, and a result comes back unpickled: one of another shape is refused before it is used, not
+    read as a t*. (That unpickling can itself run code in this process: docs/security.md.)"""
+    if not predicate(value):
+        shown = repr(value)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        raise ValueError(f"a task returned {shown} (of type {type(value).__name__}), not {what}: the cluster's "
+                         f"workers do not run this package's functions (`scheduler` names a cluster this "
+                         f"process trusts with your account)")
 
 
 def _run_one(case: dict):

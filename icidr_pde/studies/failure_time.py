@@ -19,8 +19,9 @@ import warnings
 import numpy as np
 
 from ..api import run
+from ..discretizations.grid_size import CHEB, FD
 from ..times import check_t_end
-from .parallel import run_cases
+from .parallel import StudyInterrupted, run_cases
 
 __all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR", "BDF_RTOL",
            "BDF_ATOL"]
@@ -29,12 +30,20 @@ __all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold",
 PAPER_TSTAR = {"N": 201, "t_star": 0.01052}
 #: tolerances of scipy's BDF on which the committed t* of fig 4(b) are pinned (the paper's ode15s)
 BDF_RTOL, BDF_ATOL = 1e-6, 1e-9
+#: largest N of a sweep: that of the 1-D scheme allowing most (each case is then checked
+#: against its own scheme's maximum and memory)
+MAX_SWEEP_N = max(FD.max_N, CHEB.max_N)
+#: most cases one ``N`` text may name (fig 4(b) has 91 a discretization): a sweep of more
+#: would run for months, and its list alone could exhaust the memory
+MAX_CASES = 10_000
 
 
 def parse_range(text: str) -> list[int]:
     """'21:201:2' -> [21, 23, ..., 201] (start:stop:step, stop included); '47' -> [47];
-    '21,47,201' -> [21, 47, 201]."""
-    values: list[int] = []
+    '21,47,201' -> [21, 47, 201]. Every N lies in [4, :data:`MAX_SWEEP_N`] and the parts hold
+    at most :data:`MAX_CASES` values, both checked on the numbers of the text before any list is
+    made (a range's length is counted, not expanded)."""
+    parts: list[range] = []
     try:
         for part in str(text).split(","):
             part = part.strip()
@@ -47,15 +56,19 @@ def parse_range(text: str) -> list[int]:
                 start, stop, step = fields
                 if step < 1 or stop < start:
                     raise ValueError
-                values.extend(range(start, stop + 1, step))
+                parts.append(range(start, stop + 1, step))
             else:
-                values.append(int(part))
+                value = int(part)
+                parts.append(range(value, value + 1))
     except ValueError:
         raise ValueError(f"`N` must look like start:stop:step (stop included), a number or "
                          f"a comma-separated list; got {text!r}") from None
-    if not values or min(values) < 4:
-        raise ValueError(f"every N must be >= 4; got {text!r}")
-    return sorted(set(values))
+    if not parts or min(r[0] for r in parts) < 4 or max(r[-1] for r in parts) > MAX_SWEEP_N:
+        raise ValueError(f"every `N` must be in [4, {MAX_SWEEP_N}]; got {text!r}")
+    count = sum(len(r) for r in parts)  # len of a range is arithmetic: nothing is expanded yet
+    if count > MAX_CASES:
+        raise ValueError(f"`N` must name at most {MAX_CASES} cases; got {count} in {text!r}")
+    return sorted({n for r in parts for n in r})
 
 
 def failure_time(
@@ -98,6 +111,8 @@ def failure_time(
         result = run(rheology, scene, N, t_end, snap or [0.0], discretization=discretization, method=method,
                      rtol=rtol, atol=atol, jacobian=jacobian, backend="numba" if engine == "native" else backend,
                      max_wall=max_wall, series_times=(), engine=engine, **scene_params)
+    if result.interrupted:  # not a run that reached t_end: the case did not finish
+        raise KeyboardInterrupt
     out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
            "rtol": result.rtol, "atol": result.atol, "engine": result.settings.get("engine"),
            **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
@@ -117,6 +132,12 @@ def _run_case(kwargs: dict) -> dict:
     return failure_time(**kwargs)
 
 
+#: what :func:`failure_time` returns, as far as :func:`sweep` and ``tstar`` read it
+_RESULT_SHAPE = ("a failure_time dict (N an int, t_star a number or None)",
+                 lambda r: isinstance(r, dict) and isinstance(r.get("N"), int)
+                 and (r.get("t_star") is None or isinstance(r.get("t_star"), (int, float))))
+
+
 def sweep(
     Ns,
     discretizations=("cheb",),
@@ -133,7 +154,8 @@ def sweep(
     in this process), or as tasks of the dask `client` (:mod:`.distributed`), with a
     tqdm progress bar. `kwargs` go to :func:`failure_time`. With `cache` (a folder,
     :class:`~.case_cache.CaseCache`) every finished case is kept there as it arrives and a
-    case already there is not run again: an interrupted sweep resumes.
+    case already there is not run again: an interrupted sweep resumes. Interrupted (Ctrl-C),
+    :class:`~.parallel.StudyInterrupted` holds the mapping of the cases that finished.
     """
     from .case_cache import run_cached
 
@@ -145,11 +167,19 @@ def sweep(
         t = "none" if res["t_star"] is None else f"{res['t_star']:.5g}"
         return f"{case['discretization']} N={res['N']} t*={t}"
 
-    out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
-    for case, res in zip(cases, run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
-                                           postfix=label, desc="t*(N)", client=client)):
-        out[case["discretization"]][case["N"]] = res
-    return {d: dict(sorted(v.items())) for d, v in out.items()}
+    def by_scheme(results):
+        out: dict[str, dict[int, dict]] = {d: {} for d in discretizations}
+        for case, res in zip(cases, results):
+            if res is not None:
+                out[case["discretization"]][case["N"]] = res
+        return {d: dict(sorted(v.items())) for d, v in out.items()}
+
+    try:
+        return by_scheme(run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
+                                    postfix=label, desc="t*(N)", client=client,
+                                    expect=_RESULT_SHAPE))
+    except StudyInterrupted as interrupt:
+        raise StudyInterrupted(by_scheme(interrupt.done)) from interrupt
 
 
 def tstar_mapping(results: dict[int, dict]) -> dict[str, float | None]:

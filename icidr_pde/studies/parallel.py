@@ -12,13 +12,23 @@ import ctypes
 import multiprocessing
 import os
 import re
+import signal
 import sys
 import warnings
 
 from ..validation import integer
 
-__all__ = ["blas_threads", "limit_blas_threads", "map_cases", "run_cases", "single_thread_environment", "worker_init",
-           "worker_state"]
+__all__ = ["StudyInterrupted", "blas_threads", "limit_blas_threads", "map_cases", "max_processes", "run_cases",
+           "single_thread_environment", "worker_init", "worker_state"]
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """A study stopped by Ctrl-C (or SIGTERM) with what had finished: `done`, in the form of the
+    function that raises it (a list with None for the cases not run, a sweep's partial mapping)."""
+
+    def __init__(self, done):
+        super().__init__("interrupted")
+        self.done = done
 
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -67,6 +77,22 @@ def limit_blas_threads(n: int = 1) -> list[str]:
     return done
 
 
+#: worker processes a pool or LocalCluster of this machine may start, per core it may use: more
+#: only share the cores (each worker is one thread) and each holds its own Python and numpy
+PROCESSES_PER_CORE = 4
+
+
+def max_processes() -> int:
+    """The most worker processes of this machine (``jobs``, ``workers``): :data:`PROCESSES_PER_CORE`
+    per core this process may use. A bound checked before any process is started: a count in the
+    thousands would start them all (until the process limit refuses, with a traceback)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return PROCESSES_PER_CORE * max(1, cores)
+
+
 def single_thread_environment() -> None:
     """One BLAS thread in the worker processes spawned from now on (read before numpy loads)."""
     for var in _BLAS_ENV:
@@ -77,6 +103,14 @@ def worker_init() -> None:
     """The state of a worker process, for good: one BLAS thread, warnings off."""
     limit_blas_threads(1)
     warnings.simplefilter("ignore")
+
+
+def _pool_worker_init() -> None:
+    """A worker of :func:`run_cases`'s pool: :func:`worker_init`, and Ctrl-C left to the parent
+    (a terminal sends it to every process of the group: each worker printed a traceback), which
+    stops the pool."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    worker_init()
 
 
 @contextlib.contextmanager
@@ -161,7 +195,7 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
     if client is not None:
         yield from map_cases(function, cases, client, progress, ordered=ordered, desc=desc, postfix=postfix)
         return
-    jobs = integer("jobs", jobs, 1)
+    jobs = integer("jobs", jobs, 1, max_processes())
     from tqdm.auto import tqdm
 
     with tqdm(total=len(cases), desc=desc, disable=not progress, file=sys.stderr) as bar:
@@ -170,15 +204,20 @@ def run_cases(function, cases: list, jobs: int, progress: bool, *, ordered: bool
             pool = None
         else:
             single_thread_environment()
-            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=worker_init)
+            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_pool_worker_init)
             results = (pool.imap if ordered else pool.imap_unordered)(function, cases)
+        finished = False
         try:
             for result in results:
                 if postfix is not None:
                     bar.set_postfix_str(postfix(result))
                 bar.update()
                 yield result
+            finished = True
         finally:
             if pool is not None:
-                pool.close()
+                if finished:
+                    pool.close()
+                else:  # interrupted, an error, or the caller stopped: the queued cases are not run
+                    pool.terminate()
                 pool.join()
