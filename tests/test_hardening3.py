@@ -222,12 +222,12 @@ def test_a_scheduler_file_of_another_user_is_refused(loopback_scheduler, tmp_pat
 def test_a_task_result_of_the_wrong_shape_is_one_line(loopback_scheduler, tmp_path, capsys, monkeypatch):
     """A worker whose start-up replaced the task (``dask worker --preload``) returns what it likes:
     here an int where the sweep expects (index, failure_time dict)."""
-    from icidr_pde.studies import distributed
+    from icidr_pde.studies import parallel  # map_cases's task
 
-    monkeypatch.setattr(distributed, "_task", lambda function, case: 0)
+    monkeypatch.setattr(parallel, "_task", lambda function, case: 0)
     line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
     assert "a task returned 0 (of type int)" in line
-    monkeypatch.setattr(distributed, "_task", lambda function, case: (0, {"N": "21", "t_star": []}))
+    monkeypatch.setattr(parallel, "_task", lambda function, case: (0, {"N": "21", "t_star": []}))
     line = _bad_input(capsys, [*_TSTAR, "--scheduler", loopback_scheduler], "--scheduler")
     assert "not a failure_time dict" in line
 
