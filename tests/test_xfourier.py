@@ -8,6 +8,8 @@ in every column); and the preconditioned run integrates the same ODE as the unpr
 (solver A against solver B), the mu(I) failure time included.
 """
 
+import os
+
 import numpy as np
 import pytest
 from scipy import sparse
@@ -133,3 +135,18 @@ def test_choice_and_refusals():
     pde, state = _state("icidr", 8, 6, x_dependent=False)
     with pytest.raises(ParameterError, match="`J` must be"):
         XFourierPreconditioner(_jacobian(pde, state), (3, 8, 5), 0.1)
+
+
+def test_band_solve_threads_wait_passively():
+    """The x-Fourier module sets OpenMP's wait policy to passive before numba starts its threads
+    (spinning threads took a loaded machine's cores: docs/scaling.md), and keeps a user's own."""
+    import subprocess
+    import sys
+
+    child = ("import os\nfrom icidr_pde.engines import xfourier\nprint(os.environ['OMP_WAIT_POLICY'])")
+    for given, expected in ((None, "PASSIVE"), ("ACTIVE", "ACTIVE")):
+        env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+        if given:
+            env["OMP_WAIT_POLICY"] = given
+        out = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, env=env, check=True)
+        assert out.stdout.strip() == expected

@@ -179,13 +179,14 @@ class ShearCell2DPDE(ShearCellBase):
         expression in x and z (e.g. ``"z / 30 + 0.01 * sin(2 * pi * x / 30)"``). A callable of
         one argument gets the nodes (Nx, Nz, 2), as before."""
         from pde import ScalarField
-        from pde.tools.expressions import ScalarExpression
 
         self.check_grid(grid)
         x, z = np.moveaxis(self.nodes(grid), -1, 0)
         fields = []
         for label, f in zip(("phi", "u", "w"), (phi, u, w)):
-            if isinstance(f, str):
+            if isinstance(f, str):  # py-pde's expressions import sympy: only where one is given
+                from pde.tools.expressions import ScalarExpression
+
                 f = ScalarExpression(f, signature=["x", "z"])
             data = (f(x, z) if _takes_two(f) else f(self.nodes(grid))) if callable(f) else np.asarray(f, float)
             fields.append(ScalarField(grid, np.array(np.broadcast_to(data, grid.shape), dtype=float), label=label))

@@ -25,8 +25,16 @@ spread; 21 and 30 at t = 0.1, 40 and 71 at t = 0 where the bump is sharpest), ag
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit, prange
+import os
+
+# the band solves' OpenMP threads (numba's 'omp' layer) wait passively between parallel regions:
+# spinning ones take the cores from everything else on a shared machine, and from each other when
+# the machine is loaded (docs/scaling.md, "Threads that wait"). Read when numba starts its threads;
+# a setting of the user's is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numpy as np  # noqa: E402  (after the setting above)
+from numba import njit, prange  # noqa: E402
 from scipy import sparse
 from scipy.linalg import lapack
 
