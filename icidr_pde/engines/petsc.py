@@ -46,7 +46,11 @@ __all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solv
 #: 16.2 s GAMG (its setup at each Newton matrix and its Chebyshev smoothing cost more than the
 #: ILU's extra iterations at this size); -pc_type gamg selects it
 DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "basic", "ksp_type": "gmres",
-            "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8}
+            "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8, "snes_mf_operator": True}
+#: snes_mf_operator: GMRES solves with the Jacobian of the current state (its product by difference
+#: quotients), the kept assembled Jacobian (JAC_MAX_AGE) only preconditions, as CVODE's GMRES does.
+#: With the kept Jacobian as the operator, the waves below Newton's tolerance followed its stale
+#: linearization instead of BDF2, and the grid-scale x-waves grew (docs/distributed.md)
 #: PETSc's error code of an argument out of range (a grid too small for the DMDA's split)
 PETSC_ERR_ARG_OUTOFRANGE = 63
 #: the preconditioners whose blocks the ``sub_*`` defaults set up
@@ -236,7 +240,9 @@ class PetscEngine(Engine):
                 else:
                     Jt = sparse.coo_matrix(problem.jacobian.jac(t, self._gathered(x)))
                     self._values = self._pattern_values(self.order[Jt.row], self.order[Jt.col], Jt.data)
-            J.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            P.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            if J.handle != P.handle:  # -snes_mf_operator: J is the matrix-free product of the current state
+                J.assemble()
 
         ts.setRHSFunction(rhs, F)
         ts.setRHSJacobian(jacobian, self.J, self.J)
