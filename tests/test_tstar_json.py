@@ -114,3 +114,18 @@ def test_load_of_another_schema_is_refused_in_one_line(tmp_path, capsys):
     assert cli.main(["tstar", "--load", f"x={saved}", "--plot", str(tmp_path / "p.png")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--load" in err[0] and TSTAR_SCHEMA in err[0] and "icidr-pde tstar 3" in err[0]
+
+
+def test_the_documented_example_has_the_written_form(one):
+    """docs/cli.md's example is the document of its command, up to the numbers of the run."""
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    section = doc.split("## What `tstar --json` writes", 1)[1]
+    example = json.loads(re.search(r"```json\n(.*?)```", section, re.S).group(1))
+    written = json.loads(one.read_text())
+    t_doc, t_run = (d["discretizations"]["fd"].pop("t_star") for d in (example, written))
+    assert example == written  # the command it names is the fixture's
+    assert t_doc.keys() == t_run.keys() and t_doc["21"] is None is t_run["21"]
+    assert t_doc["101"] == pytest.approx(t_run["101"], rel=1e-3)  # t* moves with the round-off of the solves
