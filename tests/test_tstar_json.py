@@ -129,3 +129,20 @@ def test_the_documented_example_has_the_written_form(one):
     assert example == written  # the command it names is the fixture's
     assert t_doc.keys() == t_run.keys() and t_doc["21"] is None is t_run["21"]
     assert t_doc["101"] == pytest.approx(t_run["101"], rel=1e-3)  # t* moves with the round-off of the solves
+
+
+def test_the_gallery_reads_a_sweep_in_either_form(one, tmp_path, monkeypatch):
+    """fig 4(b) of the gallery reads data/tstar/: the committed flat files and this document."""
+    import numpy as np
+
+    from icidr_pde.figures import paper
+
+    (tmp_path / "tstar").mkdir()
+    (tmp_path / "tstar" / "new.json").write_text(one.read_text())
+    flat = json.loads(one.read_text())["discretizations"]["fd"]["t_star"]
+    (tmp_path / "tstar" / "old.json").write_text(json.dumps(flat))
+    monkeypatch.setattr(paper, "DATA", tmp_path)
+    (N_new, t_new), (N_old, t_old) = paper._load_tstar("new.json"), paper._load_tstar("old.json")
+    assert list(N_new) == list(N_old) == [21, 101]
+    np.testing.assert_array_equal(t_new, t_old)
+    assert np.isnan(t_new[0]) and t_new[1] == flat["101"]
