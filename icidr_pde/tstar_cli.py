@@ -3,13 +3,14 @@
     icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
         --t-end 20 --json cheb.json --plot fig4b.png
 
-The JSON maps N (as a string) to t* (null where
-the run reached t-end without failing). ``--engine native`` runs each case on the native engine
-(CVODE, tolerances of the standard preset unless given: Chebyshev rtol 1e-7, atol 1e-10)
+The JSON (:func:`~.studies.failure_time.tstar_report`, docs/cli.md) holds, for each
+discretization, the settings the runs used, t* by N (as a string; null where the run reached
+t-end without failing) and the reason each N failed. ``--engine native`` runs each case on the
+native engine (CVODE, tolerances of the standard preset unless given: Chebyshev rtol 1e-7, atol 1e-10)
 instead of scipy's BDF at rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the
 paper's t* are pinned on). Several discretizations at once
-(``--discretization fd cheb``) give one such mapping per discretization, keyed by its
-name; ``--load label=file.json`` adds saved sweeps to the plot. Interrupted (Ctrl-C, SIGTERM), the
+(``--discretization fd cheb``) are entries of the same document; ``--load label=file.json`` adds
+saved sweeps to the plot. Interrupted (Ctrl-C, SIGTERM), the
 workers are stopped and the cases that finished are written (exit 130, 143).
 """
 
@@ -31,7 +32,8 @@ from .scenes import SCENES
 from .studies.case_cache import add_cache_option, check_cache_option
 from .cluster_cli import add_cluster_options, client_of
 from .studies.parallel import StudyInterrupted
-from .studies.failure_time import BDF_ATOL, BDF_RTOL, parse_range, sweep, threshold, tstar_mapping
+from .studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
+                                   tstar_mapping, tstar_report)
 from .times import check_t_end
 from .validation import integer, real
 
@@ -47,28 +49,34 @@ def _load_spec(text: str) -> tuple[str, str]:
     return label, path
 
 
-def _load_curve(text: str) -> tuple[str, dict]:
-    """(label, {N: t*}) of one ``--load LABEL=FILE``; a file that is missing, unreadable or not
-    such a JSON object is bad input (ValueError naming the option and the file)."""
+def _load_curves(text: str) -> dict[str, dict]:
+    """{label: {N: t*}} of one ``--load LABEL=FILE``: one curve, labelled LABEL, per
+    discretization of the file (LABEL plus the discretization's name where there are several).
+    A file that is missing, unreadable or not a ``tstar --json`` document (this version's or an
+    earlier flat or per-discretization one) is bad input (ValueError naming the option and the file)."""
     label, path = _load_spec(text)
     try:
         with open(path) as fh:
-            curve = json.load(fh)
+            document = json.load(fh)
     except (OSError, ValueError) as err:
         reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
         raise ValueError(f"`--load` {text!r}: cannot read {path!r} as JSON ({reason})") from None
-    if not isinstance(curve, dict):
-        raise ValueError(f"`--load` {text!r}: {path!r} must hold a JSON object {{N: t*}}; got a "
-                         f"{type(curve).__name__}")
-    for n, t_star in curve.items():  # checked here, not found out by the plot after the sweep
-        try:
-            integer("N", int(n) if n.strip().lstrip("+-").isdigit() else n, 1)
-            if t_star is not None:
-                real("t*", t_star, 0, low_open=False)
-        except ValueError:
-            raise ValueError(f"`--load` {text!r}: {path!r} must map each N (an integer >= 1) to t* (a finite "
-                             f"number >= 0, or null: no failure); got {n!r}: {json.dumps(t_star)}") from None
-    return label, curve
+    try:
+        found = read_tstar_curves(document)
+    except ValueError as err:
+        raise ValueError(f"`--load` {text!r}: {path!r} must be a `tstar --json` file: {err}") from None
+    curves = {}
+    for disc, curve in found.items():
+        for n, t_star in curve.items():  # checked here, not found out by the plot after the sweep
+            try:
+                integer("N", int(n) if n.strip().lstrip("+-").isdigit() else n, 1)
+                if t_star is not None:
+                    real("t*", t_star, 0, low_open=False)
+            except ValueError:
+                raise ValueError(f"`--load` {text!r}: {path!r} must map each N (an integer >= 1) to t* (a finite "
+                                 f"number >= 0, or null: no failure); got {n!r}: {json.dumps(t_star)}") from None
+        curves[label if len(found) == 1 else f"{label} {disc}"] = curve
+    return curves
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -100,10 +108,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="right-hand side backend (numpy: no compile time, default)")
     add_cluster_options(p, "the cases", jobs=2)
     add_cache_option(p, "case")
-    p.add_argument("--json", default=None, help="write {N: t*} here")
+    p.add_argument("--json", default=None,
+                   help="write t*(N), the reason of each failure and the settings of the runs here")
     p.add_argument("--plot", default=None, help="write the t*(N) plot (fig 4b) here")
     p.add_argument("--load", action="append", default=[], metavar="LABEL=FILE",
-                   help="add a saved {N: t*} JSON to the plot (repeatable); "
+                   help="add a saved `tstar --json` file to the plot (repeatable); "
                         "without --N nothing is run")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_tstar)
@@ -116,8 +125,7 @@ def cmd_tstar(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
-        label, curve = _load_curve(spec)
-        curves[label] = curve
+        curves.update(_load_curves(spec))
     interrupted = None
     if args.N is None and args.load:
         results = {}
@@ -165,8 +173,7 @@ def cmd_tstar(args) -> int:
         for n, t in sorted((int(n), t) for n, t in mapping.items()):
             print(f"  N={n:4d}  " + ("no failure by --t-end" if t is None else f"t*={t:.6g}"))  # JSON: null
     if args.json and mappings:
-        payload = next(iter(mappings.values())) if len(mappings) == 1 else mappings
-        write_json(payload, args.json)
+        write_json(tstar_report(results), args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
         from .figures.tstar_plot import plot_tstar

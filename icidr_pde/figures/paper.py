@@ -96,7 +96,9 @@ def fig3(runs):
 
 def _load_tstar(name):
     path = DATA / "tstar" / name
-    data = json.loads(path.read_text())
+    from ..studies.failure_time import read_tstar_curves
+
+    (data,) = read_tstar_curves(json.loads(path.read_text())).values()  # one discretization, in either form
     N = np.array(sorted(int(k) for k in data))
     t = np.array([np.nan if data[str(n)] is None else data[str(n)] for n in N], dtype=float)
     return N, t

@@ -63,7 +63,7 @@ def _run_row(case: dict) -> dict:
     return {**{k: case.get(k, defaults.get(k)) for k in ("discretization", "N", "method", "rtol",
                                                           "atol")},
             "jacobian": case.get("jacobian") or "default", "backend": case.get("backend", "numpy"),
-            **{k: v for k, v in res.items() if k != "N"}}
+            **{k: v for k, v in res.items() if k not in ("N", "jacobian")}}  # the case's jacobian label
 
 
 def _run_cases(cases: list[dict], jobs: int, progress: bool, client) -> list[dict]:

@@ -14,6 +14,7 @@ ill-posed and has no failure time. See docs/chebyshev.md for the measurements.
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -23,13 +24,19 @@ from ..discretizations.grid_size import CHEB, FD
 from ..times import check_t_end
 from .parallel import StudyInterrupted, run_cases
 
-__all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "threshold", "PAPER_TSTAR", "BDF_RTOL",
+__all__ = ["failure_time", "sweep", "parse_range", "tstar_mapping", "tstar_report", "read_tstar_curves",
+           "threshold", "SETTINGS", "TSTAR_SCHEMA", "PAPER_TSTAR", "BDF_RTOL",
            "BDF_ATOL"]
 
 #: the paper's failure time of mu(I),Phi(I), IC (3.16), Chebyshev N_z = 201 (fig 4)
 PAPER_TSTAR = {"N": 201, "t_star": 0.01052}
 #: tolerances of scipy's BDF on which the committed t* of fig 4(b) are pinned (the paper's ode15s)
 BDF_RTOL, BDF_ATOL = 1e-6, 1e-9
+#: what a t* depends on besides N, as each run records it (a t* is quoted with them, docs/chebyshev.md)
+SETTINGS = ("rheology", "scene", "engine", "method", "linear_solver", "jacobian", "rtol", "atol", "t_end", "material",
+            "scene_params")
+#: the name and version of the ``tstar --json`` form :func:`tstar_report` writes
+TSTAR_SCHEMA = "icidr-pde tstar 2"
 #: largest N of a sweep: that of the 1-D scheme allowing most (each case is then checked
 #: against its own scheme's maximum and memory)
 MAX_SWEEP_N = max(FD.max_N, CHEB.max_N)
@@ -99,7 +106,8 @@ def failure_time(
     numba backend's kernels in C); `rtol`, `atol` None: the accuracy preset's for the scheme.
 
     Returns a dict with N, t_star, reason, wall_s (solve, without set-up), n_steps, n_rhs,
-    n_jac, n_lu (and, with `return_state`, t_final, z and the final state (3, N) or the
+    n_jac, n_lu, the settings the run used as its :class:`~icidr_pde.result.Result` holds them
+    (:data:`SETTINGS`, and discretization) (and, with `return_state`, t_final, z and the final state (3, N) or the
     state at t*; with `times`, snapshot_times and snapshots (n, 3, N) at those reached).
     """
     t_end = check_t_end(t_end)
@@ -114,7 +122,9 @@ def failure_time(
     if result.interrupted:  # not a run that reached t_end: the case did not finish
         raise KeyboardInterrupt
     out = {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
-           "rtol": result.rtol, "atol": result.atol, "engine": result.settings.get("engine"),
+           **{k: getattr(result, k) for k in ("rheology", "scene", "discretization", "t_end", "method", "rtol",
+                                              "atol", "jacobian", "material", "scene_params")},
+           "engine": result.settings.get("engine"), "linear_solver": result.settings.get("linear_solver"),
            **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
     if return_state:
         out.update(t_final=result.t_final, z=result.z, state=np.array(result.final))
@@ -185,6 +195,57 @@ def sweep(
 def tstar_mapping(results: dict[int, dict]) -> dict[str, float | None]:
     """{'N': t*} with N as strings (the JSON form)."""
     return {str(n): r["t_star"] for n, r in sorted(results.items())}
+
+
+def tstar_report(results: dict[str, dict[int, dict]]) -> dict:
+    """The ``tstar --json`` document of a :func:`sweep`'s results, one form for any number of
+    discretizations::
+
+        {"schema": TSTAR_SCHEMA,
+         "discretizations": {"fd": {"settings": {"rheology": ..., "rtol": ..., ...},
+                                    "settings_by_N": {},
+                                    "t_star": {"21": null, ...},
+                                    "reason": {"21": null, ...}}}}
+
+    `settings` holds each of :data:`SETTINGS` on which the runs of a discretization agree, read
+    from the runs themselves; a setting on which they differ (a linear solver chosen per N, say)
+    is in `settings_by_N` instead, as {setting: {N: value}}. `reason` is why the run of each N
+    failed, null where it reached t_end.
+    """
+    out = {}
+    for disc, runs in results.items():
+        runs = dict(sorted(runs.items()))
+        settings, by_n = {}, {}
+        for key in SETTINGS:
+            values = {str(n): r.get(key) for n, r in runs.items()}
+            if len({json.dumps(v, sort_keys=True) for v in values.values()}) <= 1:
+                settings[key] = next(iter(values.values()), None)
+            else:
+                by_n[key] = values
+        out[disc] = {"settings": settings, "settings_by_N": by_n, "t_star": tstar_mapping(runs),
+                     "reason": {str(n): None if r["t_star"] is None else r.get("reason") for n, r in runs.items()}}
+    return {"schema": TSTAR_SCHEMA, "discretizations": out}
+
+
+def read_tstar_curves(document) -> dict[str, dict]:
+    """{discretization: {'N': t*}} of a ``tstar --json`` document: the form of :func:`tstar_report`,
+    or the earlier ones (a flat {'N': t*}, under the key '' here, or one such mapping per
+    discretization). Anything else is a ValueError."""
+    if isinstance(document, dict) and "schema" in document:
+        if document["schema"] != TSTAR_SCHEMA or not isinstance(document.get("discretizations"), dict):
+            raise ValueError(f"schema must be {TSTAR_SCHEMA!r} with a 'discretizations' object; got "
+                             f"{document['schema']!r}")
+        curves = {}
+        for disc, entry in document["discretizations"].items():
+            if not isinstance(entry, dict) or not isinstance(entry.get("t_star"), dict):
+                raise ValueError(f"discretization {disc!r} must hold a 't_star' object {{N: t*}}")
+            curves[disc] = entry["t_star"]
+        return curves
+    if isinstance(document, dict) and document and all(isinstance(v, dict) for v in document.values()):
+        return dict(document)
+    if isinstance(document, dict):
+        return {"": document}
+    raise ValueError(f"must hold a JSON object; got a {type(document).__name__}")
 
 
 def threshold(mapping: dict) -> int | None:

@@ -1,0 +1,148 @@
+"""The ``tstar --json`` document (icidr_pde.studies.failure_time.tstar_report): one form for any
+number of discretizations, each with the settings its runs used beside t*(N) and the reason each
+N failed; ``tstar --load`` reads it back (and the earlier flat and per-discretization forms).
+
+Truth: the same cases run by :func:`icidr_pde.api.run` (its Result's fields), not values typed
+here. mu(I) shear on finite volumes: N = 21 reaches t = 0.2, N = 101 fails near 0.06 (fig 4b).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+
+from icidr_pde import cli
+from icidr_pde.api import run
+from icidr_pde.studies.failure_time import SETTINGS, TSTAR_SCHEMA, read_tstar_curves, tstar_report
+
+ARGV = ["tstar", "--rheology", "mui", "--scene", "shear", "--jobs", "1", "--no-progress"]
+
+
+def _result(disc, N, t_end):
+    """The run a sweep of the CLI's defaults makes, by the API itself."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return run("mui", "shear", N, t_end, [0.0], discretization=disc, method="BDF", rtol=1e-6, atol=1e-9,
+                   engine="pde", series_times=())
+
+
+def _settings_of(result):
+    fields = result.to_dict()
+    return {key: fields["settings"][key] if key in ("engine", "linear_solver") else fields[key]
+            for key in SETTINGS}
+
+
+@pytest.fixture(scope="module")
+def one(tmp_path_factory):
+    out = tmp_path_factory.mktemp("one") / "fd.json"
+    assert cli.main(ARGV + ["--discretization", "fd", "--N", "21,101", "--t-end", "0.2", "--json", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def two(tmp_path_factory):
+    out = tmp_path_factory.mktemp("two") / "both.json"
+    assert cli.main(ARGV + ["--discretization", "fd", "cheb", "--N", "21,23", "--t-end", "0.001",
+                            "--json", str(out)]) == 0
+    return out
+
+
+def test_one_discretization_records_settings_tstar_and_reasons(one):
+    doc = json.loads(one.read_text())
+    assert doc["schema"] == TSTAR_SCHEMA and list(doc["discretizations"]) == ["fd"]
+    entry = doc["discretizations"]["fd"]
+    assert set(entry) == {"settings", "settings_by_N", "t_star", "reason"}
+    decays, fails = _result("fd", 21, 0.2), _result("fd", 101, 0.2)
+    assert not decays.blew_up and fails.blew_up  # the cases are what the test says they are
+    assert entry["t_star"] == {"21": None, "101": fails.t_star}
+    assert entry["reason"] == {"21": None, "101": fails.reason}
+    assert entry["settings"] == _settings_of(decays) == _settings_of(fails)
+    assert entry["settings_by_N"] == {}
+
+
+def test_two_discretizations_have_the_same_form_each_with_its_own_settings(two):
+    doc = json.loads(two.read_text())
+    assert doc["schema"] == TSTAR_SCHEMA and list(doc["discretizations"]) == ["fd", "cheb"]
+    for disc, entry in doc["discretizations"].items():
+        results = {N: _result(disc, N, 0.001) for N in (21, 23)}
+        assert entry["t_star"] == {str(N): r.t_star for N, r in results.items()} == {"21": None, "23": None}
+        assert entry["reason"] == {"21": None, "23": None}
+        assert entry["settings"] == _settings_of(results[21]) == _settings_of(results[23])
+    fd, cheb = (doc["discretizations"][d]["settings"] for d in ("fd", "cheb"))
+    assert fd["linear_solver"] != cheb["linear_solver"]  # recorded per discretization, not shared
+
+
+def test_a_setting_that_differs_between_N_is_given_per_N():
+    runs = {21: dict(N=21, t_star=None, reason="reached t_end", linear_solver="dense LU", rtol=1e-7),
+            201: dict(N=201, t_star=0.0105, reason="integrator failed", linear_solver="GMRES", rtol=1e-7)}
+    entry = tstar_report({"cheb": runs})["discretizations"]["cheb"]
+    assert entry["settings"]["rtol"] == 1e-7 and "linear_solver" not in entry["settings"]
+    assert entry["settings_by_N"] == {"linear_solver": {"21": "dense LU", "201": "GMRES"}}
+    assert entry["reason"] == {"21": None, "201": "integrator failed"}
+
+
+def test_load_reads_the_document_back(one, two, tmp_path, monkeypatch):
+    from icidr_pde.figures import tstar_plot
+
+    plotted = {}
+    monkeypatch.setattr(tstar_plot, "plot_tstar", lambda curves, path, **kw: plotted.update(curves))
+    assert cli.main(["tstar", "--load", f"a={one}", "--load", f"b={two}", "--plot", str(tmp_path / "p.png")]) == 0
+    docs = {"a": json.loads(one.read_text()), "b": json.loads(two.read_text())}
+    assert plotted == {"a": docs["a"]["discretizations"]["fd"]["t_star"],
+                       "b fd": docs["b"]["discretizations"]["fd"]["t_star"],
+                       "b cheb": docs["b"]["discretizations"]["cheb"]["t_star"]}
+
+
+@pytest.mark.parametrize("document, curves", [
+    ({"21": None, "101": 0.06}, {"": {"21": None, "101": 0.06}}),
+    ({"fd": {"21": None}, "cheb": {"21": 0.5}}, {"fd": {"21": None}, "cheb": {"21": 0.5}}),
+], ids=["flat", "per-discretization"])
+def test_load_reads_the_earlier_forms(document, curves, tmp_path, capsys):
+    assert read_tstar_curves(document) == curves
+    saved = tmp_path / "old.json"
+    saved.write_text(json.dumps(document))
+    plot = tmp_path / "p.png"
+    assert cli.main(["tstar", "--load", f"x={saved}", "--plot", str(plot)]) == 0
+    assert plot.stat().st_size > 0
+
+
+def test_load_of_another_schema_is_refused_in_one_line(tmp_path, capsys):
+    saved = tmp_path / "future.json"
+    saved.write_text(json.dumps({"schema": "icidr-pde tstar 3", "discretizations": {}}))
+    assert cli.main(["tstar", "--load", f"x={saved}", "--plot", str(tmp_path / "p.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--load" in err[0] and TSTAR_SCHEMA in err[0] and "icidr-pde tstar 3" in err[0]
+
+
+def test_the_documented_example_has_the_written_form(one):
+    """docs/cli.md's example is the document of its command, up to the numbers of the run."""
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    section = doc.split("## What `tstar --json` writes", 1)[1]
+    example = json.loads(re.search(r"```json\n(.*?)```", section, re.S).group(1))
+    written = json.loads(one.read_text())
+    t_doc, t_run = (d["discretizations"]["fd"].pop("t_star") for d in (example, written))
+    assert example == written  # the command it names is the fixture's
+    assert t_doc.keys() == t_run.keys() and t_doc["21"] is None is t_run["21"]
+    assert t_doc["101"] == pytest.approx(t_run["101"], rel=1e-3)  # t* moves with the round-off of the solves
+
+
+def test_the_gallery_reads_a_sweep_in_either_form(one, tmp_path, monkeypatch):
+    """fig 4(b) of the gallery reads data/tstar/: the committed flat files and this document."""
+    import numpy as np
+
+    from icidr_pde.figures import paper
+
+    (tmp_path / "tstar").mkdir()
+    (tmp_path / "tstar" / "new.json").write_text(one.read_text())
+    flat = json.loads(one.read_text())["discretizations"]["fd"]["t_star"]
+    (tmp_path / "tstar" / "old.json").write_text(json.dumps(flat))
+    monkeypatch.setattr(paper, "DATA", tmp_path)
+    (N_new, t_new), (N_old, t_old) = paper._load_tstar("new.json"), paper._load_tstar("old.json")
+    assert list(N_new) == list(N_old) == [21, 101]
+    np.testing.assert_array_equal(t_new, t_old)
+    assert np.isnan(t_new[0]) and t_new[1] == flat["101"]
