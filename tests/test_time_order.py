@@ -213,3 +213,13 @@ def test_native_engine_takes_the_order():
     assert runs[None].settings["max_order"] == A_STABLE_ORDER
     assert runs[None].n_steps > 1.5 * runs[5].n_steps
     assert runs[None].to_dict()["max_w"]["10"] == pytest.approx(runs[5].to_dict()["max_w"]["10"], rel=1e-3)
+
+
+def test_pypde_solve_warns_as_run_does():
+    """py-pde's solve() on the 2-D cell with scipy's BDF (orders up to 5, no cap) warns as run() does."""
+    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+
+    pde = ShearCell2DPDE("icidr")
+    state = pde.make_state(pde.make_grid((8, 8), 30.0), 0.78, lambda x, z: z / 30, 0.0)
+    with pytest.warns(RuntimeWarning, match="'Radau' \\(L-stable\\)"):
+        pde.solve(state, t_range=0.01, solver="stiff", method="BDF", tracker=None)

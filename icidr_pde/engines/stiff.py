@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 from pde.solvers.base import SolverBase
@@ -96,6 +97,8 @@ class StiffSolver(SolverBase):
             cells = int(np.prod(state.data.shape[1:])) if state.data.ndim > 2 else None  # fields first
             self.choice = choose(method=self.method, jacobian=self._asked, request="pde",
                                  structure=JacobianStructure.of(self.pde, state), thin_cell=thin, cells=cells)
+            if self.choice.warning:  # as run() says it: py-pde's solve() is the other way in
+                warnings.warn(self.choice.warning, RuntimeWarning, stacklevel=3)
         return self.choice
 
     def check_memory(self, state) -> None:
