@@ -3,7 +3,15 @@
 :mod:`icidr_pde.native`. Below both, so that a compiled problem imports no engine; numpy-free.
 """
 
-__all__ = ["DENSE_LU_DELTA_GAMMA", "KRYLOV_EPS_LIN", "KRYLOV_DIM"]
+__all__ = ["DENSE_LU_DELTA_GAMMA", "KRYLOV_EPS_LIN", "KRYLOV_DIM", "BDF_MAX_ORDER", "A_STABLE_ORDER"]
+
+#: the highest order of CVODE's BDF (and of scipy's); orders 3-5 are A(alpha)-stable only, with
+#: alpha = 86.0, 73.4, 51.8 degrees: eigenvalues closer to the imaginary axis than that are amplified
+#: at some steps (central advection: h omega ~ 1-2.5 for BDF5; docs/sim2d.md, "Time integration")
+BDF_MAX_ORDER = 5
+#: the highest A-stable BDF order (Dahlquist's second barrier): no mode that the continuum damps is
+#: amplified at any step
+A_STABLE_ORDER = 2
 
 #: refactor CVODE's dense Newton matrix when gamma = h/l0 changed by more than this (SUNDIALS: 0.3).
 #: Measured, mu(I) shear t* and iCIDR sine, Chebyshev N = 201: 138 -> 100 and 130 -> 97 LU

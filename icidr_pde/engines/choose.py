@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from ..cvode_settings import A_STABLE_ORDER, BDF_MAX_ORDER
 from ..validation import ParameterError, choice as checked_choice, integer
 from . import ENGINES, METHODS
 
@@ -31,13 +32,6 @@ FOURIER_SOLVER = "GMRES + x-Fourier preconditioner"
 #: the Jacobian modes of GMRES with a preconditioner built from the analytic sparse Jacobian of the
 #: 2-D cell -> what preconditions
 PRECONDITIONED = {"amg": "algebraic multigrid", "fourier": "the x-average of the Jacobian, FFT in x"}
-#: the highest order of CVODE's BDF (and of scipy's); orders 3-5 are A(alpha)-stable only, with
-#: alpha = 86.0, 73.4, 51.8 degrees: eigenvalues closer to the imaginary axis than that are amplified
-#: at some steps (central advection: h omega ~ 1-2.5 for BDF5; docs/sim2d.md, "Time integration")
-BDF_MAX_ORDER = 5
-#: the highest A-stable BDF order (Dahlquist's second barrier): no mode that the continuum damps is
-#: amplified at any step
-A_STABLE_ORDER = 2
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
 

@@ -10,6 +10,7 @@ the Result. numpy and ctypes only.
 from __future__ import annotations
 
 
+from ..cvode_settings import BDF_MAX_ORDER
 from .base import Engine
 
 __all__ = ["NativeEngine"]
@@ -23,7 +24,7 @@ class NativeEngine(Engine):
     name = "native"
     methods = ("CVODE",)
 
-    def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver="", max_order=5):
+    def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver="", max_order=BDF_MAX_ORDER):
         kind = getattr(problem, "linear_solver", None)  # what the compiled problem set up (Chebyshev)
         if kind == "krylov":
             linear_solver = f"GMRES + {problem.preconditioner} preconditioner"

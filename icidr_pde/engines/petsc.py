@@ -36,6 +36,7 @@ import numpy as np
 from .. import loaded_mpi
 from ..validation import ParameterError
 from .base import Engine, Problem
+from ..cvode_settings import A_STABLE_ORDER
 from ..time_scale import MIN_STEP_FRACTION
 
 __all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
@@ -138,7 +139,7 @@ class PetscEngine(Engine):
     methods = ("PETSC-BDF",)
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="", options=None, max_order=2):
+                 linear_solver="", options=None, max_order=A_STABLE_ORDER):
         PETSc = _petsc()
         if problem.jacobian.mode != "sparse":
             raise ValueError(f"the PETSc engine takes a 'sparse' Jacobian; got {problem.jacobian.mode!r}")

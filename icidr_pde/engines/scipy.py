@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.integrate
 
+from ..cvode_settings import BDF_MAX_ORDER
 from .base import Engine, Problem, dense
 from .colored_fd import colored_fd_jacobian
 from .conservative_jacobian import ConservativeDifferenceQuotients
@@ -19,7 +20,7 @@ class ScipyEngine(Engine):
     methods = ("BDF", "Radau", "LSODA")
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="", max_order=5):  # scipy's BDF and LSODA have no order cap: choose warns
+                 linear_solver="", max_order=BDF_MAX_ORDER):  # scipy's BDF and LSODA have no order cap: choose warns
         options = dict(rtol=rtol, atol=atol, max_step=max_step)
         if first_step is not None:
             options["first_step"] = first_step

@@ -14,6 +14,7 @@ from . import cvode_counters
 from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN, Engine, Problem, dense  # KRYLOV_EPS_LIN: its engine's setting
 from .choose import AMG_SOLVER, FOURIER_SOLVER
 from .conservative_jacobian import ConservativeDifferenceQuotients
+from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION
 
 __all__ = ["CvodeEngine", "KRYLOV_EPS_LIN", "LINEAR_SOLVERS"]
@@ -67,7 +68,7 @@ class CvodeEngine(Engine):
     methods = ("CVODE",)
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="dense LU", max_order=5):
+                 linear_solver="dense LU", max_order=BDF_MAX_ORDER):
         from sksundae.cvode import CVODE
 
         # min_step: without one CVODE halves h down to 1e-165 before giving up on a blow-up

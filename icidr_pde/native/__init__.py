@@ -35,6 +35,7 @@ import numpy as np
 
 from ..discretizations.fd_core import ghost_coefficients
 from ..discretizations.grid_size import FD
+from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
@@ -105,7 +106,7 @@ class NativeProblem:
     # --- CVODE ------------------------------------------------------------------------------
 
     def start(self, y0, *, rtol: float, atol: float, t0: float = 0.0, max_step: float = np.inf,
-              first_step: float | None = None, max_order: int = 5) -> float:
+              first_step: float | None = None, max_order: int = BDF_MAX_ORDER) -> float:
         """Start CVODE (BDF, orders 1 to `max_order`) at (t0, y0) with the smallest step
         MIN_STEP_FRACTION x the fastest time scale 1/rho(J(y0)) (:meth:`time_scale`, its
         evaluations counted as the run's); returns that time scale."""
