@@ -26,7 +26,7 @@ from .material import Material, mu_of_I
 from .mui import MuIPhiI
 from .cidr import CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, define_rheology
 from .law_files import load_law_file
-from .registry import get_rheology
+from .lookup import get_rheology
 from . import blended, mu_psi, nonmonotonic, saturating  # noqa: F401,E402  (the shipped workbench laws)
 
 __all__ = [
