@@ -2,14 +2,16 @@
 
 * :mod:`.laws` -- friction mu(I) and dilatancy Phi(I)/Psi(phi) laws (2.10), (2.11), the
   saturating law of section 2; :mod:`.material` -- :class:`Material` (Table 1 by default);
-* :mod:`.base` -- :class:`Rheology`: (phi, div u, ||S||) -> (p, c) with tau = c S, the
-  registry, :func:`define_rheology`, chi (A18);
+* :mod:`.base` -- :class:`Rheology`: (phi, div u, ||S||) -> (p, c) with tau = c S, chi (A18);
 * :mod:`.mui`, :mod:`.icidr` -- the two rheologies of the paper, one class per file;
 * :mod:`.cidr` -- the workbench: a CIDR law from (Y, f) (equation of state solved from the
-  flow rule, stress from the yield law) or a law given as (p, tau); :mod:`.nonmonotonic`,
-  :mod:`.saturating`, :mod:`.mu_psi`, :mod:`.blended` -- the laws built with it (section 7);
-* :mod:`.law_files` -- laws written in files (Python, declarative :mod:`.declarative`);
-  :mod:`.registry` -- :func:`get_rheology`, a law by name or file;
+  flow rule, stress from the yield law); :mod:`.direct` -- a law given as (p, tau), and
+  :func:`define_rheology` (p, c); :mod:`.expressions` -- the pieces both are built of;
+  :mod:`.nonmonotonic`, :mod:`.saturating`, :mod:`.mu_psi`, :mod:`.blended` -- the laws built
+  with them (section 7);
+* :mod:`.registry` -- :data:`RHEOLOGIES`, the laws by name; :mod:`.law_files` -- laws written
+  in files (Python, declarative :mod:`.declarative`); :mod:`.lookup` -- :func:`get_rheology`,
+  a law by name or file;
 * :mod:`.kinematics` -- adapters from a geometry's strain rates to the invariants;
 * :mod:`.codegen` -- numeric kernels and Jacobians generated from the sympy definitions,
   compiled by numba once per installation.
@@ -17,14 +19,17 @@
 Everything is non-dimensional with the scalings (3.12): d = rho_* = V0 = 1.
 """
 
-from .base import RHEOLOGIES, Rheology, chi
+from .base import Rheology, chi
+from .registry import RHEOLOGIES
 from .icidr import ICIDR
 from .kinematics import INVARIANTS, PLANE_FLOW, SHEAR_CELL, Kinematics
 from .laws import (DILATANCY_LAWS, FRICTION_LAWS, TABLE1, DilatancyLaw, FrictionLaw, LinearDilatancy,
                    MuOfI, SaturatingDilatancy)
 from .material import Material, mu_of_I
 from .mui import MuIPhiI
-from .cidr import CIDRLaw, DirectLaw, LawError, define_cidr_law, define_direct_law, define_rheology
+from .errors import LawError
+from .cidr import CIDRLaw, define_cidr_law
+from .direct import DirectLaw, define_direct_law, define_rheology
 from .law_files import load_law_file
 from .lookup import get_rheology
 from . import blended, mu_psi, nonmonotonic, saturating  # noqa: F401,E402  (the shipped workbench laws)

@@ -8,8 +8,8 @@ of M = M(phi) = mu(Psi(phi)) and Psi = Psi(phi) of its :class:`Material`; everyt
 (:mod:`icidr_pde.rheology.codegen`). Non-dimensional with the scalings (3.12), d = rho_* = 1;
 every law here carries the Bagnold scaling, dimensional stresses are rho_* d^2 times these.
 
-A subclass with a ``name`` registers itself in :data:`RHEOLOGIES` (one class in one file);
-:func:`define_rheology` builds and registers one at run time from sympy expressions.
+A subclass with a ``name`` registers itself in :data:`~.registry.RHEOLOGIES` (one class in one
+file); :func:`~.direct.define_rheology` builds and registers one at run time from sympy expressions.
 """
 
 from __future__ import annotations
@@ -21,11 +21,9 @@ from ..validation import ParameterError
 from .errors import LawError
 from .kinematics import INVARIANTS, SHEAR_CELL, Kinematics
 from .material import Material
+from .registry import RHEOLOGIES
 
 __all__ = ["Rheology", "RHEOLOGIES", "LawError", "chi", "ill_defined", "sample_states"]
-
-#: name -> Rheology subclass; filled by the subclasses themselves
-RHEOLOGIES: dict[str, type] = {}
 
 
 class Rheology:

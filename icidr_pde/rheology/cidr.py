@@ -27,7 +27,7 @@ is then generated from :meth:`~.base.Rheology.law` as for any other rheology: th
 derivatives are sympy's, none is written by hand.
 
 A law given directly as p and ||tau|| on invariants (like mu(I),Phi(I)) is a
-:class:`DirectLaw`: (4.3)-(4.5) do not apply to it; only the stability analysis does.
+:class:`~.direct.DirectLaw`: (4.3)-(4.5) do not apply to it; only the stability analysis does.
 
 A law written in a file (:func:`~.law_files.load_law_file`) defines ``yield_function`` and
 ``dilatancy_function`` (or ``pressure`` and ``shear_stress``) of
@@ -39,41 +39,24 @@ same law as formulas read by a whitelist, nothing run (docs/security.md).
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
-from .base import RHEOLOGIES, LawError, Rheology, ill_defined, sample_states
+from .base import LawError, Rheology, ill_defined, sample_states
+from .expressions import function_source, identifier, kernel_source, law_expression, law_function, pressure_symbol
 from .material import Material
+from .registry import check_law_name, register_law
 
-__all__ = ["CIDRLaw", "DirectLaw", "LawError", "define_cidr_law", "define_direct_law", "sample_states", "ill_defined",
-           "pressure_symbol", "placeholder_table", "define_rheology"]
+__all__ = ["CIDRLaw", "LawError", "define_cidr_law", "sample_states", "ill_defined", "pressure_symbol"]
 
-
-def pressure_symbol():
-    """The sympy symbol p (pressure), positive."""
-    import sympy as sp
-
-    return sp.Symbol("p", positive=True)
+#: besides its classes' modules, the kernels of a CIDR law depend on the scalar solve's source
+#: (:mod:`.implicit`, the root of an implicit law)
+IMPLICIT_SOURCE = (f"{__package__}.implicit",)
 
 
 def _sqrt_p_symbol():
     import sympy as sp
 
     return sp.Symbol("q", positive=True)
-
-
-def law_expression(law, function: str, *args):
-    """The sympy expression `law`.`function`(*args) returns; text is refused (sympify would eval it)."""
-    import sympy as sp
-
-    value = getattr(law, function)(*args)
-    try:
-        return sp.sympify(value, strict=True)
-    except sp.SympifyError:
-        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
-        raise LawError(law.name, f"{function}() must return a sympy expression or a number; got "
-                                 f"{type(value).__name__} {shown} (write a formula as a declarative .toml law)") from None
 
 
 # --- the stable rewriting ----------------------------------------------------------------
@@ -103,16 +86,6 @@ def cancellation_free(expr):
 
 
 # --- CIDR laws ----------------------------------------------------------------------------
-
-def _mro_source(cls) -> str:
-    """Text the kernels of `cls` depend on: the modules of every Rheology class it inherits from."""
-    from .codegen import _module_source
-
-    modules = dict.fromkeys(k.__module__ for k in cls.__mro__ if isinstance(k, type) and issubclass(k, Rheology))
-    if issubclass(cls, CIDRLaw):  # the scalar solve's source is part of an implicit law's kernels
-        modules[f"{__package__}.implicit"] = None
-    return "\n".join(_module_source(m) for m in modules if not m.startswith("__")) + cls.__qualname__
-
 
 class CIDRLaw(Rheology):
     """A CIDR law (4.1)-(4.2) from Y(p, I, phi) and f(p, I, phi); see the module docstring.
@@ -146,7 +119,7 @@ class CIDRLaw(Rheology):
 
     @classmethod
     def definition_key(cls) -> str:
-        return _mro_source(cls)
+        return kernel_source(cls, IMPLICIT_SOURCE)
 
     # --- derivation, in placeholders ----------------------------------------------------
 
@@ -327,121 +300,6 @@ class CIDRLaw(Rheology):
                 self.dilatancy_function(p, s.I, s.phi, s.M, s.Psi, prm))
 
 
-class DirectLaw(Rheology):
-    """A law given directly as p and ||tau|| on invariants; (4.3)-(4.5) do not apply.
-
-    Subclasses implement :meth:`pressure` and :meth:`shear_stress` (||tau||), or override
-    :meth:`law` with (p, c) directly.
-    """
-
-    kind = "direct"
-
-    @classmethod
-    def definition_key(cls) -> str:
-        return _mro_source(cls)
-
-    def pressure(self, phi, div_u, norm_S, M, Psi, prm):
-        raise NotImplementedError
-
-    def shear_stress(self, phi, div_u, norm_S, M, Psi, prm):
-        raise NotImplementedError
-
-    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
-        import sympy as sp
-
-        from . import symbols as s
-
-        # c = ||tau||/||S||, cancelled in the placeholder symbols (so c stays finite at ||S|| = 0
-        # where ||tau|| vanishes like ||S||), then evaluated at the arguments
-        own = self.material.values(symbolic=True)
-        p = law_expression(self, "pressure", s.phi, s.div_u, s.norm_S, s.M, s.Psi, own)
-        c = sp.cancel(law_expression(self, "shear_stress", s.phi, s.div_u, s.norm_S, s.M, s.Psi, own) / s.norm_S)
-        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
-        subs.update({own[k]: v for k, v in prm.items() if k in own})
-        return p.xreplace(subs), c.xreplace(subs)
-
-
-# --- laws built at run time -----------------------------------------------------------------
-
-def placeholder_table() -> dict:
-    """Name -> symbol of every argument a law function takes (:mod:`.symbols`, p of :func:`pressure_symbol`)."""
-    from . import symbols as s
-
-    return {"p": pressure_symbol(), "I": s.I, "phi": s.phi, "div_u": s.div_u, "norm_S": s.norm_S,
-            "M": s.M, "Psi": s.Psi}
-
-
-def as_expression(spec, argnames, where: str):
-    """A sympy expression from a sympy object or number, or from text by the safe parser
-    (:func:`.declarative.parse_expression`: the names `argnames` and the material parameters;
-    never ``sympify`` of text, which is ``eval``)."""
-    import sympy as sp
-
-    from . import symbols as s
-    from .declarative import parse_expression
-
-    if isinstance(spec, str):
-        table = placeholder_table()
-        names = {n: table[n] for n in argnames}
-        names.update({k: v for k, v in s.MATERIAL_SYMBOLS.items() if k not in names})
-        return parse_expression(spec, names, where)
-    try:
-        return sp.sympify(spec, strict=True)
-    except sp.SympifyError:
-        raise ValueError(f"{where} must be a sympy expression, a number or a formula (text); "
-                         f"got {type(spec).__name__}") from None
-
-
-def _as_function(spec, argnames, where="law"):
-    """A callable of `argnames` from a callable or a sympy expression (or formula) in the placeholder symbols."""
-    if callable(spec):
-        return spec
-    import sympy as sp
-
-    from . import symbols as s
-
-    expr = as_expression(spec, argnames, where)
-    table = placeholder_table()
-
-    def function(*args):
-        *values, prm = args
-        subs = {table[n]: v for n, v in zip(argnames, values)}
-        subs.update({s.MATERIAL_SYMBOLS[k]: v for k, v in prm.items() if k in s.MATERIAL_SYMBOLS})
-        return expr.xreplace(subs)
-
-    function.source = sp.srepr(expr)
-    return function
-
-
-def _key_of(*functions, extra=""):
-    import inspect
-
-    parts = [extra]
-    for f in functions:
-        parts.append(getattr(f, "source", None) or inspect.getsource(f))
-    return "\n".join(parts)
-
-
-def check_law_name(name) -> None:
-    """A law defined at run time needs a name of its own: a built-in law's name is refused."""
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-]*", name):
-        raise ValueError(f"`name` must start with a letter and contain letters, digits, '_' or '-'; got {name!r}")
-    taken = RHEOLOGIES.get(name)
-    if taken is not None and not taken.defined_at_run_time:
-        builtin = sorted(k for k, v in RHEOLOGIES.items() if not v.defined_at_run_time)
-        raise ValueError(f"`name` {name!r} is a built-in law's; a law defined at run time needs a name of its "
-                         f"own (built-in: {', '.join(builtin)})")
-
-
-def _register(name, cls, register):
-    check_law_name(name)
-    cls.name = name
-    cls.defined_at_run_time = True
-    if register:
-        RHEOLOGIES[name] = cls
-    return cls
-
-
 def define_cidr_law(name: str, yield_function, dilatancy_function, *, label=None, material: Material | None = None,
                     register: bool = True, key: str | None = None, equation_of_state: str = "auto") -> type:
     """A :class:`CIDRLaw` class from Y and f (callables of (p, I, phi, M, Psi, prm) or sympy
@@ -450,76 +308,17 @@ def define_cidr_law(name: str, yield_function, dilatancy_function, *, label=None
     if equation_of_state not in ("auto", "scalar"):
         raise ValueError(f"`equation_of_state` must be 'auto' or 'scalar'; got {equation_of_state!r}")
     check_law_name(name)
-    Y = _as_function(yield_function, ("p", "I", "phi", "M", "Psi"), "`yield_function`")
-    f = _as_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"), "`dilatancy_function`")
-    definition = key or _key_of(Y, f, extra=name)
+    Y = law_function(yield_function, ("p", "I", "phi", "M", "Psi"), "`yield_function`")
+    f = law_function(dilatancy_function, ("p", "I", "phi", "M", "Psi"), "`dilatancy_function`")
+    definition = key or function_source(Y, f, extra=name)
     body = {
         "yield_function": lambda self, p, I, phi, M, Psi, prm: Y(p, I, phi, M, Psi, prm),  # noqa: E741
         "dilatancy_function": lambda self, p, I, phi, M, Psi, prm: f(p, I, phi, M, Psi, prm),  # noqa: E741
-        "definition_key": classmethod(lambda cls: definition + equation_of_state + _mro_source(CIDRLaw)),
+        "definition_key": classmethod(
+            lambda cls: definition + equation_of_state + kernel_source(CIDRLaw, IMPLICIT_SOURCE)),
         "label": label or name, "__doc__": f"CIDR law {name!r} defined at run time.",
         "equation_of_state": equation_of_state,
     }
     if material is not None:
         body["default_material"] = classmethod(lambda cls: material)
-    return _register(name, type(f"CIDRLaw_{_ident(name)}", (CIDRLaw,), body), register)
-
-
-def define_direct_law(name: str, pressure, shear_stress, *, label=None, material: Material | None = None,
-                      register: bool = True, key: str | None = None) -> type:
-    """A :class:`DirectLaw` class from p and ||tau|| (callables of (phi, div_u, norm_S, M, Psi, prm)
-    or sympy expressions in phi, div_u, norm_S, M, Psi and material parameters)."""
-    check_law_name(name)
-    P = _as_function(pressure, ("phi", "div_u", "norm_S", "M", "Psi"), "`pressure`")
-    T = _as_function(shear_stress, ("phi", "div_u", "norm_S", "M", "Psi"), "`shear_stress`")
-    definition = key or _key_of(P, T, extra=name)
-    body = {
-        "pressure": lambda self, phi, div_u, norm_S, M, Psi, prm: P(phi, div_u, norm_S, M, Psi, prm),
-        "shear_stress": lambda self, phi, div_u, norm_S, M, Psi, prm: T(phi, div_u, norm_S, M, Psi, prm),
-        "definition_key": classmethod(lambda cls: definition + _mro_source(DirectLaw)),
-        "label": label or name, "__doc__": f"Direct law {name!r} defined at run time.",
-    }
-    if material is not None:
-        body["default_material"] = classmethod(lambda cls: material)
-    return _register(name, type(f"DirectLaw_{_ident(name)}", (DirectLaw,), body), register)
-
-
-def _ident(name: str) -> str:
-    return re.sub(r"\W", "_", name)
-
-
-def define_rheology(name: str, p, c, *, label: str | None = None, register: bool = True) -> type:
-    """Build (and register) a Rheology class from sympy expressions of the invariants.
-
-    `p` and `c` (tau = c S) are sympy expressions in the symbols of
-    :mod:`icidr_pde.rheology.symbols`: ``phi``, ``div_u``, ``norm_S``, the placeholders
-    ``M`` = M(phi) and ``Psi`` = Psi(phi), and material parameters
-    (``MATERIAL_SYMBOLS``), or formulas (text) in those names, read by the safe parser
-    (:func:`~.declarative.parse_expression`; text is never ``sympify``-d, which would ``eval`` it).
-    `name` may not be a built-in law's. Kernels are generated and cached like those of the
-    built-in rheologies. Returns the class; ``get_rheology(name, material)`` then works.
-    """
-    import sympy as sp
-
-    from . import symbols as s
-
-    if not isinstance(name, str) or not name.isidentifier():
-        raise ValueError(f"`name` must be an identifier-like string; got {name!r}")
-    check_law_name(name)
-    argnames = ("phi", "div_u", "norm_S", "M", "Psi")
-    p, c = as_expression(p, argnames, "`p`"), as_expression(c, argnames, "`c`")
-    key = f"{sp.srepr(p)}\n{sp.srepr(c)}"
-
-    def law(self, phi, div_u, norm_S, M, Psi, prm, stable=False):
-        subs = {s.phi: phi, s.div_u: div_u, s.norm_S: norm_S, s.M: M, s.Psi: Psi}
-        subs.update({s.MATERIAL_SYMBOLS[k]: v for k, v in prm.items()})
-        return p.xreplace(subs), c.xreplace(subs)
-
-    cls = type(f"Rheology_{name}", (Rheology,),
-               {"law": law, "label": label or name, "definition_key": classmethod(lambda cls: key),
-                "__doc__": f"Rheology {name!r}: p = {p}, c = {c} (tau = c S)."})
-    cls.name = name
-    cls.defined_at_run_time = True
-    if register:
-        RHEOLOGIES[name] = cls
-    return cls
+    return register_law(name, type(f"CIDRLaw_{identifier(name)}", (CIDRLaw,), body), register)

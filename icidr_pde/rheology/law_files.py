@@ -2,7 +2,7 @@
 declarative file (``*.toml``, :mod:`.declarative`: formulas read by a whitelist, nothing run).
 
 :func:`load_law_file` turns either into a law class (:func:`~.cidr.define_cidr_law`,
-:func:`~.cidr.define_direct_law`) registered under the file's ``name``; :func:`is_file_law`
+:func:`~.direct.define_direct_law`) registered under the file's ``name``; :func:`is_file_law`
 tells a file from a registered name. Here, above the laws and the parser, so that neither
 imports the other's loader (docs/security.md).
 """
@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import pathlib
 
-from .cidr import check_law_name, define_cidr_law, define_direct_law, placeholder_table, pressure_symbol
+from .cidr import define_cidr_law
+from .direct import define_direct_law
+from .expressions import placeholder_table, pressure_symbol
+from .registry import check_law_name
 from .declarative import LAW_SYMBOLS, _KEYS, _constants, _kind, _read_toml, is_declarative_law, parse_expression
 from .material import Material
 from ..validation import input_file

@@ -1,11 +1,12 @@
-"""The look-up of a law: a registered name (:data:`~.base.RHEOLOGIES`, filled by the law classes
+"""The look-up of a law: a registered name (:data:`~.registry.RHEOLOGIES`, filled by the law classes
 themselves), a law file (:mod:`.law_files`), or a Rheology as it is."""
 
 from __future__ import annotations
 
-from .base import RHEOLOGIES, Rheology
+from .base import Rheology
 from .law_files import is_file_law, load_law_file
 from .material import Material
+from .registry import RHEOLOGIES
 
 __all__ = ["get_rheology"]
 

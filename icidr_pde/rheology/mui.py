@@ -1,6 +1,6 @@
 """The compressible mu(I),Phi(I)-rheology (2.6)-(2.8): p from (2.14), ||tau|| = mu(I) p.
 
-A law given directly as p and ||tau|| (:class:`~.cidr.DirectLaw`): phi = Phi(I) (2.8) is not
+A law given directly as p and ||tau|| (:class:`~.direct.DirectLaw`): phi = Phi(I) (2.8) is not
 a flow rule (4.2), so (4.3)-(4.5) do not apply; only the stability analysis does.
 At steady state I = Psi(phi), so (2.9) with d = rho_* = 1 gives p = (2||S||/Psi)^2 (2.14),
 and the alignment law (2.6) with ||tau|| = M p (2.7) gives c = ||tau||/||S|| = M p/||S||
@@ -8,7 +8,7 @@ and the alignment law (2.6) with ||tau|| = M p (2.7) gives c = ||tau||/||S|| = M
 these are (3.6) and (3.8). The pressure does not depend on div u.
 """
 
-from .cidr import DirectLaw
+from .direct import DirectLaw
 
 __all__ = ["MuIPhiI"]
 
