@@ -87,6 +87,31 @@ def test_registry_and_declarations(scheme):
         scheme.make_grid(2)
 
 
+#: the methods every scheme implements (the abstract methods of the contract, docstring of its module)
+CONTRACT = {"nodes", "make_state", "integral", "strain_rates", "make_rates", "make_jacobian", "jacobian_sparsity",
+            "interleaving"}
+
+
+def test_the_contract_is_abstract_methods():
+    """A scheme that lacks a method of the contract cannot be built: the error names the method."""
+    assert ShearCellBase.__abstractmethods__ >= CONTRACT
+
+    class Incomplete(ShearCellBase):
+        def nodes(self, grid):
+            return np.zeros(grid.shape)
+
+    with pytest.raises(TypeError, match="make_jacobian"):
+        Incomplete("icidr")
+
+
+def test_every_scheme_implements_the_contract(scheme):
+    assert not scheme.__abstractmethods__, f"{scheme.name} lacks {sorted(scheme.__abstractmethods__)}"
+    for method in CONTRACT:
+        assert getattr(scheme, method) is not getattr(ShearCellBase, method), f"{scheme.name}: {method}"
+    for method in ("check_state", "validity_margins"):  # the validity checks, from the cores' phi range
+        assert callable(getattr(scheme, method))
+
+
 @pytest.mark.parametrize("rheology", ["mui", "icidr"])
 def test_steady_linear_shear_is_a_fixed_point(scheme, rheology):
     """(3.10): phi = phi0, u = z/H, w = 0 solves the equations; both implementations keep it."""

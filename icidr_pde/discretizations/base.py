@@ -21,7 +21,7 @@ State layout
     The stiff integrator works on ``state.data.ravel()`` (C order) and asks the scheme for
     permutations in that flat index.
 
-Methods (all must be implemented unless marked optional)
+Methods (abstract, so that a scheme lacking one cannot be built, unless marked optional)
     ``make_grid(N, H)`` / ``check_grid(grid)``; ``nodes(grid)`` -- positions of the
     unknowns, shape ``grid.shape`` (1-D) or ``(*grid.shape, dim)``; ``make_state(grid,
     phi, u, w)`` -- fields sampled at the nodes from callables of the node positions or
@@ -45,6 +45,7 @@ Methods (all must be implemented unless marked optional)
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from typing import Callable, ClassVar
 
 import numpy as np
@@ -133,22 +134,25 @@ class ShearCellBase(PhiRange, PDEBase):
             raise ValueError("`grid` must be a non-periodic 1-D CartesianGrid([[0, H]], N) "
                              f"(use {type(self).__name__}.make_grid)")
 
+    @abstractmethod
     def nodes(self, grid) -> np.ndarray:
         """Positions of the unknowns."""
-        raise NotImplementedError
 
+    @abstractmethod
     def make_state(self, grid, phi, u, w) -> FieldCollection:
-        raise NotImplementedError
+        """The fields sampled at :meth:`nodes` from callables of the node positions or arrays."""
 
+    @abstractmethod
     def integral(self, values: np.ndarray, grid) -> float:
-        raise NotImplementedError
+        """The scheme's quadrature of a field over the cell (it conserves the mass of phi)."""
 
+    @abstractmethod
     def strain_rates(self, data: np.ndarray, grid) -> tuple[np.ndarray, ...]:
-        raise NotImplementedError
+        """(positions, phi, *rates) where the stresses are evaluated, rates in ``kinematics.rates`` order."""
 
+    @abstractmethod
     def make_rates(self, state: FieldCollection) -> Callable:
         """rhs(data, t) from compiled kernels cached on disk."""
-        raise NotImplementedError
 
     def evolution_rate(self, state: FieldCollection, t: float = 0) -> FieldCollection:
         """The right-hand side at `state` (the compiled kernels)."""
@@ -158,14 +162,17 @@ class ShearCellBase(PhiRange, PDEBase):
 
     # --- what the stiff integrator asks -------------------------------------------------------
 
+    @abstractmethod
     def make_jacobian(self, state) -> Callable:
-        raise NotImplementedError
+        """jac(t, y) of the flat right-hand side, sparse (scipy) or dense."""
 
+    @abstractmethod
     def jacobian_sparsity(self, state):
-        raise NotImplementedError
+        """The pattern of the Jacobian for colored finite differences, or None if it is dense."""
 
+    @abstractmethod
     def interleaving(self, state):
-        raise NotImplementedError
+        """(perm, lband, uband) of an ordering ``y[perm]`` in which the Jacobian is banded, or None."""
 
     def solve(self, state, t_range, dt=None, tracker="auto", *, solver="stiff", **kwargs):
         """py-pde's ``solve`` with the stiff solver as the default (``solver="stiff"``).
