@@ -74,7 +74,8 @@ def digest(*parts: str | bytes) -> str:
 
 
 def sympy_version() -> str:
-    """sympy's release.py, found without importing sympy (importlib.metadata costs ~30 ms of start-up: measured)."""
+    """sympy's release.py, found without importing sympy or importlib.metadata (importing the latter
+    is a start-up cost every run would pay: docs/performance.md, Start-up)."""
     import importlib.util
 
     spec = importlib.util.find_spec("sympy")

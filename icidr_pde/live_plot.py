@@ -29,7 +29,8 @@ class LivePlot:
     d seconds the next redraw waits until (1/max_overhead - 1) d seconds have passed,
     so redrawing costs at most about `max_overhead` of the run's wall time (default
     10 %) plus a fixed cost per run: creating the figure and drawing the first and the
-    final state (always drawn), ~0.1-0.3 s each on one core. All of it is in `overhead_s`.
+    final state (always drawn; measured in docs/performance.md, Live figure overhead). All of
+    it is in `overhead_s`.
 
     Args:
         z: positions of the unknowns (the discretization's nodes)

@@ -4,13 +4,13 @@ The numbers behind each choice come from ``python benchmarks/work_precision.py``
 (data/benchmarks/work_precision.json, docs/performance.md, Presets): iCIDR reference cases
 (i) scene shear to t = 10 and (ii) scene sine to t = 20, errors against N = 3201 references.
 
-* ``draft``: fd, N = 51, CVODE rtol 1e-3: 0.008 s (shear), 0.011 s (sine) of solve; max|w|
-  error 4.1e-3 (shear), 3.3e-3 (sine), profile error 0.25 (shear), 5.4e-3 (sine);
-* ``standard`` (default): fd, N = 201, CVODE rtol 1e-5: 0.024 s (shear), 0.060 s (sine);
-  max|w| error 2.4e-4 (shear), 4.7e-4 (sine): the N = 201 grid's own error, the time
-  error is below it;
-* ``publication``: fd, N = 801, CVODE rtol 1e-8: 0.16 s (shear), 0.87 s (sine); max|w|
-  error 2.4e-5 (shear), 7.1e-5 (sine).
+* ``draft``: fd, N = 51, CVODE rtol 1e-3: max|w| error 4.1e-3 (shear), 3.3e-3 (sine),
+  profile error 0.25 (shear), 5.4e-3 (sine);
+* ``standard`` (default): fd, N = 201, CVODE rtol 1e-5: max|w| error 2.4e-4 (shear), 4.7e-4
+  (sine): the N = 201 grid's own error, the time error is below it;
+* ``publication``: fd, N = 801, CVODE rtol 1e-8: max|w| error 2.4e-5 (shear), 7.1e-5 (sine).
+
+Each costs more solve time than the one before (the times, measured, in docs/performance.md, Presets).
 
 The compiled kernels are built once per installation and law, for every N
 (:mod:`icidr_pde.rheology.codegen`); their set-up (compilation the first time, loading from
@@ -22,7 +22,7 @@ failure time t* of mu(I), IC (3.16), N = 201 (converged 0.0105856, data/referenc
 time error of CVODE moves at the level of rtol (docs/chebyshev.md): native CVODE, GMRES with
 the band preconditioner (the native default), relative error of t* against that value
 (``python benchmarks/cheb_krylov.py tstar --N 101 201 --solvers band --rtols 1e-5 1e-6 1e-7 1e-8 1e-9 1e-10``,
-load 1.9, data/benchmarks/cheb_krylov_rtol.json; N = 101 against its own rtol 1e-10 run):
+data/benchmarks/cheb_krylov_rtol.json; N = 101 against its own rtol 1e-10 run):
 
     rtol (atol = rtol / 1000)    1e-5     1e-6     1e-7     1e-8     1e-9
     N = 201                      3.7e-3   6.0e-4   7.4e-5   6.7e-6   1.4e-6
@@ -30,9 +30,9 @@ load 1.9, data/benchmarks/cheb_krylov_rtol.json; N = 101 against its own rtol 1e
 
 * ``draft``: cheb rtol 1e-3 (as fd);
 * ``standard``: cheb rtol 1e-7, atol 1e-10: t* within 1e-3 with a margin of ten (rtol 1e-6
-  gives 6.0e-4, too close to it); 0.13 s of solve at N = 201 against 0.08 s at rtol 1e-5;
+  gives 6.0e-4, too close to it), at a solve time of the same order as rtol 1e-5's;
 * ``publication``: cheb rtol 1e-9, atol 1e-12: t* within 1e-5 (rtol 1e-8 gives 6.7e-6, too
-  close to it); 0.24 s of solve at N = 201.
+  close to it).
 
 An explicit discretization, N, method, rtol or atol overrides that knob only.
 """

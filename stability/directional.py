@@ -342,7 +342,8 @@ def scan(rheology, states=None, angles_deg=None, material=None) -> dict:
 
 # --- angles, maximum, intervals -------------------------------------------------------------
 
-#: samples of --angles: one 3 x 3 eigenproblem each, ~1 s per 1e4
+#: samples of --angles: one 3 x 3 eigenproblem each, and their arrays; the bound keeps a
+#: mistyped step from taking the machine's memory (the cost, measured: docs/plane_waves.md)
 MAX_ANGLES = 1_000_001
 
 

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 DIAMETER_CLASSES = (0.8, 0.9, 1.0, 1.1, 1.2)
-#: bytes of LAMMPS's memory per disk of a run: 0.57 kB measured (peak RSS of a random 2-D
-#: packing after ``run 0``, 1e5 to 4e5 disks, docs/dem.md), taken twice over for the neighbour
-#: lists and contact histories of a sheared dense packing, which were not measured
+#: bytes of LAMMPS's memory per disk of a run: about twice the peak RSS per disk of a random
+#: 2-D packing after ``run 0`` (measured in docs/dem.md), for the neighbour lists and contact
+#: histories of a sheared dense packing, which that measurement does not hold
 LAMMPS_BYTES_PER_DISK = 1200.0
 
 

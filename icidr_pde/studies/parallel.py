@@ -66,9 +66,10 @@ def blas_threads() -> dict[str, int]:
 def limit_blas_threads(n: int = 1) -> list[str]:
     """Limit the threads of the OpenBLAS libraries already loaded in this process.
 
-    The dense LU of the Chebyshev Jacobian (3N x 3N) is ~25 times slower with OpenBLAS's
-    default threads on a busy 2-core machine than with one thread. Returns the libraries
-    that were limited (an empty list if none could be).
+    The dense LU of the Chebyshev Jacobian (3N x 3N) is many times slower with OpenBLAS's
+    default threads than with one on a machine whose cores are busy: its threads wait for
+    each other's cores (measured in docs/chebyshev.md). Returns the libraries that were
+    limited (an empty list if none could be).
     """
     done = []
     for name, set_threads, _ in _openblas_libraries():
