@@ -321,6 +321,13 @@ def test_the_graph_sees_known_edges():
     assert "argparse" in graph["icidr_pde.cli"]
 
 
+def test_an_edge_is_named_with_its_file_and_line():
+    lines = Path(ROOT / "icidr_pde/engines/petsc.py").read_text().splitlines()
+    sites = import_sites("icidr_pde.engines.petsc", "icidr_pde.loaded_mpi")
+    assert sites and all(site.startswith("icidr_pde/engines/petsc.py:") for site in sites)
+    assert all("loaded_mpi" in lines[int(site.rpartition(":")[2]) - 1] for site in sites)
+
+
 def test_lazy_imports_and_sys_modules_look_ups_are_edges(tmp_path):
     tree = ast.parse("import sys\n"
                      "def f():\n    from .b import c\n    return sys.modules.get('icidr_pde.dem._lammps')\n"
