@@ -103,12 +103,37 @@ def _is_clean_rst(text: str, env) -> bool:
     return all(_SPHINX_ONLY.search(message) for message in messages if message.strip())
 
 
+_LITERAL = re.compile(r"(``.+?``)")
+_BAR = re.compile(r"(?<!\\)\|")
+_TRAILING_UNDERSCORE = re.compile(r"(?<=\w)_(?=[\s.,;:)]|$)")
+
+
+def _plain_text_marks(lines: list[str]) -> list[str]:
+    """|w| is an absolute value and lambda_ a name in these docstrings, not a substitution or a
+    link target: escaped outside literals, literal blocks and tables."""
+    out, literal_indent = [], None
+    for k, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None and line.strip() and indent <= literal_indent:
+            literal_indent = None
+        if literal_indent is None and not line.lstrip().startswith(("|", "+")):
+            parts = _LITERAL.split(line)
+            line = "".join(part if i % 2 else _TRAILING_UNDERSCORE.sub(r"\\_", _BAR.sub(r"\\|", part))
+                           for i, part in enumerate(parts))
+        out.append(line)
+        if literal_indent is None and line.rstrip().endswith("::"):
+            literal_indent = indent
+    return out
+
+
 def _verbatim_unless_rst(app, what, name, obj, options, lines):
-    text = "\n".join(lines)
-    if not text.strip():
+    if not "".join(lines).strip():
         return
-    if not _is_clean_rst(text, app.env):
-        lines[:] = [".. code-block:: text", ""] + ["   " + line for line in text.splitlines()] + [""]
+    marked = _plain_text_marks(lines)
+    if _is_clean_rst("\n".join(marked), app.env):
+        lines[:] = marked
+    else:
+        lines[:] = [".. code-block:: text", ""] + ["   " + line for line in lines] + [""]
 
 
 _LINK = re.compile(r"\]\((?![a-z]+:|#|/)([^)\s]+)\)")

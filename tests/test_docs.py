@@ -32,3 +32,16 @@ def test_site_builds_without_a_warning(tmp_path):
     assert (out / "index.html").is_file() and (out / "results.html").is_file()
     assert (out / "api" / "icidr_pde" / "icidr_pde.html").is_file()
     assert "in module icidr_pde." in (out / "genindex.html").read_text()
+
+
+@pytest.mark.skipif(bool(MISSING), reason=f"the site needs the [docs] extra (pip install -e \".[docs]\"); "
+                                          f"not installed: {', '.join(MISSING)}")
+def test_a_broken_link_fails_the_build(tmp_path):
+    """The flags above turn a warning into a failure: a page linking to a page that is not there."""
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "conf.py").write_text('extensions = ["myst_parser"]\n')
+    (tmp_path / "src" / "index.md").write_text("# Index\n\n[a page](missing.md)\n")
+    build = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
+         str(tmp_path / "src"), str(tmp_path / "html")], capture_output=True, text=True, timeout=300)
+    assert build.returncode != 0 and "missing" in build.stderr
