@@ -248,6 +248,48 @@ def test_named_constants_exist():
     assert not missing, "constants named in docs/ that no module defines:\n" + "\n".join(missing)
 
 
+def native2d_runs(*names):
+    runs = {}
+    for name in names:
+        runs.update(data(f"benchmarks/{name}.json")["runs"])
+    return runs
+
+
+def check_native_against_pypde(rows, runs):
+    """Rows "| 64² | a / b | ratio | a / b | ratio | a / b | ratio | steps / steps | ..." of native2d_speed.py."""
+    head = rows[0]
+    assert head[1:8] == ["process native / py-pde [s]", "ratio", "process CPU native / py-pde [s]", "ratio",
+                         "solve native / py-pde [s]", "ratio", "steps native / py-pde"], head
+    for row in rows[1:]:
+        run = runs[row[0].rstrip("²")]
+        for cell, ratio, key in ((row[1], row[2], "process_s"), (row[3], row[4], "process_cpu_s"),
+                                 (row[5], row[6], "solve_s")):
+            native, pde = cell.split(" / ")
+            assert agrees(native, run["native"][key]) and agrees(pde, run["pde"][key]), (row[0], key)
+            assert agrees(ratio, run["native"][key] / run["pde"][key]), (row[0], key)
+        assert row[7] == f"{run['native']['n_steps']} / {run['pde']['n_steps']}", row[0]
+
+
+def test_native2d_tables_and_the_reach_of_auto():
+    """engines.md's two tables of benchmarks/native2d_speed.py, and NATIVE_FV2D_AUTO_CELLS: `auto`
+    takes the native engine on the grids where it measured faster whole-process than the py-pde
+    default (the x-Fourier run), and not beyond."""
+    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS
+
+    text = page("engines.md")
+    check_native_against_pypde(table_after(text, "2 December 2026 on the shared 2-core machine at load 2.8-3.7"),
+                               native2d_runs("native2d_speed", "native2d_speed_96"))
+    fourier = native2d_runs("native2d_speed_fourier")
+    check_native_against_pypde(table_after(text, "(`--sizes 32 48 64 96 --rhs-sizes --json"), fourier)
+    for n, run in fourier.items():
+        faster = run["native"]["process_s"] < run["pde"]["process_s"]
+        assert faster == (int(n) ** 2 <= NATIVE_FV2D_AUTO_CELLS), n
+    rhs = data("benchmarks/native2d_speed.json")["rhs"]
+    for grid, c, numba, ratio, _ in table_after(text, "The right-hand side alone at the initial state")[1:]:
+        r = rhs[grid.rstrip("²")]
+        assert agrees(c, r["c_us"]) and agrees(numba, r["numba_us"]) and agrees(ratio, r["c_us"] / r["numba_us"]), grid
+
+
 # --- 2-D (docs/results.md, docs/sim2d.md) -----------------------------------------------------
 
 
@@ -310,13 +352,31 @@ def test_gallery_page_is_written_from_its_numbers(tmp_path):
         "docs/figures/README.md is not the page `icidr-pde figures` writes from docs/figures/numbers.json")
 
 
+def test_gallery_numbers_that_quote_committed_data_are_that_data():
+    """The gallery's entries drawn from committed studies carry those studies' numbers."""
+    figures = gallery()["figures"]
+    committed = {str(r["N"]): r["t_star_2d"] for r in data("sim2d/tstar.json")["rows"]}
+    assert figures["tstar2d"]["t_star_2d"] == committed
+    assert figures["tstar2d"]["t_star_1d_fails_from_N"] == min(
+        r["N"] for r in data("sim2d/tstar.json")["rows"] if r["t_star_1d"] is not None)
+    assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_CHEB)[201]
+    assert figures["fig4"]["cheb_threshold_N"] == first_failing_N(tstar_sweep(TSTAR_CHEB))
+    # the fresh runs of the gallery agree with the committed ones to the digits the pages quote
+    assert agrees(f"{committed['64']:.4g}", figures["bump2d"]["t_star_mui"])
+
+
 # --- the measurement pages: each table that names a command is checked or a dated record -----
 
-MEASUREMENT_PAGES = ("chebyshev.md", "performance.md", "scaling.md")
+MEASUREMENT_PAGES = ("chebyshev.md", "performance.md", "scaling.md", "engines.md", "results.md", "sim2d.md")
 #: the tables of those pages checked above, by a line of their introduction
 CHECKED = {"chebyshev.md": ("### t* against the linear solver and the Krylov tolerance",
                             "BDF (scipy), rtol = 1e-6, analytic Jacobian", "## t* depends on the integrator"),
-           "performance.md": ("(data/benchmarks/cheb_krylov_rtol.json;",)}
+           "performance.md": ("(data/benchmarks/cheb_krylov_rtol.json;",),
+           "engines.md": ("2 December 2026 on the shared 2-core machine at load 2.8-3.7",
+                          "(`--sizes 32 48 64 96 --rhs-sizes --json", "The right-hand side alone at the initial state"),
+           "results.md": ("data/tstar/mui_shear_fd_BDF_rtol1e-6_atol1e-9.json;", "**Grid convergence**"),
+           "sim2d.md": ("`python -m icidr_pde.studies.sim2d tstar`", "**max_w**", "**max_phi_dev**", "**l2_velocity**",
+                        "Central advection:", "Upwind advection:", "`python -m icidr_pde.studies.sim2d growth`")}
 #: "*Dated record*: `command`[ how it ran], YYYY-MM-DD[ time], machine and load[; data file]"
 RECORD = re.compile(r"^\*Dated record\*: `(?P<command>[^`]+)`[^,`]*, (?P<date>\d{4}-\d{2}-\d{2})(?: [^,]*)?, "
                     r"(?P<machine>.*machine.*)$")
@@ -325,19 +385,25 @@ COMMAND = re.compile(r"(?:`|^\s*)((?:[A-Z_]+=\S+ )*(?:nice -n \d+ )?(?:python3? 
                      re.MULTILINE)
 
 
+DELIMITER = re.compile(r"^\|?\s*:?-{3,}:?\s*(\|\s*:?-{3,}:?\s*)*\|?\s*$")
+
+
 def tables_and_introductions(text: str):
     """(first line, text since the previous table or heading, text of its section) of each table.
 
-    A section starts at a heading of level 1 or 2: a command or record stated at its top holds
-    for the tables of its subsections."""
+    A table is a line starting with | followed by a delimiter row. A section starts at a heading
+    of level 1 or 2: a command or record stated at its top holds for the tables of its subsections."""
+    lines = text.splitlines()
     out, local, section, in_table, fence = [], [], [], False, False
-    for line in text.splitlines():
+    for k, line in enumerate(lines):
         if line.startswith("```"):
             fence = not fence
-        if not fence and line.startswith("|"):
-            if not in_table:
-                out.append((line, "\n".join(local), "\n".join(section)))
+        starts = not fence and line.startswith("|") and k + 1 < len(lines) and DELIMITER.match(lines[k + 1])
+        if starts and not in_table:
+            out.append((line, "\n".join(local), "\n".join(section)))
             in_table, local = True, []
+            continue
+        if in_table and line.startswith("|"):
             continue
         in_table = False
         if not fence and re.match(r"#{1,2} ", line):
