@@ -341,7 +341,8 @@ def test_gallery_numbers_that_quote_committed_data_are_that_data():
 
 # --- the measurement pages: each table that names a command is checked or a dated record -----
 
-MEASUREMENT_PAGES = ("chebyshev.md", "performance.md", "scaling.md", "engines.md", "results.md", "sim2d.md")
+MEASUREMENT_PAGES = ("chebyshev.md", "performance.md", "scaling.md", "engines.md", "results.md", "sim2d.md",
+                     "distributed.md")
 #: the tables of those pages checked above, by a line of their introduction
 CHECKED = {"chebyshev.md": ("### t* against the linear solver and the Krylov tolerance",
                             "BDF (scipy), rtol = 1e-6, analytic Jacobian", "## t* depends on the integrator"),
@@ -390,17 +391,22 @@ def tables_and_introductions(text: str):
 
 
 def command_exists(command: str) -> bool:
-    """The benchmark file or `python -m` module a command runs is there (the console script is)."""
-    words = [w for w in shlex.split(command) if "=" not in w or w.startswith("-")]
-    while words and words[0] in ("nice", "-n") or (words and words[0].isdigit()):
+    """The benchmark file or `python -m` module a command runs is there (the console script is;
+    ``python -`` and ``python -c`` run the code the page shows)."""
+    words = [w for w in shlex.split(command) if not re.match(r"[A-Z_]+=", w)]
+    while words and (words[0] in ("nice", "mpiexec", "-n") or words[0].isdigit() or words[0] == "P"):
         words = words[1:]
+    if not words:
+        return False
     if words[0] == "icidr-pde":
         return True
-    if words[0].startswith("python"):
+    if words[0].startswith("python") and len(words) > 1:
         if words[1] == "-m":
             import importlib.util
 
             return importlib.util.find_spec(words[2]) is not None
+        if words[1] in ("-", "-c"):
+            return True
         return (ROOT / words[1]).is_file()
     return False
 
@@ -439,3 +445,5 @@ def test_record_check_can_fail():
     assert RECORD.match("*Dated record*: `python benchmarks/startup.py --repeats 3`, 2026-12-01, shared 2-core machine, load 0.8")
     assert not command_exists("python benchmarks/no_such_benchmark.py")
     assert not command_exists("python -m icidr_pde.no_such_module")
+    assert command_exists('PETSC_OPTIONS="-pc_type gamg" mpiexec -n 2 icidr-pde run --engine petsc')
+    assert command_exists("OMP_NUM_THREADS=1 nice -n 5 python benchmarks/shortwave2d.py --sizes 256")
