@@ -14,7 +14,7 @@ README = ROOT / "README.md"
 MAX_LINES = 250
 SETUP_COMMANDS = [
     "pip install -e . && icidr-pde demo",
-    'pip install -e ".[test,dem]" && python -m pytest',
+    'pip install -e ".[test,dem,docs]" && python -m pytest',
 ]
 FENCE = re.compile(r"^```.*?^```[ \t]*$", re.S | re.M)
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
