@@ -77,7 +77,7 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
     """One V-cycle of each multigrid hierarchy as the preconditioner; fill: operator complexity."""
     import pyamg
 
-    from icidr_pde.engines.amg import AmgHierarchy
+    from icidr_pde.engines.linear.amg_hierarchy import AmgHierarchy
 
     J = (sparse.identity(M.shape[0], format="csr") - M) / gamma
     fields, cells = 3, M.shape[0] // 3
@@ -109,7 +109,7 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
 
 def fourier_row(n: int, gamma: float, J, M, b) -> dict:
     """The x-Fourier preconditioner as wired; fill: its banded factors' entries over nnz(M)."""
-    from icidr_pde.engines.xfourier import XFourierPreconditioner
+    from icidr_pde.engines.linear.xfourier_inverse import XFourierPreconditioner
 
     start = time.process_time()
     P = XFourierPreconditioner(J, (3, n, n), gamma)

@@ -207,7 +207,7 @@ def _gmres(problem, rtol, atol):
 def _gmres_amg(problem, rtol, atol):
     """GMRES, Jacobian-vector products by CVODE's difference quotients, left-preconditioned by one
     algebraic-multigrid V-cycle on I - gamma J of the analytic sparse Jacobian (:mod:`.amg`)."""
-    from .amg import amg_preconditioner
+    from .linear.amg_hierarchy import amg_preconditioner
 
     jacobian = problem.jacobian
     return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
@@ -219,7 +219,7 @@ def _gmres_fourier(problem, rtol, atol):
     (:mod:`.jacobian_vector`), left-preconditioned by the inverse of I - gamma A, A the x-average
     of the analytic sparse Jacobian (:mod:`.xfourier`)."""
     from .jacobian_vector import difference_jtimes
-    from .xfourier import xfourier_preconditioner
+    from .linear.xfourier_inverse import xfourier_preconditioner
 
     jacobian = problem.jacobian
     return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,

@@ -38,8 +38,8 @@ from numba import njit, prange  # noqa: E402
 from scipy import sparse
 from scipy.linalg import lapack
 
-from ..kernel_cache import numba_saves_may_fail
-from ..validation import ParameterError
+from ...kernel_cache import numba_saves_may_fail
+from ...validation import ParameterError
 from .precond import jacobian_precond
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run

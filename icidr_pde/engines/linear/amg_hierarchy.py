@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from ..validation import ParameterError
+from ...validation import ParameterError
 from .amg_kernels import set_gamma, vcycle
 from .precond import jacobian_precond
 

@@ -22,7 +22,7 @@ bytes did not change a run's time: not kept).
 import numpy as np
 from numba import njit
 
-from ..kernel_cache import numba_saves_may_fail
+from ...kernel_cache import numba_saves_may_fail
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 

@@ -1,0 +1,1 @@
+"""The linear solvers of the Newton systems and their preconditioners."""
