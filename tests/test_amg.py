@@ -1,4 +1,4 @@
-"""GMRES preconditioned by algebraic multigrid (jacobian 'amg', :mod:`icidr_pde.engines.amg`).
+"""GMRES preconditioned by algebraic multigrid (jacobian 'amg', :mod:`icidr_pde.engines.linear.amg_hierarchy`).
 
 Against independent truth: the preconditioned run integrates the same ODE as the
 unpreconditioned GMRES run (solver A vs solver B: the measures agree to the integrator

@@ -1,4 +1,4 @@
-"""GMRES preconditioned by the x-average of the Jacobian (jacobian 'fourier', :mod:`icidr_pde.engines.xfourier`).
+"""GMRES preconditioned by the x-average of the Jacobian (jacobian 'fourier', :mod:`icidr_pde.engines.linear.xfourier_inverse`).
 
 Against independent truth: on a state that does not depend on x the preconditioner is the exact
 inverse of CVODE's Newton matrix I - gamma J (SuperLU of the sparse matrix); on any state it is

@@ -1,4 +1,4 @@
-"""Compiled V-cycle of :mod:`icidr_pde.engines.amg`: all levels in one call.
+"""Compiled V-cycle of :mod:`icidr_pde.engines.linear.amg_hierarchy`: all levels in one call.
 
 The levels' operators are 3 x 3 block-sparse rows (one block row a cell or an aggregate, the
 cell's fields phi, u, w its three unknowns), concatenated level after level and split into the
