@@ -12,6 +12,7 @@ import numpy as np
 from . import cvode_counters
 from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_EPS_LIN, Engine, Problem  # KRYLOV_EPS_LIN: its engine's setting
 from .linear import named
+from .linear.dense_lu import CvodeDenseQuotients
 from .linear.base import fun_into
 from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION
@@ -67,7 +68,7 @@ class CvodeEngine(Engine):
     methods = ("CVODE",)
 
     def __init__(self, method, problem: Problem, t0, *, rtol, atol, max_step=np.inf, first_step=None,
-                 linear_solver="dense LU", max_order=BDF_MAX_ORDER):  # linear_solver: a LinearSolver or its name
+                 linear_solver=CvodeDenseQuotients(), max_order=BDF_MAX_ORDER):  # a LinearSolver or its name
         from sksundae.cvode import CVODE
 
         # min_step: without one CVODE halves h down to 1e-165 before giving up on a blow-up
