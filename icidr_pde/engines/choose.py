@@ -3,7 +3,10 @@
 :func:`choose` is the only place that decides, from the resolved settings (method, the
 Jacobian asked for, what the scheme's Jacobian offers, the outputs asked, the engine asked
 for), which engine integrates, with which Jacobian and linear solver, and, where 'native' was
-asked for and not taken, why (one line). Light: numpy is not even needed.
+asked for and not taken, why (one line). The linear solver is the first of the registry
+(:data:`icidr_pde.engines.linear.SOLVERS`, most preferred first) that takes the method with that
+Jacobian on the scheme's structure; the method's Jacobian modes are its solvers'. Light: numpy is
+not even needed.
 """
 
 from __future__ import annotations
