@@ -112,7 +112,8 @@ class Choice:
 
     @property
     def memory_mode(self) -> str:
-        """The Jacobian as :func:`icidr_pde.discretizations.grid_size.check_path` names it."""
+        """The Jacobian mode, 'analytic-band' where the analytic Jacobian is written into a band solver's
+        band (:func:`icidr_pde.engines.stiff.jacobian_spec`)."""
         banded = self.solver is not None and self.solver.form.kind == "banded"
         return "analytic-band" if self.jacobian == "analytic" and banded else self.jacobian
 

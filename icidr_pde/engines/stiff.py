@@ -24,7 +24,7 @@ import numpy as np
 from pde.solvers.base import SolverBase
 
 from ..validation import ParameterError, choice as checked_choice, nonfinite_rates, real
-from . import METHODS, engine_class
+from . import ENGINES, METHODS, engine_class
 from .base import JacobianSpec, Problem, SimulationFailed, StepStatistics, check_tolerances
 from .choose import Choice, JacobianStructure, choose
 from .linear import jacobian_modes, named
@@ -72,7 +72,8 @@ class StiffSolver(SolverBase):
         super().__init__(pde, backend=backend)
         if choice is None:  # the py-pde idiom: checked here, as the run path checks its own
             checked_choice("method", method, METHODS)
-            valid = jacobian_modes(method)
+            valid = jacobian_modes(method) or next(e.jacobian_modes[method] for e in ENGINES.values()
+                                                   if method in e.methods)  # PETSc's, not a registered solver's
             if jacobian is not None and jacobian not in valid:
                 raise ParameterError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
             rtol, atol = check_tolerances(rtol, atol)
