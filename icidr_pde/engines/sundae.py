@@ -10,7 +10,7 @@ import sys
 import numpy as np
 
 from . import cvode_counters
-from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_EPS_LIN, Engine, Problem  # KRYLOV_EPS_LIN: its engine's setting
+from .base import DENSE_LU_DELTA_GAMMA, KRYLOV_EPS_LIN, Engine, Problem  # noqa: F401  (the settings of this engine's solvers)
 from .linear import named
 from .linear.dense_lu import CvodeDenseQuotients
 from .linear.base import fun_into
@@ -94,10 +94,8 @@ class CvodeEngine(Engine):
         self.counters = cvode_counters.attach(self.solver, start.nfev)
         if solver.krylov and self.counters is not None:
             self.counters.set_eps_lin(KRYLOV_EPS_LIN)
-        if kwargs.get("linsolver") == "lapackdense" and self.counters is not None:
-            # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
-            # I - gamma J until gamma has doubled (modified Newton), not only changed by 30 %
-            self.counters.set_lsetup_reuse(delta_gamma=DENSE_LU_DELTA_GAMMA)
+        if solver.delta_gamma is not None and self.counters is not None:
+            self.counters.set_lsetup_reuse(delta_gamma=solver.delta_gamma)
         self.t, self.y, self.njev = t0, np.array(problem.y0), 0
 
     def _rhsfn(self, problem):

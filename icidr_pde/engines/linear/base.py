@@ -53,7 +53,8 @@ class LinearSolver:
     the user-facing option), `methods` (the methods whose Newton systems it solves), `engine`
     (the engine that sets it up), `preference` (the registry's order), `form`
     (:class:`JacobianForm`), `krylov` (GMRES: CVODE's linear tolerance factor is the engine's),
-    `petsc` ((KSP type, PC type) of the same solver in PETSc, or None).
+    `delta_gamma` (the change of gamma that refactors the Newton matrix, where it is not CVODE's
+    default), `petsc` ((KSP type, PC type) of the same solver in PETSc, or None).
     """
 
     name = ""
@@ -63,6 +64,7 @@ class LinearSolver:
     preference = 0.0
     form = JacobianForm("dense")
     krylov = False
+    delta_gamma: float | None = None
     petsc: tuple[str, str] | None = None
 
     def __init_subclass__(cls, **kwargs):

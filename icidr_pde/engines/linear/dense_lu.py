@@ -3,8 +3,9 @@ quotients, scipy's and LSODA's."""
 
 from __future__ import annotations
 
+from ...cvode_settings import DENSE_LU_DELTA_GAMMA
 from .band_lu import conserving_quotients
-from .base import JacobianForm, LinearSolver, Memory
+from .base import LinearSolver, Memory
 
 __all__ = ["CvodeDenseLU", "CvodeDenseQuotients", "ScipyDenseLU", "LsodaDenseLU"]
 
@@ -22,6 +23,9 @@ class CvodeDenseLU(LinearSolver):
     modes = ("analytic",)
     methods = ("CVODE",)
     preference = 20
+    # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
+    # I - gamma J until gamma has doubled (modified Newton), not only changed by 30 %
+    delta_gamma = DENSE_LU_DELTA_GAMMA
 
     def cvode_options(self, problem, rtol, atol):
         from ..base import dense
