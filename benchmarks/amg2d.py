@@ -2,7 +2,7 @@
 
 iCIDR bump2d to t = 10 (CVODE rtol 1e-5, atol 1e-8, the default accuracy) on N^2 cells, in
 this process, once with ``jacobian='krylov'`` (GMRES, no preconditioner: the baseline) and once
-with ``jacobian='amg'`` (GMRES + one algebraic-multigrid V-cycle, :mod:`icidr_pde.engines.amg`).
+with ``jacobian='amg'`` (GMRES + one algebraic-multigrid V-cycle, :mod:`icidr_pde.engines.linear.amg_hierarchy`).
 For each: the solve's wall and CPU time, CVODE's steps, Newton iterations, GMRES iterations
 (and per Newton iteration), right-hand-side calls (those of the difference-quotient Jacobian-vector products included), preconditioner set-ups (Jacobian and
 aggregation rebuilt) and solves, the mass drift, and beside it the accuracy figure: the

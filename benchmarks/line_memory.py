@@ -1,4 +1,4 @@
-"""Memory of a thin 2-D cell's line preconditioner per unknown (grid_size.LINE_BYTES).
+"""Memory of a thin 2-D cell's line preconditioner per unknown (icidr_pde.engines.linear.line.LINE_BYTES).
 
 iCIDR bump2d on Nx x Nz cells with L such that hx = 60 hz (a thin cell, as 4096 x 256 at
 L = 120000): the line preconditioner of :mod:`icidr_pde.engines.sundae` is built and set up
@@ -6,7 +6,7 @@ once, as CVODE does at its first step. Printed per unknown: the peak that tracem
 during the set-up (numpy and scipy.sparse: the analytic Jacobian, its restriction to the line
 pattern, I - gamma J_line), what is still held after it, SuperLU's factors (C memory that
 tracemalloc does not see, from their entries: 8 bytes a value and 4 an index) and the line
-pattern; their sum is what grid_size.LINE_BYTES must cover.
+pattern; their sum is what icidr_pde.engines.linear.line.LINE_BYTES must cover.
 
     nice -n 10 python benchmarks/line_memory.py [--sizes 256x32 512x64 1024x64]
 """
@@ -17,9 +17,8 @@ import tracemalloc
 import numpy as np
 
 from icidr_pde.case import build_case
-from icidr_pde.discretizations.grid_size import LINE_BYTES
+from icidr_pde.engines.linear.line import LINE_BYTES, line_preconditioner
 from icidr_pde.engines.stiff import conserved
-from icidr_pde.engines.sundae import _line_preconditioner
 
 
 def measure(nx: int, nz: int, H: float = 30.0, aspect: float = 60.0) -> dict:
@@ -34,7 +33,7 @@ def measure(nx: int, nz: int, H: float = 30.0, aspect: float = 60.0) -> dict:
     y = state.data.ravel().copy()
     jac(0.0, y)  # compiled before the measurement
     tracemalloc.start()
-    precond = _line_preconditioner(jac, pattern, weights, anchor)
+    precond = line_preconditioner(jac, pattern, weights, anchor)
     precond.setupfn(0.0, y, None, False, np.zeros(1, dtype=np.int32), 0.01)
     held, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
@@ -50,7 +49,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", default=["256x32", "512x64", "1024x64"])
     args = parser.parse_args()
-    print(f"bytes per unknown (grid_size.LINE_BYTES = {LINE_BYTES:g})")
+    print(f"bytes per unknown (LINE_BYTES = {LINE_BYTES:g})")
     for size in args.sizes:
         nx, nz = (int(v) for v in size.split("x"))
         m = measure(nx, nz)

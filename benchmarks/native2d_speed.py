@@ -3,7 +3,7 @@
 For each grid N^2 (default 32, 64, 128) runs the command line as whole processes (imports, kernel
 loading included), the default accuracy, ``--engine native`` (CVODE BDF + GMRES(20) without a
 preconditioner, eps_lin = KRYLOV_EPS_LIN) and ``--engine pde`` (the py-pde path's default: the same
-GMRES preconditioned by the x-averaged Jacobian, :mod:`icidr_pde.engines.xfourier`; the baseline), and
+GMRES preconditioned by the x-averaged Jacobian, :mod:`icidr_pde.engines.linear.xfourier_inverse`; the baseline), and
 prints process and solve time (JSON ``wall_s``) and the process's CPU time (user + system, wait4:
 less disturbed by other work on a shared machine), their ratios native / pde, and beside them the
 accuracy figure: the largest relative difference of max_w and l2_velocity at t = 0.5, 1, 2, 5, 10

@@ -14,10 +14,10 @@ M x = b (b random, fixed seed) to a relative residual 1e-6: iterations and solve
 * algebraic multigrid, one V-cycle per GMRES iteration (set-up: the hierarchy): pyamg's
   smoothed aggregation with its defaults on M (scalar: every unknown a node), its nodal form
   (the 3 fields of a cell one BSR block, constant fields as near-null space), and the one CVODE
-  uses (``--jacobian amg``, :class:`icidr_pde.engines.amg.AmgHierarchy`: nodal aggregation,
+  uses (``--jacobian amg``, :class:`icidr_pde.engines.linear.amg_hierarchy.AmgHierarchy`: nodal aggregation,
   unsmoothed prolongators, one block Gauss-Seidel sweep on the cells' 3 x 3 blocks before and
   after, compiled);
-* the x-Fourier preconditioner (``--jacobian fourier``, :class:`icidr_pde.engines.xfourier.XFourierPreconditioner`:
+* the x-Fourier preconditioner (``--jacobian fourier``, :class:`icidr_pde.engines.linear.xfourier_inverse.XFourierPreconditioner`:
   the exact inverse of I - gamma A, A the x-average of J, by the FFT in x and banded LUs in z).
 
 Only the z-line, the last AMG and the x-Fourier are wired into the integrator; ``--amg-only`` measures the
@@ -77,7 +77,7 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
     """One V-cycle of each multigrid hierarchy as the preconditioner; fill: operator complexity."""
     import pyamg
 
-    from icidr_pde.engines.amg import AmgHierarchy
+    from icidr_pde.engines.linear.amg_hierarchy import AmgHierarchy
 
     J = (sparse.identity(M.shape[0], format="csr") - M) / gamma
     fields, cells = 3, M.shape[0] // 3
@@ -109,7 +109,7 @@ def amg_rows(n: int, gamma: float, M, b) -> list[dict]:
 
 def fourier_row(n: int, gamma: float, J, M, b) -> dict:
     """The x-Fourier preconditioner as wired; fill: its banded factors' entries over nnz(M)."""
-    from icidr_pde.engines.xfourier import XFourierPreconditioner
+    from icidr_pde.engines.linear.xfourier_inverse import XFourierPreconditioner
 
     start = time.process_time()
     P = XFourierPreconditioner(J, (3, n, n), gamma)

@@ -6,13 +6,13 @@ compilation included), all on the py-pde path (``--engine pde``; 'auto' takes th
 to 64^2: benchmarks/native2d_speed.py compares the two),
 
 * the default: ``--method CVODE`` (SUNDIALS BDF, orders up to 2: A-stable, docs/sim2d.md) with GMRES
-  preconditioned by the x-averaged Jacobian (:mod:`icidr_pde.engines.xfourier`), the 2-D default
+  preconditioned by the x-averaged Jacobian (:mod:`icidr_pde.engines.linear.xfourier_inverse`), the 2-D default
   advection (central, second order);
 * the default with BDF orders up to 5 (``--max-order 5``, the default before issue 37: fewer steps,
   but it amplifies the short advected x-waves);
 * GMRES without a preconditioner (``--jacobian krylov``, the default before it);
 * the default with ``--advection upwind`` (first order, the default before issue 23);
-* GMRES preconditioned by one algebraic-multigrid V-cycle (``--jacobian amg``, :mod:`icidr_pde.engines.amg`);
+* GMRES preconditioned by one algebraic-multigrid V-cycle (``--jacobian amg``, :mod:`icidr_pde.engines.linear.amg_hierarchy`);
 * the baseline: ``--method BDF --jacobian colored-fd`` (scipy's BDF with a sparse
   finite-difference Jacobian, colored, well-scaled increments, SuperLU);
 

@@ -10,7 +10,7 @@ default 0.1) is set through SUNDIALS' own C setter on the run's CVODE memory
 (:mod:`icidr_pde.engines.cvode_counters` finds it). ``krylov_dim`` is
 scikit-sundae's option (the integrator's 20). 'line' forces the z-line preconditioner of
 thin cells (:meth:`ShearCell2DPDE.line_pattern`) on the square cell; 'gmres-amg-epslin-5e-5' is GMRES
-preconditioned by algebraic multigrid (``jacobian='amg'``, :mod:`icidr_pde.engines.amg`).
+preconditioned by algebraic multigrid (``jacobian='amg'``, :mod:`icidr_pde.engines.linear.amg_hierarchy`).
 
     nice -n 5 python benchmarks/tstar2d_solvers.py --sizes 64 128 [--advection central] [--cases ...]
 

@@ -1,4 +1,4 @@
-"""GMRES preconditioned by algebraic multigrid (jacobian 'amg', :mod:`icidr_pde.engines.amg`).
+"""GMRES preconditioned by algebraic multigrid (jacobian 'amg', :mod:`icidr_pde.engines.linear.amg_hierarchy`).
 
 Against independent truth: the preconditioned run integrates the same ODE as the
 unpreconditioned GMRES run (solver A vs solver B: the measures agree to the integrator
@@ -13,7 +13,7 @@ from scipy import sparse
 from scipy.sparse import linalg
 
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-from icidr_pde.engines.amg import AmgHierarchy, amg_preconditioner
+from icidr_pde.engines.linear.amg_hierarchy import AmgHierarchy, amg_preconditioner
 from icidr_pde.engines.choose import AMG_SOLVER, SCHEME_STRUCTURES, choose
 from icidr_pde.scenes2d import Bump2DScene
 from icidr_pde.validation import ParameterError

@@ -402,9 +402,8 @@ def test_line_preconditioner_memory_is_covered_by_the_estimate():
     entries; the line pattern) is within the estimate that the memory check adds for it."""
     import tracemalloc
 
-    from icidr_pde.discretizations.grid_size import path_bytes
+    from icidr_pde.engines.linear.line import LineGmres, line_preconditioner
     from icidr_pde.engines.stiff import conserved
-    from icidr_pde.engines.sundae import _line_preconditioner
 
     case = thin_case()
     pde, state = case.pde, case.state
@@ -416,7 +415,7 @@ def test_line_preconditioner_memory_is_covered_by_the_estimate():
     jac(0.0, y)
     tracemalloc.start()
     try:
-        precond = _line_preconditioner(jac, pattern, weights, anchor)
+        precond = line_preconditioner(jac, pattern, weights, anchor)
         precond.setupfn(0.0, y, None, False, np.zeros(1, dtype=np.int32), 0.01)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
@@ -424,7 +423,8 @@ def test_line_preconditioner_memory_is_covered_by_the_estimate():
     saved = next(c.cell_contents for c in precond.setupfn.__closure__ if isinstance(c.cell_contents, dict))
     factors = 12 * (saved["lu"].L.nnz + saved["lu"].U.nnz)  # a double and a 32-bit index an entry
     held = pattern.data.nbytes + pattern.indices.nbytes + pattern.indptr.nbytes
-    estimate, note = path_bytes(y.size, "CVODE", "line")
+    memory = LineGmres().memory(y.size, "CVODE", "krylov", thin=True)
+    estimate, note = memory.bytes, memory.note
     assert "line preconditioner" in note
     assert peak + factors + held <= estimate
 
@@ -435,11 +435,12 @@ def test_thin_cell_run_counts_its_line_preconditioner(monkeypatch):
     256 x 32: with memory for the scheme's estimate and half of the preconditioner's, the run is
     refused before it starts, naming the preconditioner."""
     from icidr_pde import run
-    from icidr_pde.discretizations.grid_size import FV2D, path_bytes
+    from icidr_pde.discretizations.grid_size import FV2D
+    from icidr_pde.engines.linear.line import LineGmres
 
     nx, nz, H = 256, 32, 30.0
     scheme, _ = FV2D.estimate(nx * nz)
-    line, _ = path_bytes(3 * nx * nz, "CVODE", "line")
+    line = LineGmres().memory(3 * nx * nz, "CVODE", "krylov", thin=True).bytes
     monkeypatch.setenv(MEMORY_ENV, f"{2 * (scheme + line / 2):.0f}")
     with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 256 x 32 with method 'CVODE', Jacobian 'krylov' "
                                              r"\(GMRES with the line preconditioner\) needs about"):

@@ -1,4 +1,4 @@
-"""GMRES preconditioned by the x-average of the Jacobian (jacobian 'fourier', :mod:`icidr_pde.engines.xfourier`).
+"""GMRES preconditioned by the x-average of the Jacobian (jacobian 'fourier', :mod:`icidr_pde.engines.linear.xfourier_inverse`).
 
 Against independent truth: on a state that does not depend on x the preconditioner is the exact
 inverse of CVODE's Newton matrix I - gamma J (SuperLU of the sparse matrix); on any state it is
@@ -17,7 +17,7 @@ from scipy.sparse import linalg
 
 from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
 from icidr_pde.engines.choose import FOURIER_SOLVER, SCHEME_STRUCTURES, choose
-from icidr_pde.engines.xfourier import XFourierPreconditioner
+from icidr_pde.engines.linear.xfourier_inverse import XFourierPreconditioner
 from icidr_pde.scenes2d import Bump2DScene
 from icidr_pde.validation import ParameterError
 
@@ -143,7 +143,7 @@ def test_band_solve_threads_wait_passively():
     import subprocess
     import sys
 
-    child = ("import os\nfrom icidr_pde.engines import xfourier\nprint(os.environ['OMP_WAIT_POLICY'])")
+    child = ("import os\nfrom icidr_pde.engines.linear import xfourier_inverse\nprint(os.environ['OMP_WAIT_POLICY'])")
     for given, expected in ((None, "PASSIVE"), ("ACTIVE", "ACTIVE")):
         env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
         if given:

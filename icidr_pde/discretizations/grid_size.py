@@ -5,8 +5,8 @@ One table for every run path, importing no py-pde: the discretizations
 ``make_grid``) and the native engine (:class:`icidr_pde.native.NativeCase`) check the grid
 with :func:`check_N` / :func:`check_cells` against the least a run of the scheme needs (the
 estimate of its cheapest linear solver, :meth:`GridLimit.least`); the stiff solver adds what its
-linear algebra allocates (:func:`path_bytes`, checked by :func:`check_path` before the
-integration starts), the native Chebyshev problem checks the estimate of its linear solver
+linear solver allocates (the solver's own ``memory``, :class:`icidr_pde.engines.linear.Memory`,
+checked by :func:`check_path` before the integration starts), the native Chebyshev problem checks the estimate of its linear solver
 (:meth:`GridLimit.estimate`: the dense LU's three dense 3N x 3N arrays, or the Krylov path's
 D and vectors).
 A run whose estimate exceeds half the memory available (:func:`~icidr_pde.validation.memory_bytes`)
@@ -26,7 +26,8 @@ numba loaded is ~250 MB):
   SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in); with
   GMRES + AMG ('amg', whole run to t = 10, benchmarks/amg2d.py): 854 MB at 256^2 against 383 MB
   without -- 7.2 kB a cell more (the Jacobian, the hierarchy and pyamg's set-up); a thin cell's
-  GMRES with the line preconditioner: 4.2 kB a cell more (:data:`LINE_BYTES`).
+  GMRES with the line preconditioner: 4.2 kB a cell more
+  (:data:`icidr_pde.engines.linear.line.LINE_BYTES`).
 """
 
 from __future__ import annotations
@@ -36,8 +37,7 @@ from typing import Callable
 
 from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
-__all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "path_bytes", "check_path",
-           "check_memory", "LINE_BYTES"]
+__all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "check_path", "check_memory"]
 
 
 @dataclass(frozen=True)
@@ -59,11 +59,11 @@ class GridLimit:
                 return estimate(N), note
         return self.memory_estimate(N), self.memory_note
 
-    def check_run(self, what: str, n: int, N: int, method: str, mode: str, hint: str = "") -> None:
+    def check_run(self, what: str, n: int, N: int, method: str, memory) -> None:
         """Refuse a run on N (`what`: its grid, e.g. "`N` = 20000") of n unknowns whose scheme
-        (:attr:`memory_estimate`) and linear algebra (`method`, Jacobian `mode`) do not fit
-        (:func:`check_path`): the engines' py-pde adapter asks the scheme it is given."""
-        check_path(what, n, self.memory_estimate(N), method, mode, hint, self.memory_note)
+        (:attr:`memory_estimate`) and linear solver (`method`, its `memory` for the n unknowns)
+        do not fit (:func:`check_path`): the engines' py-pde adapter asks the scheme it is given."""
+        check_path(what, self.memory_estimate(N), method, memory, self.memory_note)
 
     def least(self, N: int) -> tuple[float, str]:
         """(bytes, what they hold) of the cheapest run on N: what every run of the scheme needs."""
@@ -102,55 +102,6 @@ CHEB = GridLimit(4001, "dense 3N x 3N Jacobian, its LU and the N x N differentia
 FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5 kB a cell, measured",
                  _fv2d_bytes)
 
-#: dense n x n arrays (n unknowns) that a path's linear algebra allocates beyond its scheme's
-#: estimate, by (method, Jacobian mode): measured for 'analytic-band' (module docstring), the
-#: others counted from the arrays the solvers allocate; 'analytic-band' is the analytic Jacobian in CVODE's
-#: band matrix (the mass-conserving difference quotients of 'banded-fd' are handed over densely
-#: too, but only up to 256 MiB: :class:`icidr_pde.engines.sundae.CvodeEngine`)
-DENSE_ARRAYS = {
-    ("CVODE", "analytic-band"): (1, "scikit-sundae's dense hand-over array of the band Jacobian"),
-    ("CVODE", "none"): (2, "CVODE's dense matrix and its saved Jacobian"),
-    ("BDF", "none"): (2, "scipy's dense Jacobian and its LU"),
-    ("Radau", "none"): (4, "scipy's dense Jacobian, its real and complex LU"),
-    ("LSODA", "none"): (2, "LSODA's dense Jacobian and its LU"),
-    ("LSODA", "analytic"): (3, "the dense copy of the Jacobian, LSODA's and its LU"),
-}
-#: SuperLU_MT's factors ('sparse'), per unknown beyond the scheme's estimate: 26 kB a 2-D cell measured
-SPARSE_LU_BYTES = 23_500.0 / 3
-#: the algebraic-multigrid path ('amg'), per unknown beyond the scheme's estimate: the analytic
-#: Jacobian, its node-major copy, the level operators and pyamg's set-up temporaries; peak RSS
-#: 854 MB against 383 MB without it at 256^2 (benchmarks/amg2d.py): 7.2 kB a 2-D cell
-AMG_BYTES = 7_200.0 / 3
-#: the x-Fourier preconditioner ('fourier'), per unknown beyond the scheme's estimate: the analytic
-#: Jacobian while it is averaged, the banded LU factors of the Nx / 2 + 1 wave numbers; peak RSS
-#: 627 MB against 405 MB without it at 256^2 (benchmarks/amg2d.py): 3.4 kB a 2-D cell
-FOURIER_BYTES = 3_400.0 / 3
-#: the line preconditioner of a thin 2-D cell's GMRES (mode 'krylov' where hx > THIN_CELL hz), per
-#: unknown beyond the scheme's estimate: at its set-up the analytic sparse Jacobian, its restriction
-#: to the couplings along z and I - gamma J_line (1.05 kB at the peak, tracemalloc), SuperLU's factors
-#: (0.11 kB, from their entries: C memory tracemalloc does not see) and the line pattern (0.11 kB),
-#: 1.27 kB in all, the same per unknown at 256 x 32, 512 x 64 and 1024 x 64 (benchmarks/line_memory.py),
-#: taken with 10 % to spare; without it a thin 4096 x 256 cell was estimated at 2.44 GiB and peaked at
-#: 4.78 GB (RSS)
-LINE_BYTES = 1_400.0
-
-
-def path_bytes(n: int, method: str, mode: str) -> tuple[float, str]:
-    """(bytes, what they hold) that the linear algebra of `method` with Jacobian `mode`
-    allocates for n unknowns beyond the scheme's own estimate."""
-    if mode == "sparse":
-        return SPARSE_LU_BYTES * n, "SuperLU_MT's LU factors"
-    if mode == "amg":
-        return AMG_BYTES * n, "the analytic sparse Jacobian and the algebraic-multigrid hierarchy"
-    if mode == "fourier":
-        return FOURIER_BYTES * n, "the analytic sparse Jacobian and the banded LU factors of the x-Fourier preconditioner"
-    if mode == "line":
-        return LINE_BYTES * n, ("the analytic sparse Jacobian and the SuperLU factors of the line preconditioner "
-                                "of a thin cell")
-    count, note = DENSE_ARRAYS.get((method, mode), (0, ""))
-    return 8.0 * count * n * n, (f"{count} dense {n} x {n} array{'s' if count > 1 else ''}: {note}"
-                                 if count else "")
-
 
 def _memory_text(need: float, note: str, have: int | None) -> str:
     shown = f"{format_bytes(have)} available" if have is not None else "an unknown amount of memory"
@@ -187,11 +138,9 @@ def check_cells(scheme: str, Nx: int, Nz: int, limit: GridLimit) -> None:
                 Nx * Nz, limit, " cells")
 
 
-def check_path(what: str, n: int, scheme_bytes: float, method: str, mode: str, hint: str = "",
-               scheme_note: str = "") -> None:
-    """Refuse a run of n unknowns (`what`: its grid, e.g. "`N` = 20000") whose scheme needs
-    `scheme_bytes` (holding `scheme_note`) and whose linear algebra (:func:`path_bytes`) does not fit."""
-    extra, note = path_bytes(n, method, mode)
-    shown = {"analytic-band": "'analytic' (band)", "line": "'krylov' (GMRES with the line preconditioner)"}.get(
-        mode, repr(mode))
-    check_memory(f"{what} with method {method!r}, Jacobian {shown}", scheme_bytes + extra, note or scheme_note, hint)
+def check_path(what: str, scheme_bytes: float, method: str, memory, scheme_note: str = "") -> None:
+    """Refuse a run (`what`: its grid, e.g. "`N` = 20000") whose scheme needs `scheme_bytes`
+    (holding `scheme_note`) and whose linear solver allocates `memory` beyond it (the solver's
+    :class:`~icidr_pde.engines.linear.Memory`: bytes, note, label, hint) that does not fit."""
+    check_memory(f"{what} with method {method!r}, Jacobian {memory.label}", scheme_bytes + memory.bytes,
+                 memory.note or scheme_note, memory.hint)

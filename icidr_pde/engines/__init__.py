@@ -9,13 +9,16 @@
   scikit-sundae), :mod:`.native` (CVODE on the compiled C problem of :mod:`icidr_pde.native`,
   many output times per call into C), :mod:`.petsc` (PETSc's TS, SNES, KSP over MPI; the
   ``[petsc]`` extra);
+* :mod:`.linear` -- the linear solvers of the Newton systems and their preconditioners, one
+  registered object each (:class:`~.linear.LinearSolver`): the Jacobian modes of the methods
+  below are theirs;
 * :mod:`.stiff` -- :class:`~.stiff.StiffSolver`, py-pde's solver "stiff" over these engines
   (the README's ``pde.solve(state)`` idiom);
 * helpers: :mod:`.colored_fd`, :mod:`.conservative_jacobian`, :mod:`.cvode_counters`,
   :mod:`.state_bounds`; below them :mod:`icidr_pde.time_scale` and :mod:`icidr_pde.cvode_settings`, which the
   compiled problems of :mod:`icidr_pde.native` share with the engines.
 
-This module and :mod:`.choose` are light (no scipy, numba, py-pde or scikit-sundae): a warm
+This module, :mod:`.choose` and the registry of :mod:`.linear` are light (no scipy, numba, py-pde or scikit-sundae): a warm
 native run imports them; each engine's module is loaded by :func:`engine_class` when used.
 """
 
@@ -23,6 +26,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from importlib import import_module
+
+from .linear import SOLVERS, jacobian_modes
 
 __all__ = ["ENGINES", "EngineEntry", "METHODS", "JACOBIAN_MODES", "engine_class"]
 
@@ -43,16 +48,16 @@ class EngineEntry:
 
 #: engine name -> where it is and what it integrates (the names a run's settings give)
 ENGINES = {
-    "scipy": EngineEntry("scipy", "ScipyEngine", {"BDF": ("analytic", "sparse-fd", "colored-fd", "none"),
-                                                  "Radau": ("analytic", "sparse-fd", "colored-fd", "none"),
-                                                  "LSODA": ("banded-fd", "analytic", "none")}),
-    "sundae": EngineEntry("sundae", "CvodeEngine", {"CVODE": ("analytic", "banded-fd", "krylov", "amg", "fourier", "sparse", "none")}),
+    "scipy": EngineEntry("scipy", "ScipyEngine", {m: jacobian_modes(m) for m in ("BDF", "Radau", "LSODA")}),
+    "sundae": EngineEntry("sundae", "CvodeEngine", {"CVODE": jacobian_modes("CVODE")}),  # its linear solvers' modes
     "native": EngineEntry("native", "NativeEngine", {"CVODE": ("analytic",)}),
     "petsc": EngineEntry("petsc", "PetscEngine", {"PETSC-BDF": ("sparse",)}),
 }
 #: every method a run can take, each by the first engine above that has it
 METHODS = tuple(dict.fromkeys(m for entry in ENGINES.values() for m in entry.methods))
-JACOBIAN_MODES = ("analytic", "sparse-fd", "banded-fd", "colored-fd", "krylov", "amg", "fourier", "sparse", "none")
+#: every Jacobian mode a run may ask for: scipy's first, then CVODE's, then any other linear solver's (:mod:`.linear`)
+JACOBIAN_MODES = tuple(dict.fromkeys(("analytic", "sparse-fd", "banded-fd", "colored-fd") + jacobian_modes("CVODE")
+                                     + tuple(m for s in SOLVERS for m in s.modes)))
 
 
 def engine_class(name: str):

@@ -3,7 +3,10 @@
 :func:`choose` is the only place that decides, from the resolved settings (method, the
 Jacobian asked for, what the scheme's Jacobian offers, the outputs asked, the engine asked
 for), which engine integrates, with which Jacobian and linear solver, and, where 'native' was
-asked for and not taken, why (one line). Light: numpy is not even needed.
+asked for and not taken, why (one line). The linear solver is the first of the registry
+(:data:`icidr_pde.engines.linear.SOLVERS`, most preferred first) that takes the method with that
+Jacobian on the scheme's structure; the method's Jacobian modes are its solvers'. Light: numpy is
+not even needed.
 """
 
 from __future__ import annotations
@@ -13,10 +16,15 @@ from dataclasses import dataclass, replace
 from ..cvode_settings import A_STABLE_ORDER, BDF_MAX_ORDER
 from ..validation import ParameterError, choice as checked_choice, integer
 from . import ENGINES, METHODS
+from .linear import SOLVERS, LinearSolver, jacobian_modes, solver_for
+from .linear.amg import AmgGmres
+from .linear.band_lu import CvodeBandLU
+from .linear.gmres import CompiledGmres, PetscGmres, Preconditioned
+from .linear.xfourier import XFourierGmres
 
 __all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
            "NATIVE_FV2D_AUTO_CELLS", "DENSE_2D_CELLS", "CHOICES_2D", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order",
-           "AMG_SOLVER", "FOURIER_SOLVER", "PRECONDITIONED"]
+           "AMG_SOLVER", "FOURIER_SOLVER"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
 #: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
@@ -25,13 +33,10 @@ REQUESTS = ("auto", "native", "pde", "petsc")
 #: the method of the PETSc engine (PETSc's TSBDF; its -ts_type option changes it)
 PETSC_METHOD = "PETSC-BDF"
 
-#: the linear solver of Jacobian mode 'amg' (:mod:`icidr_pde.engines.amg`)
-AMG_SOLVER = "GMRES + AMG preconditioner"
-#: the linear solver of Jacobian mode 'fourier' (:mod:`icidr_pde.engines.xfourier`)
-FOURIER_SOLVER = "GMRES + x-Fourier preconditioner"
-#: the Jacobian modes of GMRES with a preconditioner built from the analytic sparse Jacobian of the
-#: 2-D cell -> what preconditions
-PRECONDITIONED = {"amg": "algebraic multigrid", "fourier": "the x-average of the Jacobian, FFT in x"}
+#: the name of the linear solver of Jacobian mode 'amg' (:mod:`icidr_pde.engines.linear.amg`)
+AMG_SOLVER = AmgGmres.name
+#: the name of the linear solver of Jacobian mode 'fourier' (:mod:`icidr_pde.engines.linear.xfourier`)
+FOURIER_SOLVER = XFourierGmres.name
 #: dense Jacobians above this size are not differenced into scikit-sundae's hand-over array (256 MiB)
 DENSE_HANDOVER_BYTES = 2**28
 
@@ -66,7 +71,7 @@ class JacobianStructure:
 
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
 #: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
-NATIVE_SCHEMES = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d": "GMRES"}
+NATIVE_SCHEMES = {"fd": CvodeBandLU(), "cheb": CompiledGmres("band"), "fv2d": CompiledGmres()}
 #: the largest grid (cells) on which 'auto' takes the native engine for fv2d (unpreconditioned GMRES
 #: in C, no py-pde or numba to import) rather than the py-pde path's default, GMRES with the
 #: x-Fourier preconditioner: where the native engine measured faster whole-process
@@ -88,9 +93,10 @@ SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=
 @dataclass(frozen=True)
 class Choice:
     """engine (a key of :data:`~icidr_pde.engines.ENGINES`), jacobian (a Jacobian mode),
-    linear_solver (of the Newton systems), reason (why 'native' was not taken, else ''),
-    max_order (the highest BDF order the engine may take), warning (a setting asked for that is
-    known to amplify modes the continuum damps, and the stable alternative; else '')."""
+    linear_solver (the name of the solver of the Newton systems), reason (why 'native' was not
+    taken, else ''), max_order (the highest BDF order the engine may take), warning (a setting
+    asked for that is known to amplify modes the continuum damps, and the stable alternative;
+    else ''), solver (the :class:`~icidr_pde.engines.linear.LinearSolver` itself)."""
 
     engine: str
     jacobian: str
@@ -98,6 +104,7 @@ class Choice:
     reason: str = ""
     max_order: int = BDF_MAX_ORDER
     warning: str = ""
+    solver: LinearSolver | None = None
 
     def solved_by(self, linear_solver: str) -> "Choice":
         """The same choice, its linear solver named as the engine set it up."""
@@ -105,8 +112,10 @@ class Choice:
 
     @property
     def memory_mode(self) -> str:
-        """The Jacobian as :func:`icidr_pde.discretizations.grid_size.check_path` names it."""
-        return "analytic-band" if (self.jacobian, self.linear_solver) == ("analytic", "band LU") else self.jacobian
+        """The Jacobian mode, 'analytic-band' where the analytic Jacobian is written into a band solver's
+        band (:func:`icidr_pde.engines.stiff.jacobian_spec`)."""
+        banded = self.solver is not None and self.solver.form.kind == "banded"
+        return "analytic-band" if self.jacobian == "analytic" and banded else self.jacobian
 
 
 def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
@@ -149,13 +158,15 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
             reason = _not_native_2d(thin_cell, cells if request == "auto" else None)
         if not reason:
             mode = "krylov" if discretization == "fv2d" else "analytic"
-            return Choice("native", mode, NATIVE_SCHEMES[discretization], max_order=order, warning=warning)
-    engine = next(name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
-    mode = _jacobian_mode(ENGINES[engine].jacobian_modes[method], method, jacobian, structure, thin_cell)
-    solver = _linear_solver(method, mode, structure)
-    if structure.amg and "dense" in solver and cells is not None and cells > DENSE_2D_CELLS:
-        raise ParameterError(_dense_2d(method, mode if jacobian is not None else None, solver, cells))
-    return Choice(engine, mode, solver, reason, order, warning)
+            solver = NATIVE_SCHEMES[discretization]
+            return Choice("native", mode, solver.name, max_order=order, warning=warning, solver=solver)
+    mode = _jacobian_mode(jacobian_modes(method), method, jacobian, structure, thin_cell)
+    solver = solver_for(method, mode, structure)
+    if structure.amg and solver.form.kind == "dense" and cells is not None and cells > DENSE_2D_CELLS:
+        raise ParameterError(_dense_2d(method, mode if jacobian is not None else None, solver.name, cells))
+    engine = solver.engine if solver.engine in ENGINES else next(
+        name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
+    return Choice(engine, mode, solver.name, reason, order, warning, solver)
 
 
 def _dense_2d(method, mode, solver, cells) -> str:
@@ -208,8 +219,8 @@ def _petsc_choice(jacobian, structure, max_order, warning) -> Choice:
                              "2-D cell); got a dense one")
     if jacobian not in (None, "sparse"):
         raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
-    return Choice("petsc", "sparse", "PETSc TS bdf + SNES newtonls + KSP gmres + PC bjacobi",
-                  max_order=max_order, warning=warning)
+    solver = PetscGmres()
+    return Choice("petsc", "sparse", solver.name, max_order=max_order, warning=warning, solver=solver)
 
 
 def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
@@ -260,28 +271,14 @@ def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
         # no banded ordering: Krylov where the Jacobian is sparse (2-D), preconditioned by the
         # x-average of the analytic one where there is one (the 2-D cell), else dense analytic (Chebyshev)
         mode = "krylov" if structure.sparse and "krylov" in valid else "analytic"
-        if mode == "krylov" and structure.amg and "fourier" in valid and not thin_cell:
-            mode = "fourier"
-    if mode in PRECONDITIONED and not structure.amg:
-        raise ParameterError(f"`jacobian`={mode!r} (GMRES preconditioned by {PRECONDITIONED[mode]}) needs the "
-                             "analytic sparse Jacobian of a 2-D grid (discretization fv2d); use "
-                             + ("'krylov' or 'analytic'" if "krylov" in valid else "'analytic'"))
+        if mode == "krylov" and not thin_cell:  # a thick cell: the preconditioner the registry prefers there
+            mode = next((m for s in SOLVERS if isinstance(s, Preconditioned) and s.default and method in s.methods
+                         for m in s.modes if m in valid and s.offered(m, structure)), mode)
+    for solver in SOLVERS:  # a preconditioner asked for on a scheme that lacks what it is built from
+        if isinstance(solver, Preconditioned) and mode in solver.modes and not solver.offered(mode, structure):
+            raise ParameterError(solver.refusal(mode, valid))
     if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
         raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
                              "discretization's is dense: use 'analytic' or 'none'")
     return mode
 
-
-def _linear_solver(method, mode, structure) -> str:
-    """The solver of the Newton systems that `method` takes with Jacobian `mode`."""
-    if method == "CVODE":
-        if mode == "analytic":
-            return "band LU" if structure.band_jac else "dense LU (LAPACK)"
-        return {"banded-fd": "band LU", "krylov": "GMRES (line preconditioner in thin cells)" if structure.line else "GMRES",
-                "amg": AMG_SOLVER, "fourier": FOURIER_SOLVER,
-                "sparse": "SuperLU_MT", "none": "dense LU"}[mode]
-    if method == "LSODA":
-        return "band LU (LSODA)" if mode == "banded-fd" else "dense LU (LSODA)"
-    if mode == "none":
-        return "dense LU (LAPACK)"
-    return "SuperLU" if structure.sparse else "dense LU (LAPACK)"

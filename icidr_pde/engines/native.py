@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..cvode_settings import BDF_MAX_ORDER
 from .base import Engine
+from .linear import compiled_solver
 
 __all__ = ["NativeEngine"]
 
@@ -26,12 +27,9 @@ class NativeEngine(Engine):
 
     def __init__(self, method, problem, t0, y0, *, rtol, atol, check, linear_solver="", max_order=BDF_MAX_ORDER):
         kind = getattr(problem, "linear_solver", None)  # what the compiled problem set up (Chebyshev)
-        if kind == "krylov":
-            linear_solver = f"GMRES + {problem.preconditioner} preconditioner"
-        elif kind == "gmres":
-            linear_solver = "GMRES"
-        elif kind == "dense":
-            linear_solver = "dense LU (LAPACK)" if problem.solver == "lapack" else "dense LU"
+        if kind is not None:
+            linear_solver = compiled_solver(kind, getattr(problem, "preconditioner", ""),
+                                            getattr(problem, "solver", "")).name
         self.problem, self.check, self.linear_solver = problem, check, linear_solver
         problem.start(y0, rtol=rtol, atol=atol, t0=t0, max_order=max_order)
 

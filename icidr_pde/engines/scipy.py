@@ -25,7 +25,7 @@ class ScipyEngine(Engine):
         if first_step is not None:
             options["first_step"] = first_step
         options.update(_jacobian_options(method, problem, rtol, atol))
-        self.problem, self.linear_solver = problem, linear_solver
+        self.problem, self.linear_solver = problem, getattr(linear_solver, "name", linear_solver)  # a LinearSolver or its name
         y0 = problem.y0
         self.solver = getattr(scipy.integrate, method)(problem.fun, t0, y0, np.inf, **options)
         self.t, self.y, self.n_steps = t0, np.array(y0), 0

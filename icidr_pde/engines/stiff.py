@@ -27,6 +27,9 @@ from ..validation import ParameterError, choice as checked_choice, nonfinite_rat
 from . import ENGINES, METHODS, engine_class
 from .base import JacobianSpec, Problem, SimulationFailed, StepStatistics, check_tolerances
 from .choose import Choice, JacobianStructure, choose
+from .linear import jacobian_modes, named
+from .linear.base import cell_mass
+from .linear.gmres import Preconditioned
 
 __all__ = ["StiffSolver"]
 
@@ -69,7 +72,8 @@ class StiffSolver(SolverBase):
         super().__init__(pde, backend=backend)
         if choice is None:  # the py-pde idiom: checked here, as the run path checks its own
             checked_choice("method", method, METHODS)
-            valid = next(e.jacobian_modes[method] for e in ENGINES.values() if method in e.methods)
+            valid = jacobian_modes(method) or next(e.jacobian_modes[method] for e in ENGINES.values()
+                                                   if method in e.methods)  # PETSc's, not a registered solver's
             if jacobian is not None and jacobian not in valid:
                 raise ParameterError(f"`jacobian` must be one of {valid} for method {method!r}; got {jacobian!r}")
             rtol, atol = check_tolerances(rtol, atol)
@@ -153,14 +157,15 @@ def check_memory(pde, grid, method: str, choice: Choice) -> None:
         return
     shape = tuple(grid.shape)
     what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
-    mode = choice.memory_mode
-    if mode == "krylov" and choice.linear_solver.startswith("GMRES (line") and getattr(pde, "is_thin", None) \
-            and pde.is_thin(grid):  # GMRES with the line preconditioner (engines.sundae)
-        mode = "line"
-    hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
-            if mode == "analytic-band" else "")
+    thin = bool(getattr(pde, "is_thin", None) and pde.is_thin(grid))
     unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
-    limit.check_run(what, unknowns, int(np.prod(shape)), method, mode, hint)
+    memory = _solver(choice).memory(unknowns, method, choice.jacobian, thin)
+    limit.check_run(what, unknowns, int(np.prod(shape)), method, memory)
+
+
+def _solver(choice: Choice):
+    """The linear solver of `choice` (one built by hand may name it only)."""
+    return choice.solver if choice.solver is not None else named(choice.linear_solver, choice.engine)
 
 
 def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):
@@ -258,28 +263,16 @@ def jacobian_spec(pde, state, choice: Choice):
     if mode in ("sparse-fd", "colored-fd"):
         weights, anchor = conserved(pde, state, None) if mode == "sparse-fd" else (None, None)
         return JacobianSpec(mode, sparsity=pde.jacobian_sparsity(state), weights=weights, anchor=anchor), None
-    if mode == "amg":  # GMRES preconditioned by multigrid on the cells' blocks of fields
-        return JacobianSpec(mode, jac=pde.make_jacobian(state), weights=_cell_mass(state),
-                            fields=state.data.shape[0]), None
-    if mode == "fourier":  # GMRES preconditioned by the x-average of J, diagonal in x-Fourier space
-        if not state.grid.periodic[0]:
-            raise ParameterError("`jacobian`='fourier' needs a grid periodic in x (the 2-D cell); use 'amg' or 'krylov'")
-        return JacobianSpec(mode, jac=pde.make_jacobian(state), weights=_cell_mass(state),
-                            shape=state.data.shape), None
+    solver = _solver(choice) if choice.engine != "petsc" else None
+    if isinstance(solver, Preconditioned):  # GMRES preconditioned by what the analytic sparse Jacobian gives
+        return solver.jacobian_spec(pde, state, mode), None
     weights, anchor = conserved(pde, state, None)
     line = getattr(pde, "line_pattern", lambda state: None)(state) if mode == "krylov" else None
     if line is not None:  # a thin cell: GMRES preconditioned along the walls' normal
-        mass = _cell_mass(state)
+        mass = cell_mass(state)
         return JacobianSpec(mode, jac=pde.make_jacobian(state), line_pattern=line, weights=mass,
                             anchor=np.arange(mass.size) % state.data[0].size), None
     return JacobianSpec(mode, weights=weights, anchor=anchor), None
-
-
-def _cell_mass(state) -> np.ndarray:
-    """The mass weights of a finite-volume state of equal cells: 1 on phi (field 0), 0 elsewhere."""
-    mass = np.zeros(state.data.size)
-    mass[:state.data[0].size] = 1.0
-    return mass
 
 
 def _validity(pde, shape, perm):
@@ -372,7 +365,7 @@ class _Stepper:
         engine_name = solver.choice.engine
         self.engine = engine_class(engine_name)(solver.method, problem, t_start, rtol=solver.rtol, atol=solver.atol,
                                                 max_step=solver.max_step, first_step=self.dt,
-                                                linear_solver=solver.choice.linear_solver,
+                                                linear_solver=solver.choice.solver or solver.choice.linear_solver,
                                                 max_order=solver.choice.max_order)
         solver.info["linear_solver"] = self.engine.linear_solver
 

@@ -1,4 +1,4 @@
-"""Compiled V-cycle of :mod:`icidr_pde.engines.amg`: all levels in one call.
+"""Compiled V-cycle of :mod:`icidr_pde.engines.linear.amg_hierarchy`: all levels in one call.
 
 The levels' operators are 3 x 3 block-sparse rows (one block row a cell or an aggregate, the
 cell's fields phi, u, w its three unknowns), concatenated level after level and split into the
@@ -22,7 +22,7 @@ bytes did not change a run's time: not kept).
 import numpy as np
 from numba import njit
 
-from ..kernel_cache import numba_saves_may_fail
+from ...kernel_cache import numba_saves_may_fail
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 

@@ -19,7 +19,7 @@ spread; 21 and 30 at t = 0.1, 40 and 71 at t = 0 where the bump is sharpest), ag
   banded LUs), the average whenever CVODE asks for a new Jacobian.
 * Mass: the phi rows of J sum to zero in every column (c J = 0, c = 1 on phi), so do those of
   its x-average, and the mass lives in the x-mean (wave number 0) alone: the solve keeps c z = c r
-  to round-off. The output is still corrected as :mod:`.amg`'s (a multiple of a fixed vector),
+  to round-off. The output is still corrected as :mod:`.amg_hierarchy`'s (a multiple of a fixed vector),
   so that round-off does not accumulate in the Krylov vectors.
 """
 
@@ -38,8 +38,8 @@ from numba import njit, prange  # noqa: E402
 from scipy import sparse
 from scipy.linalg import lapack
 
-from ..kernel_cache import numba_saves_may_fail
-from ..validation import ParameterError
+from ...kernel_cache import numba_saves_may_fail
+from ...validation import ParameterError
 from .precond import jacobian_precond
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from ..validation import ParameterError
+from ...validation import ParameterError
 from .amg_kernels import set_gamma, vcycle
 from .precond import jacobian_precond
 
@@ -151,7 +151,7 @@ class AmgHierarchy:
                self.Dinv, self.agg, self.Pb, self.coarse_inv, self.x, self.b)
         return z
 
-    solve = vcycle  # the preconditioner's application (engines.precond.jacobian_precond)
+    solve = vcycle  # the preconditioner's application (:func:`.precond.jacobian_precond`)
 
 
 def _blocks(A) -> sparse.bsr_matrix:
