@@ -2,6 +2,6 @@
 
 import sys
 
-from .cli import main
+from icidr_pde.cli.stability import main
 
 sys.exit(main())

@@ -114,7 +114,7 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
 
     check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
-    from icidr_pde.law_cli import stderr_progress  # noqa: PLC0415
+    from icidr_pde.cli.law import stderr_progress  # noqa: PLC0415
 
     progress = stderr_progress()  # at a terminal, on stderr: stdout holds the table
     checks = run_checks(crosscheck, progress)

@@ -251,7 +251,7 @@ def _no_lammps(*args, **kwargs):
 
 def test_the_dem_steady_study_as_tasks_is_the_serial_one_and_resumes(client, tmp_path, monkeypatch, capsys):
     from icidr_pde.dem import steady
-    from icidr_pde.dem.cli import main as dem_main
+    from icidr_pde.cli.dem import main as dem_main
 
     params, protocol = _tiny_dem()
     tasks = {name: steady.plan([0.77, 0.78], 2, 1, params, protocol, tmp_path / name) for name in ("serial", "dask")}
@@ -307,7 +307,7 @@ def test_the_dem_audit_as_tasks_is_the_serial_one_on_shared_base_states(client, 
     (["audit", "run", "baseline", "--scheduler", "no-port"], "--scheduler"),
 ])
 def test_the_dem_commands_refuse_bad_workers_or_scheduler_in_one_line(argv, option, tmp_path, capsys):
-    from icidr_pde.dem.cli import main as dem_main
+    from icidr_pde.cli.dem import main as dem_main
 
     _refused_in_one_line(dem_main, [*argv, "--no-progress", "--cache", str(tmp_path), "--out", str(tmp_path)],
                          option, capsys)

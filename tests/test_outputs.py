@@ -92,7 +92,7 @@ def test_a_rewritten_output_keeps_its_mode(tmp_path, umask_027):
 
 
 def test_stability_outputs_follow_the_umask(tmp_path, umask_027):
-    from stability.cli import add_stability_parser
+    from icidr_pde.cli.stability import add_stability_parser
 
     out, png = tmp_path / "s.json", tmp_path / "p.png"
     import argparse

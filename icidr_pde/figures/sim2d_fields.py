@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..argtypes import int_at_least
+from ..cli.argtypes import int_at_least
 from ..outputs import save_figure
 from ..plotting import field_panel
 from ..studies.sim2d import SETTINGS

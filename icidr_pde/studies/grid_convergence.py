@@ -15,7 +15,7 @@ import numpy as np
 from ..api import run
 from ..discretizations import get_discretization
 from .case_cache import add_cache_option, check_cache_option, run_cached
-from ..cluster_cli import add_cluster_options, client_of
+from ..cli.cluster import add_cluster_options, client_of
 
 __all__ = ["convergence_study"]
 

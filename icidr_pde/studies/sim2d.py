@@ -30,7 +30,7 @@ import sys
 import numpy as np
 
 from ..outputs import write_json
-from ..cluster_cli import add_cluster_options, client_of
+from ..cli.cluster import add_cluster_options, client_of
 from .case_cache import add_cache_option, check_cache_option, run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",

@@ -188,7 +188,7 @@ def test_run_order_holds_every_configured_run_once():
 
 
 def test_cli_pool_summary_writes_json_and_figure_and_refuses_unknown_configs(tmp_path, monkeypatch, capsys):
-    from icidr_pde.dem.cli import main
+    from icidr_pde.cli.dem import main
 
     monkeypatch.setattr(pool, "run_cell", _fake_run)
     cache_dir = tmp_path / "cache"

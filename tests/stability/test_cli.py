@@ -5,7 +5,8 @@ import json
 
 import pytest
 
-from stability import cli, report
+from icidr_pde.cli import stability as cli
+from stability import report
 
 
 def _parser():

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from stability import cli
+from icidr_pde.cli import stability as cli
 
 
 def _run(argv):

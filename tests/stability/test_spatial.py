@@ -12,7 +12,8 @@ import json
 import numpy as np
 import pytest
 
-from stability import cli, directional, spatial
+from icidr_pde.cli import stability as cli
+from stability import directional, spatial
 
 MU_S, MU_D, I0, PHI_C, A = 0.248, 0.588, 0.145, 0.817, 0.314      # Table 1
 

@@ -22,20 +22,20 @@ import os
 import signal
 import sys
 
-from .discretizations import DISCRETIZATIONS
-from .engines import JACOBIAN_MODES, METHODS
-from .engines.choose import REQUESTS
-from .engines.base import check_tolerances
-from .outputs import check_outputs, write_json
-from .rheology import RHEOLOGIES
-from .scenes import SCENES
-from .studies.case_cache import add_cache_option, check_cache_option
-from .cluster_cli import add_cluster_options, client_of
-from .studies.parallel import StudyInterrupted
-from .studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
+from ..discretizations import DISCRETIZATIONS
+from ..engines import JACOBIAN_MODES, METHODS
+from ..engines.choose import REQUESTS
+from ..engines.base import check_tolerances
+from ..outputs import check_outputs, write_json
+from ..rheology import RHEOLOGIES
+from ..scenes import SCENES
+from ..studies.case_cache import add_cache_option, check_cache_option
+from .cluster import add_cluster_options, client_of
+from ..studies.parallel import StudyInterrupted
+from ..studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
                                    tstar_mapping, tstar_report)
-from .times import check_t_end
-from .validation import integer, real
+from ..times import check_t_end
+from ..validation import integer, real
 
 __all__ = ["add_parser", "cmd_tstar"]
 
@@ -120,7 +120,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_tstar(args) -> int:
-    from .cli import EXIT_INTERRUPTED, PREFIX, interrupt_signals
+    from .run import EXIT_INTERRUPTED, PREFIX, interrupt_signals
 
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
@@ -176,7 +176,7 @@ def cmd_tstar(args) -> int:
         write_json(tstar_report(results), args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
-        from .figures.tstar_plot import plot_tstar
+        from ..figures.tstar_plot import plot_tstar
 
         if not curves and interrupted is not None:
             return EXIT_INTERRUPTED[interrupted]  # nothing finished: no plot

@@ -29,20 +29,20 @@ SUBCOMMANDS = {
     "demo": (None, "add_demo_parser",
              "the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges"),
     "run": (None, "add_run_parser", "run one scene with one rheology"),
-    "tstar": ("icidr_pde.tstar_cli", "add_parser", "failure time t*(N) sweep (fig 4b)"),
-    "verify": ("stability.cli", "add_verify_parser", "check every equation of the paper symbolically (report table)"),
-    "stability": ("stability.cli", "add_stability_parser",
+    "tstar": ("icidr_pde.cli.tstar", "add_parser", "failure time t*(N) sweep (fig 4b)"),
+    "verify": ("icidr_pde.cli.stability", "add_verify_parser", "check every equation of the paper symbolically (report table)"),
+    "stability": ("icidr_pde.cli.stability", "add_stability_parser",
                   "symbols of the linearised 1-D system / 2-D plane waves at one state"),
-    "dem": ("icidr_pde.dem.cli", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
-    "figures": ("icidr_pde.figures.cli", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
-    "law": ("icidr_pde.law_cli", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
-    "cache": ("icidr_pde.cache_cli", "add_parser", "the kernel cache: where it is, its size, clear it"),
+    "dem": ("icidr_pde.cli.dem", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
+    "figures": ("icidr_pde.cli.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
+    "law": ("icidr_pde.cli.law", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
+    "cache": ("icidr_pde.cli.cache", "add_parser", "the kernel cache: where it is, its size, clear it"),
 }
 
 
 def discretization_options() -> dict[str, tuple]:
     """Every option of every registered discretization -> the union of its valid values."""
-    from .discretizations import DISCRETIZATIONS
+    from ..discretizations import DISCRETIZATIONS
 
     out: dict[str, tuple] = {}
     for cls in DISCRETIZATIONS.values():
@@ -54,7 +54,7 @@ def discretization_options() -> dict[str, tuple]:
 def rheology_name(text):
     """argparse type: a registered rheology or a law file ``*.toml`` (data) or ``*.py`` (a program:
     it is run), checked when the law is built."""
-    from .rheology import RHEOLOGIES
+    from ..rheology import RHEOLOGIES
 
     if text in RHEOLOGIES or text.endswith((".py", ".toml")):
         return text
@@ -123,7 +123,7 @@ def time_value(text):
 
 def check_output_path(option: str, path) -> None:
     """Refuse, before any work, an output path that cannot be written."""
-    from .outputs import check_outputs
+    from ..outputs import check_outputs
 
     check_outputs({option: path})
 
@@ -210,11 +210,11 @@ def write_outputs(writers, report=None) -> int:
 
 def add_run_parser(subparsers):
     # names from the catalog: building this parser imports neither py-pde nor scipy
-    from .catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
-    from .engines.choose import DENSE_2D_CELLS, REQUESTS
-    from .presets import PRESETS
-    from .rheology import RHEOLOGIES
-    from .scenes import SCENES, scene_parameters
+    from ..catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
+    from ..engines.choose import DENSE_2D_CELLS, REQUESTS
+    from ..presets import PRESETS
+    from ..rheology import RHEOLOGIES
+    from ..scenes import SCENES, scene_parameters
 
     p = subparsers.add_parser(
         "run", help="run one scene with one rheology",
@@ -282,22 +282,22 @@ def add_run_parser(subparsers):
 
 
 def _scenes_2d() -> list:
-    from .scenes import SCENES
+    from ..scenes import SCENES
 
     return [name for name, scene in SCENES.items() if getattr(scene, "dim", 1) != 1]
 
 
 def cmd_run(args) -> int:
-    from .engines.choose import PETSC_METHOD
-    from .outputs import check_outputs
-    from .scenes import SCENES, scene_parameters
-    from .validation import ParameterError
+    from ..engines.choose import PETSC_METHOD
+    from ..outputs import check_outputs
+    from ..scenes import SCENES, scene_parameters
+    from ..validation import ParameterError
 
     # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes. Every
     # rank checks the input the same way, so that bad input ends every rank with the same status
     args.quiet = False
     if args.engine == "petsc" or args.method == PETSC_METHOD:
-        from .engines.petsc import rank
+        from ..engines.petsc import rank
 
         try:
             args.quiet = rank() != 0
@@ -316,13 +316,13 @@ def cmd_run(args) -> int:
     if given:
         nz = args.Nz or args.N or args.Nx
         N = (args.Nx or nz, nz)
-    from .rheology.law_files import is_file_law
+    from ..rheology.law_files import is_file_law
 
     rheology = args.rheology
     if is_file_law(rheology):  # loaded once (a Python file is run once), checked, then run by its name
         from stability.workbench import check_summary
 
-        from .rheology.law_files import load_law_file
+        from ..rheology.law_files import load_law_file
 
         law = load_law_file(rheology)
         note = None if quiet else check_summary(law(None))
@@ -353,7 +353,7 @@ def cmd_run(args) -> int:
                            rtol=args.rtol, atol=args.atol, jacobian=args.jacobian, max_order=args.max_order,
                            advection=args.advection,
                            progress=not (args.no_progress or quiet), save=args.save, movie=args.movie, **scene_params)
-            from .api import run
+            from ..api import run
 
             with warnings.catch_warnings():  # an output not written: said below, once
                 warnings.filterwarnings("ignore", "`(save|movie)` .* was not written", RuntimeWarning)
@@ -378,7 +378,7 @@ def cmd_run(args) -> int:
 
 
 def _write_run_plot(result, path):
-    from .plotting import plot_result
+    from ..plotting import plot_result
 
     plot_result(result, path)
 
@@ -396,8 +396,8 @@ def add_demo_parser(subparsers):
 
 
 def cmd_demo(args) -> int:
-    from .api import run
-    from .plotting import demo_figure
+    from ..api import run
+    from ..plotting import demo_figure
 
     args.plot = figure_path("--plot", args.plot)
     start = time.perf_counter()
@@ -466,7 +466,7 @@ def main(argv=None) -> int:
     # the subcommand is the first word (the top level has no option but --help)
     parser = make_parser(commands=argv[:1])
     args = parser.parse_args(argv)
-    from .outputs import OutputWriteError
+    from ..outputs import OutputWriteError
 
     try:
         return args.func(args)

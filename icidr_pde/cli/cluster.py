@@ -10,8 +10,8 @@ import argparse
 import contextlib
 
 from .argtypes import int_at_least
-from .studies.distributed import cluster
-from .studies.parallel import max_processes
+from ..studies.distributed import cluster
+from ..studies.parallel import max_processes
 
 __all__ = ["add_cluster_options", "client_of"]
 

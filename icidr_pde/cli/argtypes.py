@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .validation import _integer_wanted, integer
+from ..validation import _integer_wanted, integer
 
 __all__ = ["int_at_least", "positive_int", "subcommand", "option_names"]
 

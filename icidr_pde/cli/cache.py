@@ -36,7 +36,7 @@ def _size(n: int) -> str:
 
 
 def _info(args) -> int:
-    from . import kernel_cache
+    from .. import kernel_cache
 
     out = kernel_cache.info()
     if args.json:
@@ -53,7 +53,7 @@ def _info(args) -> int:
 
 
 def _clear(args) -> int:
-    from . import kernel_cache
+    from .. import kernel_cache
 
     path, count, size = kernel_cache.clear(stale_only=args.stale)
     what = ("stale " if args.stale else "") + ("file" if count == 1 else "files")

@@ -34,7 +34,7 @@ def stderr_progress():
 def _check(args) -> int:
     from stability.workbench import law_report, write_report
 
-    from .outputs import check_outputs
+    from ..outputs import check_outputs
 
     check_outputs({"--json": args.json})  # before the law file is run
     report = law_report(args.law, with_curves=not args.no_curves, progress=stderr_progress())

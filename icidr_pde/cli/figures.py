@@ -7,10 +7,10 @@ import time
 from pathlib import Path
 
 from ..outputs import writable_folder, write_atomically
-from .gallery import write_gallery
-from .make import make_figures, make_movies, movie_names
-from .registry import FIGURES
-from .runs import RunCache
+from ..figures.gallery import write_gallery
+from ..figures.make import make_figures, make_movies, movie_names
+from ..figures.registry import FIGURES
+from ..figures.runs import RunCache
 
 __all__ = ["DRAFT_OUT", "GALLERY", "add_parser", "cmd_figures"]
 

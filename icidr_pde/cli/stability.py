@@ -14,7 +14,7 @@ import sys
 
 
 def _verify(args) -> int:
-    from .report import verify  # noqa: PLC0415
+    from stability.report import verify  # noqa: PLC0415
     return verify(json_path=args.json, markdown_path=args.markdown, crosscheck=not args.no_crosscheck)
 
 
@@ -56,10 +56,10 @@ def _write_json(path, obj):
 
 
 def _stability(args) -> int:
-    from icidr_pde.argtypes import option_names  # noqa: PLC0415
+    from .argtypes import option_names  # noqa: PLC0415
     from icidr_pde.outputs import check_outputs  # noqa: PLC0415
 
-    from .numeric import stability_numbers  # noqa: PLC0415
+    from stability.numeric import stability_numbers  # noqa: PLC0415
     material = None
     if args.dim == 3:
         return _stability_3d(args)
@@ -72,7 +72,7 @@ def _stability(args) -> int:
         if args.velocity_gradient is not None:
             if args.uz is not None or args.wz is not None:
                 raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
-            from .directional import check_gradient  # noqa: PLC0415
+            from stability.directional import check_gradient  # noqa: PLC0415
             grad = check_gradient(args.velocity_gradient)
         elif args.uz is None or args.wz is None:
             raise ValueError("need `--velocity-gradient U_X U_Z W_X W_Z`, or both `--uz` and `--wz` (1-D); got "
@@ -83,7 +83,7 @@ def _stability(args) -> int:
         sn = stability_numbers(args.rheology, args.phi, grad[1], grad[3], args.xi, material) if one_d else None
         ds = None
         if two_d:
-            from .directional import directional_stability, parse_angles  # noqa: PLC0415
+            from stability.directional import directional_stability, parse_angles  # noqa: PLC0415
             angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
             ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
     except ValueError as e:
@@ -97,7 +97,7 @@ def _stability(args) -> int:
         _print_directional(ds, args.angles or "0:180:1")
         out = ds.to_json() | out          # the 1-D keys (when grad u has the 1-D form) as today
         if args.plot:
-            from .directional import save_polar  # noqa: PLC0415
+            from stability.directional import save_polar  # noqa: PLC0415
             save_polar([ds], args.plot, title=_title(ds))
             print(f"  saved {args.plot}")
     if args.json:
@@ -107,10 +107,10 @@ def _stability(args) -> int:
 
 def _stability_3d(args) -> int:
     """``--dim 3``: the 3-D symbol over the sphere of wave directions (:mod:`stability.spatial`)."""
-    from icidr_pde.argtypes import option_names  # noqa: PLC0415
+    from .argtypes import option_names  # noqa: PLC0415
     from icidr_pde.outputs import check_outputs  # noqa: PLC0415
 
-    from . import spatial  # noqa: PLC0415
+    from stability import spatial  # noqa: PLC0415
     try:
         check_outputs({"--json": args.json, "--plot": args.plot})
         if args.angles is not None:
@@ -121,7 +121,7 @@ def _stability_3d(args) -> int:
                 raise ValueError("give either `--velocity-gradient` or `--uz`/`--wz`, not both")
             g = args.velocity_gradient
             if len(g) == 4:
-                from .directional import check_gradient  # noqa: PLC0415
+                from stability.directional import check_gradient  # noqa: PLC0415
                 L = spatial.planar_gradient(*check_gradient(g))
             elif len(g) == 9:
                 L = spatial.check_gradient(g)
@@ -132,7 +132,7 @@ def _stability_3d(args) -> int:
             raise ValueError("need `--velocity-gradient` (9 numbers, or 4 of a planar flow), or both `--uz` and "
                              f"`--wz`; got uz={args.uz}, wz={args.wz}")
         else:
-            from .directional import check_gradient  # noqa: PLC0415
+            from stability.directional import check_gradient  # noqa: PLC0415
             L = spatial.planar_gradient(*check_gradient((0.0, args.uz, 0.0, args.wz)))
         directions = spatial.DIRECTIONS if args.directions is None else args.directions
         r = spatial.spatial_stability(args.rheology, args.phi, L, directions)
@@ -239,7 +239,7 @@ def add_stability_parser(subparsers):
 
 
 def _plot_growth(args) -> int:
-    from .growth import plot_fd_growth  # noqa: PLC0415
+    from stability.growth import plot_fd_growth  # noqa: PLC0415
     path, rows = plot_fd_growth(args.out)
     print(f"{'N':>6} {'h':>10} {'mu(I) max growth':>18} {'iCIDR max growth':>18}")
     for r in rows:
@@ -257,12 +257,12 @@ def add_plot_growth_parser(subparsers):
 
 
 def _plot_plane(args) -> int:
-    from .directional import directional_stability  # noqa: PLC0415
-    from .oblique_growth import plot_oblique_growth  # noqa: PLC0415
+    from stability.directional import directional_stability  # noqa: PLC0415
+    from stability.oblique_growth import plot_oblique_growth  # noqa: PLC0415
     import matplotlib  # noqa: PLC0415
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
-    from .directional import plot_polar  # noqa: PLC0415
+    from stability.directional import plot_polar  # noqa: PLC0415
 
     states = [("steady shear", (0.0, 1 / 30, 0.0, 0.0)), ("fig. 2 state", (0.0, 1 / 30, 0.0, 0.05))]
     fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(11, 6.8))
