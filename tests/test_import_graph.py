@@ -181,22 +181,17 @@ def under(module, *packages):
     return any(module == p or module.startswith(p + ".") for p in packages)
 
 
-#: the modules that are command lines, the only ones that may import argparse: the commands, the
-#: argparse types and pieces they share, and the ``python -m`` mains of the studies, figures and DEM
-COMMAND_LINES = frozenset({
-    "icidr_pde.cli", "icidr_pde.cli.__main__", "icidr_pde.cli.run", "icidr_pde.cli.tstar", "icidr_pde.cli.law",
-    "icidr_pde.cli.cache", "icidr_pde.cli.cluster", "icidr_pde.cli.argtypes", "icidr_pde.cli.figures",
-    "icidr_pde.cli.dem", "icidr_pde.dem.__main__", "icidr_pde.cli.stability", "stability.__main__",
-    "icidr_pde.dem.pool", "icidr_pde.figures.sim2d_fields", "icidr_pde.studies.grid_convergence",
-    "icidr_pde.studies.references", "icidr_pde.studies.sim2d",
-})
 #: what a run records or shows besides its Result, each a recorder of the drive loop: the run path
 #: reaches an interface through these only
 RECORDERS = frozenset({"icidr_pde.snapshots", "icidr_pde.movies.frames", "icidr_pde.live_plot"})
 
 
+#: the command line: every subcommand of ``icidr-pde``, the argparse types and pieces they share
+COMMAND_LINE = "icidr_pde.cli"
+
+
 def is_cli(module):
-    return module in COMMAND_LINES
+    return under(module, COMMAND_LINE)
 
 
 def is_interface(module):
@@ -247,14 +242,10 @@ RULES = {
     "a scheme imports an engine, a study or an interface": (
         is_scheme, lambda t: is_engine(t) or is_study(t) or is_interface(t)),
     "a compiled problem imports an engine": (is_compiled_problem, is_engine),
-    # a command line (the studies' and DEM's python -m mains among them) may use the pieces the
-    # command lines share
-    "a study or DEM module imports a command line": (
-        lambda m: (is_study(m) or is_dem(m)) and not is_cli(m), is_cli),
-    "a study imports an interface": (lambda m: is_study(m) and not is_cli(m), is_interface),
+    "a study or DEM module imports a command line": (lambda m: is_study(m) or is_dem(m), is_cli),
+    "a study imports an interface": (is_study, is_interface),
     "the run path imports a study, or an interface other than a recorder": (
         is_run_path, lambda t: is_study(t) or (is_interface(t) and t not in RECORDERS)),
-    "a module that is not a command line imports argparse": (lambda m: not is_cli(m), lambda t: t == "argparse"),
 }
 #: the edges left, each with its reason: ``Result.plot()`` draws a finished run with the figure of
 #: ``run --plot``, imported when it is called: no run calls it, and a run loads no figure
@@ -276,7 +267,7 @@ def test_the_graph_sees_known_edges():
     graph = import_graph(lazy=False)
     assert "icidr_pde.rheology" in graph
     assert any(target.startswith("icidr_pde") for target in graph["icidr_pde.api"])
-    assert "argparse" in graph["icidr_pde.cli.run"]
+    assert "argparse" in graph["icidr_pde.cli.common"]
 
 
 def test_lazy_imports_and_sys_modules_look_ups_are_edges(tmp_path):
@@ -307,19 +298,30 @@ def test_no_import_circles_lazy_imports_included():
     assert cycles(import_graph()) == []
 
 
-def test_the_command_lines_are_listed():
-    """Every module that is a command line (named cli, *_cli or __main__, or a ``python -m`` main)
-    is in :data:`COMMAND_LINES`, and every one listed exists: the list cannot go stale."""
-    graph = import_graph()
+def argparse_outside_the_command_line(graph):
+    """Sorted modules outside ``icidr_pde.cli`` that import argparse."""
+    return sorted(m for m in graph if "argparse" in graph[m] and not is_cli(m))
+
+
+def test_argparse_only_in_the_command_line_package():
+    """Only ``icidr_pde/cli/`` parses a command line: no module elsewhere in icidr_pde/ or stability/
+    imports argparse (at module level or in a function)."""
+    assert argparse_outside_the_command_line({"icidr_pde.cli.run": {"argparse"}, "icidr_pde.validation": {"argparse"},
+                                              "stability.cli": {"argparse"}}) == ["icidr_pde.validation", "stability.cli"]
+    assert argparse_outside_the_command_line(import_graph()) == []
+
+
+def test_every_command_line_is_in_the_command_line_package():
+    """No ``python -m`` main and no module named cli, *_cli or __main__ outside ``icidr_pde/cli/``: every
+    command is a subcommand of ``icidr-pde``."""
     found = set()
     for package in PACKAGES:
         for path in (ROOT / package).rglob("*.py"):
             name, last = module_name(path), path.stem
-            if (last in ("cli", "__main__") or last.endswith("_cli") or under(name, "icidr_pde.cli")
-                    or "__name__ == \"__main__\"" in path.read_text()):
+            if last in ("cli", "__main__") or last.endswith("_cli") or "__name__ == \"__main__\"" in path.read_text():
                 found.add(name)
-    assert found <= COMMAND_LINES
-    assert COMMAND_LINES - {"icidr_pde.cli.argtypes"} <= found & set(graph)  # argtypes: the commands' shared types
+    assert {name for name in found if not is_cli(name)} == set()
+    assert "icidr_pde.cli.__main__" in found
 
 
 def test_each_rule_finds_its_break():
@@ -345,11 +347,12 @@ def test_each_rule_finds_its_break():
             ("icidr_pde.discretizations.fd", "icidr_pde.studies")],
         "a compiled problem imports an engine": [("icidr_pde.native.cheb", "icidr_pde.engines.base")],
         "a study or DEM module imports a command line": [("icidr_pde.dem.fit", "icidr_pde.cli.argtypes"),
-                                                          ("icidr_pde.studies.failure_time", "icidr_pde.cli")],
-        "a study imports an interface": [("icidr_pde.studies.failure_time", "icidr_pde.cli")],
-        "the run path imports a study, or an interface other than a recorder": [("icidr_pde.api", "icidr_pde.plotting")],
-        "a module that is not a command line imports argparse": [("icidr_pde.studies.failure_time", "argparse"),
-                                                                  ("icidr_pde.validation", "argparse")]}
+                                                          ("icidr_pde.studies.failure_time", "icidr_pde.cli"),
+                                                          ("icidr_pde.studies.sim2d", "icidr_pde.cli.cluster")],
+        "a study imports an interface": [("icidr_pde.studies.failure_time", "icidr_pde.cli"),
+                                         ("icidr_pde.studies.sim2d", "icidr_pde.cli.cluster"),
+                                         ("icidr_pde.studies.sim2d", "icidr_pde.figures.two_d")],
+        "the run path imports a study, or an interface other than a recorder": [("icidr_pde.api", "icidr_pde.plotting")]}
 
 
 def test_the_layers_are_kept():

@@ -7,7 +7,7 @@ import json
 
 from .argtypes import subcommand
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "cmd"]
 
 
 def add_parser(subparsers):
@@ -59,3 +59,8 @@ def _clear(args) -> int:
     what = ("stale " if args.stale else "") + ("file" if count == 1 else "files")
     print(f"removed {count} {what} ({_size(size)}) from {path}")
     return 0
+
+
+def cmd(args) -> int:
+    """Run ``cache info`` or ``cache clear``, as parsed."""
+    return args.func(args)

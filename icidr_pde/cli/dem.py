@@ -124,12 +124,14 @@ def add_parser(subparsers):
 
     po = sub.add_parser("pool", help="fig 1 pooled over k_n, H and N: run the pool (resumable) or summarise it",
                         description="Runs the pooled fig-1 configurations (one LAMMPS process, each run cached "
-                                    "as it finishes) or fits them with the committed reference sweep "
-                                    "(steady_pool.json, fig1_dem.png).", formatter_class=fmt)
-    po.add_argument("action", choices=("run", "summary"))
+                                    "as it finishes), fits them with the committed reference sweep "
+                                    "(steady_pool.json, fig1_dem.png), or prints the tables of docs/dem.md from "
+                                    "OUT/steady_pool.json.", formatter_class=fmt)
+    po.add_argument("action", choices=("run", "summary", "tables"))
     po.add_argument("configs", nargs="*", help="configurations (default: all, in the default order)")
     po.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
-    po.add_argument("--out", default=".", help="directory for steady_pool.json and fig1_dem.png (summary)")
+    po.add_argument("--out", default=".", help="directory of steady_pool.json and fig1_dem.png (summary writes "
+                                               "them, tables reads steady_pool.json)")
     po.set_defaults(func=_needs_lammps(cmd_pool))
 
     au = sub.add_parser("audit", help="protocol audit of fig 8(d): run factor ensembles or write the report",
@@ -290,6 +292,14 @@ def cmd_pool(args) -> int:
     if args.action == "run":
         pool.run(_cache(args), names)
         return 0
+    if args.action == "tables":
+        path = Path(args.out) / "steady_pool.json"
+        try:
+            print(pool.markdown(json.loads(path.read_text())))
+        except (OSError, ValueError) as err:
+            raise ValueError(f"`--out` {str(args.out)!r}: cannot read {str(path)!r} as the pool's summary "
+                             f"(`dem pool summary` writes it): {getattr(err, 'strerror', None) or err}") from None
+        return 0
     from ..dem.plots import fig1_pool
 
     cache_dir = _cache(args, writes=False)
@@ -332,13 +342,6 @@ def transient_edges(ens):
     return np.concatenate([z - h / 2, [z[-1] + h / 2]])
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.dem")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser(sub)
-    args = parser.parse_args(["dem", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return args.func(args)
-    except ValueError as exc:
-        print(f"icidr-pde: error: {exc}", file=sys.stderr)
-        return 2
+def cmd(args) -> int:
+    """Run the ``dem`` subcommand parsed."""
+    return args.func(args)

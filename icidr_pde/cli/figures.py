@@ -1,4 +1,8 @@
-"""``icidr-pde figures [--only fig3 fig7 ...] [--out docs/figures] [--draft] [--movies]``."""
+"""``icidr-pde figures [--only fig3 fig7 ...] [--out docs/figures] [--draft] [--movies]``: the paper's
+figures and movies, a gallery page beside them; ``icidr-pde figures NAME`` draws one figure of docs/
+instead: ``sim2d-fields`` (:mod:`icidr_pde.figures.sim2d_fields`), ``fd-growth``
+(:func:`stability.growth.plot_fd_growth`), ``plane-waves`` (:mod:`stability.directional`,
+:mod:`stability.oblique_growth`)."""
 
 from __future__ import annotations
 
@@ -7,12 +11,13 @@ import time
 from pathlib import Path
 
 from ..outputs import writable_folder, write_atomically
+from .argtypes import int_at_least, subcommand
 from ..figures.gallery import write_gallery
 from ..figures.make import make_figures, make_movies, movie_names
 from ..figures.registry import FIGURES
 from ..figures.runs import RunCache
 
-__all__ = ["DRAFT_OUT", "GALLERY", "add_parser", "cmd_figures"]
+__all__ = ["DRAFT_OUT", "GALLERY", "add_parser", "cmd"]
 
 
 GALLERY = "docs/figures"  # the committed gallery (paper resolution)
@@ -20,7 +25,8 @@ DRAFT_OUT = "figures-draft"  # where `icidr-pde figures --draft` writes unless t
 
 
 def add_parser(subparsers):
-    p = subparsers.add_parser("figures", help="redraw the paper's figures (and movies 1-6) into docs/figures")
+    p = subparsers.add_parser("figures", help="redraw the paper's figures (and movies 1-6) into docs/figures, or one figure "
+                                             "of docs/")
     p.description = ("Redraw the paper's figures (and movies) with numbers.json and a gallery page README.md. "
                      f"A --draft run writes into {DRAFT_OUT}/ unless --out names another folder, and never "
                      "into a folder holding a full-resolution gallery (docs/figures) without --force.")
@@ -35,7 +41,21 @@ def add_parser(subparsers):
     p.add_argument("--movies", nargs="*", default=None, metavar="MOVIE",
                    help="also write the movies (all, or those named: movie1 ... movie6, movie2d)")
     p.add_argument("--gif", action="store_true", help="movies as GIF instead of MP4")
-    p.set_defaults(func=cmd_figures)
+    one = p.add_subparsers(dest="figure", metavar="FIGURE",
+                           title="one figure of docs/ instead of the gallery (FIGURE --help: its options)")
+    s = subcommand(one, "sim2d-fields", _sim2d_fields,
+                   help="docs/sim2d_fields.png and docs/sim2d.mp4: w and phi - phi0 on bump2d, both rheologies")
+    s.add_argument("--out", type=Path, default=Path("docs"), help="folder of sim2d_fields.png and sim2d.mp4")
+    s.add_argument("--N", type=int_at_least(8), default=64, help="cells per side of the field images")
+    s.add_argument("--movie-N", type=int_at_least(8), default=48, help="cells per side of the movie")
+    s.add_argument("--frames", type=int_at_least(2), default=60, help="snapshots in the movie")
+    g = subcommand(one, "fd-growth", _fd_growth, help="growth rate of the finite-difference operator against the "
+                                                      "grid spacing (docs/fd_growth.png)")
+    g.add_argument("--out", default="docs/fd_growth.png", help="output PNG path")
+    w = subcommand(one, "plane-waves", _plane_waves,
+                   help="polar plot of Lambda_max(theta) and the measured growth of oblique waves (two PNGs)")
+    w.add_argument("--polar", default="docs/polar_stability.png", help="polar plot PNG path")
+    w.add_argument("--growth", default="docs/oblique_growth.png", help="measured oblique growth PNG path")
     return p
 
 
@@ -49,7 +69,12 @@ def _full_resolution(out: Path) -> bool:
     return any(not nums.get("draft", False) for nums in figures.values())
 
 
-def cmd_figures(args) -> int:
+def cmd(args) -> int:
+    """The gallery, or the one figure named."""
+    return _gallery(args) if args.figure is None else args.func(args)
+
+
+def _gallery(args) -> int:
     import datetime
 
     start = time.perf_counter()
@@ -79,4 +104,59 @@ def cmd_figures(args) -> int:
     write_atomically(store, lambda fh: fh.write(text))
     write_gallery(figures, out, movies_all or None, meta)
     print(f"{len(numbers)} figure(s){' and %d movie(s)' % len(movies) if movies else ''} in {out} ({total:.0f} s)")
+    return 0
+
+
+def _sim2d_fields(args) -> int:
+    """``figures sim2d-fields``: the field images and the movie of docs/sim2d.md."""
+    from ..figures.sim2d_fields import field_figure, movie
+
+    if not args.out.is_dir():
+        raise ValueError(f"`--out`: folder {args.out} does not exist")
+    print(f"figure written to {field_figure(args.out / 'sim2d_fields.png', args.N)}")
+    print(f"movie written to {movie(args.out / 'sim2d.mp4', args.movie_N, args.frames)}")
+    return 0
+
+
+def _fd_growth(args) -> int:
+    """``figures fd-growth``: docs/fd_growth.png and its table."""
+    from stability.growth import plot_fd_growth  # noqa: PLC0415
+    path, rows = plot_fd_growth(args.out)
+    print(f"{'N':>6} {'h':>10} {'mu(I) max growth':>18} {'iCIDR max growth':>18}")
+    for r in rows:
+        print(f"{r['N']:>6} {r['h']:>10.5f} {r['mui']:>18.6g} {r['icidr']:>18.6g}")
+    print(f"saved {path}")
+    return 0
+
+
+def _plane_waves(args) -> int:
+    """``figures plane-waves``: docs/polar_stability.png, docs/oblique_growth.png and their tables."""
+    from stability.directional import directional_stability  # noqa: PLC0415
+    from stability.oblique_growth import plot_oblique_growth  # noqa: PLC0415
+    import matplotlib  # noqa: PLC0415
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+    from stability.directional import plot_polar  # noqa: PLC0415
+
+    states = [("steady shear", (0.0, 1 / 30, 0.0, 0.0)), ("fig. 2 state", (0.0, 1 / 30, 0.0, 0.05))]
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(11, 6.8))
+    for ax, (label, L) in zip(axes, states):
+        rs = [directional_stability(n, 0.78, L) for n in ("mui", "icidr")]
+        plot_polar(rs, ax, title=rf"{label}: $\phi_0$ = 0.78, $u_z$ = {L[1]:.4g}, $w_z$ = {L[3]:g}")
+        for r in rs:
+            iv = ", ".join(f"[{a:.4f}, {b:.4f}]" for a, b in r.ill_posed_intervals_deg) or "none"
+            print(f"{label:<13} {r.rheology:<6} max_lambda {r.max_lambda:.6g} at {r.worst_angle_deg:.4f} deg; "
+                  f"lambda_max(90) {r.at_90_deg['lambda_plus'].real:.6g}; ill-posed {iv}")
+    fig.tight_layout()
+    from icidr_pde.outputs import save_figure  # noqa: PLC0415
+
+    save_figure(fig, args.polar, dpi=120)
+    plt.close(fig)
+    print(f"saved {args.polar}")
+    _, rows = plot_oblique_growth(args.growth)
+    print(f"{'rheology':<8} {'xi':>6} {'theta':>6} {'measured':>16} {'predicted':>16} {'rel. error':>10}")
+    for r in rows:
+        print(f"{r['rheology']:<8} {r['xi']:>6g} {r['angle_deg']:>6g} {r['measured']:>16.9g} {r['predicted']:>16.9g} "
+              f"{r['rel_error']:>10.1e}")
+    print(f"saved {args.growth}")
     return 0

@@ -1,43 +1,22 @@
-"""Command line: ``icidr-pde {demo,run,tstar,verify,stability,dem,figures,law,cache}``.
+"""``icidr-pde run``: one scene with one rheology, its outcome printed and its results written.
 
-Exit status of every subcommand: 0 success; 2 bad input (nothing was written; nothing was run,
-except a Python law file, which is a program run to read the law: docs/security.md);
-3 the run failed (blow-up, non-finite state, phi left (0, phi_c)), results written;
-4 a result could not be written (the others were); 130 interrupted by SIGINT (Ctrl-C),
-143 by SIGTERM, with what was computed up to then written.
+Exit status: 0 reached --t-end; 2 bad input; 3 the run failed (blow-up, non-finite state, phi left
+(0, phi_c)), results written; 4 an output could not be written; 130/143 interrupted (SIGINT/SIGTERM),
+what was computed up to then written.
 """
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import json
-import os
 import signal
 import sys
-import time
 import warnings
-from pathlib import Path
 
-from .argtypes import option_names, positive_int
+from .argtypes import add_rheology_option, number, positive_int, time_value
+from .common import (EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, EXIT_WRITE_FAILED, PREFIX,
+                     figure_path, interrupt_signals, is_stdout, write_outputs)
 
-# subcommand -> (module (None: this one), function adding its parser, one-line help). A command line builds in
-# full only the subcommand it names, so that `--help` and each subcommand import only their
-# own modules (the registries behind `run` import py-pde; `verify` imports sympy, `dem` LAMMPS).
-# The help texts repeat the subparsers' own (a test checks that they agree).
-SUBCOMMANDS = {
-    "demo": (None, "add_demo_parser",
-             "the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges"),
-    "run": (None, "add_run_parser", "run one scene with one rheology"),
-    "tstar": ("icidr_pde.cli.tstar", "add_parser", "failure time t*(N) sweep (fig 4b)"),
-    "verify": ("icidr_pde.cli.stability", "add_verify_parser", "check every equation of the paper symbolically (report table)"),
-    "stability": ("icidr_pde.cli.stability", "add_stability_parser",
-                  "symbols of the linearised 1-D system / 2-D plane waves at one state"),
-    "dem": ("icidr_pde.cli.dem", "add_parser", "LAMMPS DEM validation (appendix C, figs 1 and 8)"),
-    "figures": ("icidr_pde.cli.figures", "add_parser", "redraw the paper's figures (and movies 1-6) into docs/figures"),
-    "law": ("icidr_pde.cli.law", "add_parser", "rheology workbench: check a law for well-posedness, list laws"),
-    "cache": ("icidr_pde.cli.cache", "add_parser", "the kernel cache: where it is, its size, clear it"),
-}
+__all__ = ["add_parser", "cmd", "discretization_options"]
 
 
 def discretization_options() -> dict[str, tuple]:
@@ -51,169 +30,12 @@ def discretization_options() -> dict[str, tuple]:
     return out
 
 
-def rheology_name(text):
-    """argparse type: a registered rheology or a law file ``*.toml`` (data) or ``*.py`` (a program:
-    it is run), checked when the law is built."""
-    from ..rheology import RHEOLOGIES
-
-    if text in RHEOLOGIES or text.endswith((".py", ".toml")):
-        return text
-    raise argparse.ArgumentTypeError(f"must be one of {sorted(RHEOLOGIES)} or a law file *.toml or *.py, "
-                                     f"got {text!r}")
-
-
-EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
-EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
-PREFIX = "icidr-pde: error:"
-
-
-#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
-RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
-
-
-def launcher_rank() -> int:
-    """This process's rank as its MPI launcher set it in the environment (0 outside one), read
-    before MPI is started (the command line's own errors)."""
-    for name in RANK_VARIABLES:
-        value = os.environ.get(name, "")
-        if value.isdigit():
-            return int(value)
-    return 0
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse with one error prefix for every subcommand and defaults shown in --help."""
-
-    def __init__(self, *args, **kwargs):
-        kwargs.setdefault("formatter_class", DefaultsFormatter)
-        super().__init__(*args, **kwargs)
-
-    def error(self, message):
-        if launcher_rank() != 0:  # before MPI starts: the launcher's rank 0 alone says it
-            self.exit(EXIT_BAD_INPUT)
-        self.print_usage(sys.stderr)
-        self.exit(EXIT_BAD_INPUT, f"{PREFIX} {message}\n")
-
-
-class DefaultsFormatter(argparse.RawDescriptionHelpFormatter):
-    """Append '(default: ...)' to every option help that has a meaningful default."""
-
-    def _get_help_string(self, action):
-        text = action.help or ""
-        default = action.default
-        if "default" in text or default in (None, False, argparse.SUPPRESS) or not action.option_strings:
-            return text
-        shown = " ".join(map(str, default)) if isinstance(default, (list, tuple)) else default
-        return f"{text} (default: {shown})".strip()
-
-
-def number(text):
-    """argparse type: a float (range checks are the API's, named after the option)."""
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number; got {text!r}") from None
-
-
-def time_value(text):
-    """argparse type of --times: a number, kept as spelled (the label of the JSON max_w)."""
-    number(text)
-    return text
-
-
-def check_output_path(option: str, path) -> None:
-    """Refuse, before any work, an output path that cannot be written."""
-    from ..outputs import check_outputs
-
-    check_outputs({option: path})
-
-
-def figure_path(option: str, path):
-    """The file a figure is written to: a supported suffix, '.png' appended if none."""
-    if path is None:
-        return None
-    if not os.fspath(path):  # the empty path is no directory: check_outputs names what it is
-        check_output_path(option, path)
-    from matplotlib.figure import Figure
-
-    if Path(path).is_dir():
-        raise ValueError(f"`{option}` {str(path)!r} is a directory")
-    supported = Figure().canvas.get_supported_filetypes()
-    suffix = Path(path).suffix.lstrip(".").lower()
-    if not suffix:
-        path = f"{path}.png"
-    elif suffix not in supported:
-        raise ValueError(f"`{option}` must end in one of {sorted('.' + s for s in supported)}; got {path!r}")
-    check_output_path(option, path)
-    return str(path)
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised like Ctrl-C so that the run stops cleanly and keeps its results."""
-
-
-class interrupt_signals:
-    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came."""
-
-    def __enter__(self):
-        self.received = None
-        self._previous = {}
-        for sig in EXIT_INTERRUPTED:
-            try:
-                self._previous[sig] = signal.signal(sig, self._handle)
-            except ValueError:  # not the main thread
-                pass
-        return self
-
-    def _handle(self, signum, frame):
-        self.received = signal.Signals(signum)
-        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
-
-    def __exit__(self, *exc):
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
-        return False
-
-
-def is_stdout(path) -> bool:
-    """Whether `path` is this process's standard output (``/dev/stdout``, ``/proc/self/fd/1``, the file
-    or pipe stdout goes to)."""
-    if path is None:
-        return False
-    try:
-        here, there = os.stat(path), os.fstat(sys.stdout.fileno())
-    except (OSError, ValueError, AttributeError):
-        return False
-    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
-
-
-def write_outputs(writers, report=None) -> int:
-    """Call each (option, path, write) in turn; report failures; EXIT_WRITE_FAILED if any. What was
-    written is said on `report` (default stdout)."""
-    status = EXIT_OK
-    for option, path, write in writers:
-        if path is None:
-            continue
-        try:
-            write(path)
-        except (OSError, ValueError) as err:
-            print(f"{PREFIX} could not write {option} {path}: {getattr(err, 'strerror', None) or err}",
-                  file=sys.stderr)
-            status = EXIT_WRITE_FAILED
-        except KeyboardInterrupt:  # the outputs written so far stay; this one is left as it was
-            print(f"{PREFIX} interrupted while writing {option} {path}; it was not written", file=sys.stderr)
-            raise
-        else:
-            print(f"{option.lstrip('-')} written to {path}", file=report or sys.stdout)
-    return status
-
-
-def add_run_parser(subparsers):
+def add_parser(subparsers):
+    """Add ``run`` to the ``icidr-pde`` command."""
     # names from the catalog: building this parser imports neither py-pde nor scipy
     from ..catalog import DISCRETIZATION_OPTIONS, DISCRETIZATIONS, JACOBIAN_MODES, METHODS
     from ..engines.choose import DENSE_2D_CELLS, REQUESTS
     from ..presets import PRESETS
-    from ..rheology import RHEOLOGIES
     from ..scenes import SCENES, scene_parameters
 
     p = subparsers.add_parser(
@@ -223,11 +45,7 @@ def add_run_parser(subparsers):
                     "print the outcome and optionally write a JSON summary, a figure and the snapshots.\n"
                     "exit status: 0 reached --t-end; 2 bad input; 3 failed (blow-up, state left "
                     "(0, phi_c)); 4 an output could not be written; 130/143 interrupted (SIGINT/SIGTERM).")
-    p.add_argument("--rheology", type=rheology_name, default="icidr", metavar="NAME|FILE",
-                   help=f"one of {', '.join(sorted(RHEOLOGIES))} (mui: mu(I),Phi(I) (3.13)-(3.15); "
-                        "icidr: inertial CIDR (5.3)-(5.5)), or a law file: *.toml (formulas, read as data) or "
-                        "*.py (a Python program: it is RUN with your rights; only files you would run yourself; "
-                        "see docs/security.md and `law check`)")
+    add_rheology_option(p, "icidr")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear",
                    help="initial condition; " + "; ".join(
                        f"{dim}-D: " + ", ".join(sorted(n for n, c in SCENES.items() if getattr(c, "dim", 1) == dim))
@@ -278,7 +96,7 @@ def add_run_parser(subparsers):
                         "back. pde: the py-pde path (numba kernels, scikit-sundae or scipy). petsc: PETSc's TS, "
                         "Newton and GMRES (block Jacobi/ILU; -pc_type gamg) on the 2-D cell (the [petsc] extra; PETSC_OPTIONS passes options; "
                         "runs under mpiexec)")
-    p.set_defaults(func=cmd_run)
+    return p
 
 
 def _scenes_2d() -> list:
@@ -287,7 +105,7 @@ def _scenes_2d() -> list:
     return [name for name, scene in SCENES.items() if getattr(scene, "dim", 1) != 1]
 
 
-def cmd_run(args) -> int:
+def cmd(args) -> int:
     from ..engines.choose import PETSC_METHOD
     from ..outputs import check_outputs
     from ..scenes import SCENES, scene_parameters
@@ -381,107 +199,3 @@ def _write_run_plot(result, path):
     from ..plotting import plot_result
 
     plot_result(result, path)
-
-
-def add_demo_parser(subparsers):
-    p = subparsers.add_parser(
-        "demo", help="the paper's headline in under a minute: mu(I) blows up on refinement, iCIDR converges",
-        description="Run scene shear (3.16) with mu(I),Phi(I) and iCIDR on a coarse and a fine grid "
-                    "(finite volumes, BDF rtol 1e-6, atol 1e-9, as the paper's ode15s) and draw figs "
-                    "3(a), 4(a) and 6 in one figure.")
-    p.add_argument("--plot", default="icidr_demo.png", help="figure file (PNG if no suffix)")
-    p.add_argument("--coarse", type=positive_int, default=47, help="coarse grid: cells N (well resolved)")
-    p.add_argument("--fine", type=positive_int, default=201, help="fine grid: cells N (mu(I) fails here)")
-    p.set_defaults(func=cmd_demo)
-
-
-def cmd_demo(args) -> int:
-    from ..api import run
-    from ..plotting import demo_figure
-
-    args.plot = figure_path("--plot", args.plot)
-    start = time.perf_counter()
-    runs = {}
-    jobs = [
-        ("mui", args.coarse, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
-        ("mui", args.fine, 10.0, ["0", "0.002", "0.005", "0.01"]),
-        ("icidr", args.coarse, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
-        ("icidr", args.fine, 10.0, ["0", "0.5", "1", "2", "5", "10"]),
-    ]
-    for rheology, n, t_end, times in jobs:
-        print(f"running {rheology:5s} N = {n:3d} (scene shear, IC (3.16)) ...", flush=True)
-        # ode15s-like settings, as in the paper
-        result = run(rheology, "shear", n, t_end, times, method="BDF", rtol=1e-6, atol=1e-9)
-        runs[(rheology, n)] = result
-        print("   ", result)
-    figure_args = (runs[("mui", args.coarse)], runs[("mui", args.fine)],
-                   runs[("icidr", args.coarse)], runs[("icidr", args.fine)])
-    status = write_outputs([("--plot", args.plot, lambda path: demo_figure(*figure_args, path))])
-    fine = runs[("mui", args.fine)]
-    print(f"\nmu(I),Phi(I): N = {args.coarse} "
-          f"{'fails' if runs[('mui', args.coarse)].blew_up else 'decays to steady shear'}; "
-          f"N = {args.fine} " + (f"fails at t* = {fine.t_star:.4g}" if fine.blew_up else "does not fail"))
-    a, b = runs[("icidr", args.coarse)], runs[("icidr", args.fine)]
-    print(f"iCIDR: max|w| at t = 1: N = {args.coarse}: {a.max_w_at_times()['1']:.3e}, "
-          f"N = {args.fine}: {b.max_w_at_times()['1']:.3e} (no failure: {not (a.blew_up or b.blew_up)})")
-    print(f"done in {time.perf_counter() - start:.0f} s")
-    return status
-
-
-def make_parser(commands=None) -> argparse.ArgumentParser:
-    """The ``icidr-pde`` parser with the subcommands `commands` (default: all) built in full.
-
-    The others are placeholders with their name and one-line help only: enough for the
-    top-level ``--help`` and for the choices of an unknown command.
-    """
-    parser = Parser(
-        prog="icidr-pde", description="mu(I),Phi(I) vs iCIDR in the shear cell, 1-D and 2-D x-periodic (Schaeffer et al. 2019)",
-        epilog="exit status: 0 success, 2 bad input, 3 run failed, 4 output not written, "
-               "130/143 interrupted")
-    subparsers = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for name, (module_name, function, help_text) in SUBCOMMANDS.items():
-        if commands is None or name in commands:
-            add = globals()[function] if module_name is None else \
-                getattr(importlib.import_module(module_name), function)
-            add(subparsers)
-        else:
-            subparsers.add_parser(name, help=help_text)
-    _describe_subcommands(parser)
-    return parser
-
-
-def _describe_subcommands(parser) -> None:
-    """Every subcommand's --help opens with its one-line description."""
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            helps = {a.dest: a.help for a in action._choices_actions}
-            for name, sub in action.choices.items():
-                if not sub.description:
-                    sub.description = helps.get(name)
-                _describe_subcommands(sub)
-
-
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    # the subcommand is the first word (the top level has no option but --help)
-    parser = make_parser(commands=argv[:1])
-    args = parser.parse_args(argv)
-    from ..outputs import OutputWriteError
-
-    try:
-        return args.func(args)
-    except ValueError as err:
-        if not getattr(args, "quiet", False):
-            print(f"{PREFIX} {option_names(str(err), args)}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except OutputWriteError as err:  # an output of a subcommand other than run (which says which)
-        print(f"{PREFIX} could not write {err.filename}: {err.strerror}", file=sys.stderr)
-        return EXIT_WRITE_FAILED
-    except KeyboardInterrupt as interrupt:  # a subcommand that keeps nothing of an interrupted computation
-        if not getattr(args, "quiet", False):
-            print(f"{PREFIX} interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED[signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT]
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -95,26 +95,6 @@ class CaseCache:
         return sum(1 for name in os.listdir(self.folder) if name.endswith(".json") and not name.startswith("."))
 
 
-def add_cache_option(parser, what: str = "case") -> None:
-    """``--cache DIR`` of a command whose runs are independent (``tstar``, the studies' commands)."""
-    parser.add_argument("--cache", default=None, metavar="DIR",
-                        help=f"keep each finished {what} in DIR and take it from there on a rerun (resumes an "
-                             f"interrupted study; a {what} whose settings or code changed is run again)")
-
-
-def check_cache_option(args, parser=None) -> None:
-    """Refuse a ``--cache`` that cannot be written, before any run: OutputError naming the option,
-    or with `parser` its one-line error and exit 2."""
-    if args.cache is None:
-        return
-    try:
-        writable_folder("--cache", args.cache)
-    except ValueError as err:
-        if parser is None:
-            raise
-        parser.error(str(err))
-
-
 def _indexed(function, item):
     index, case = item
     return index, function(case)

@@ -180,9 +180,9 @@ def test_bad_directions():
 def _run(argv):
     parser = argparse.ArgumentParser(prog="icidr-pde")
     sub = parser.add_subparsers(dest="command", required=True)
-    cli.add_stability_parser(sub)
+    cli.add_parser(sub)
     args = parser.parse_args(["stability", *argv])
-    return args.func(args)
+    return cli.cmd(args)
 
 
 def test_cli_dim3_json(tmp_path, capsys):
