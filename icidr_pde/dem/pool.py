@@ -21,7 +21,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..outputs import write_json
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams

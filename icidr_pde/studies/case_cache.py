@@ -23,7 +23,7 @@ from pathlib import Path
 from ..outputs import write_json, writable_folder
 from .parallel import StudyInterrupted, run_cases
 
-__all__ = ["CaseCache", "add_cache_option", "check_cache_option", "code_version", "run_cached"]
+__all__ = ["CaseCache", "code_version", "run_cached"]
 
 #: the libraries whose round-off and step control a result depends on (their versions enter the key)
 _LIBRARIES = ("numpy", "scipy", "numba", "scikit-sundae", "py-pde", "sympy")
