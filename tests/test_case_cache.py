@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import json
+from pathlib import Path
 
 import pytest
 
@@ -90,6 +91,23 @@ def test_changed_code_does_not_reuse_the_entries(counted, tmp_path, monkeypatch)
     monkeypatch.setattr(case_cache, "_VERSION", ["another code version"])
     assert main([*ARGV, "--cache", str(cache)]) == 0
     assert len(made) == 6
+
+
+def test_a_changed_law_file_does_not_reuse_the_entries(tmp_path):
+    """A case whose law is a file (``tstar --rheology law.toml --cache DIR``) is keyed by the file's text
+    too: an edited law at the same path is another case."""
+    law = tmp_path / "law.toml"
+    source = (Path(__file__).resolve().parents[1] / "examples" / "half_rate_law.toml").read_text()
+    law.write_text(source)
+    cache = case_cache.CaseCache(tmp_path / "cache", "failure_time")
+    case = {"rheology": str(law), "N": 21}
+    first = cache.key(case)
+    assert cache.key(dict(case)) == first
+    law.write_text(source.replace("k = 0.5", "k = 0.25"))
+    assert cache.key(case) != first
+    law.write_text(source)
+    assert cache.key(case) == first
+    assert cache.key({"rheology": "mui", "N": 21}) != cache.key({"rheology": "icidr", "N": 21})
 
 
 def test_the_code_version_hashes_the_sources(tmp_path, monkeypatch):

@@ -2,7 +2,7 @@
 
 Each finished case is one JSON file ``<key>.json`` holding the case, its result and the key;
 the key hashes everything that determines the result: the study's function, the case (law,
-scene, scheme, N, tolerances, engine, ...: every keyword argument), and the code version
+scene, scheme, N, tolerances, engine, ...: every keyword argument; the text of a law file), and the code version
 (:func:`code_version`: this package's sources and the versions of Python and of the numerical
 libraries under it). A rerun of the same sweep takes what is there and runs the rest; a
 changed setting or a changed source is another key, so the old entry is not used. An entry is
@@ -66,7 +66,12 @@ class CaseCache:
         self.function = function
 
     def key(self, case: dict) -> str:
+        from ..rheology.law_files import is_file_law
+
         text = _canonical(self.function, case)
+        law = case.get("rheology")
+        if is_file_law(law) and Path(law).is_file():  # a law read from a file: its text decides the result
+            text += "\0" + hashlib.sha256(Path(law).read_bytes()).hexdigest()
         return hashlib.sha256(f"{text}\0{code_version()}".encode()).hexdigest()[:32]
 
     def _path(self, key: str) -> Path:
