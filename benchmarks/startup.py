@@ -231,8 +231,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error(f"--repeats must be >= 1; got {args.repeats}")
-    if args.against is not None and not (args.against / "icidr_pde" / "cli.py").is_file():
-        parser.error(f"--against must be a source tree with icidr_pde/cli.py; got {str(args.against)!r}")
+    if args.against is not None and not any((args.against / "icidr_pde" / name).is_file()
+                                            for name in ("cli.py", "cli/__init__.py")):
+        parser.error(f"--against must be a source tree with the icidr_pde.cli command; got {str(args.against)!r}")
     data = {} if args.no_invocations else measure(args.repeats)
     if data:
         print(report(data))

@@ -4,7 +4,7 @@ What it holds: the Python modules :mod:`icidr_pde.rheology.codegen` generates fr
 numba's compiled code of their functions, in ``__pycache__``), the native engine's shared
 libraries (:mod:`icidr_pde.native.build`) and the notes of laws the C printer refuses. Every
 other module asks this one for the folder, reads a kernel with :func:`read` and writes one with
-:func:`store` or :func:`build`; ``icidr-pde cache {info,clear}`` (:mod:`icidr_pde.cache_cli`)
+:func:`store` or :func:`build`; ``icidr-pde cache {info,clear}`` (:mod:`icidr_pde.cli.cache`)
 shows and empties it.
 
 **Where.** ``$NUMBA_CACHE_DIR/icidr_pde_kernels`` when NUMBA_CACHE_DIR is set, else

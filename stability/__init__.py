@@ -16,7 +16,7 @@ Modules (one concept each):
 * :mod:`stability.spatial` -- plane waves in every direction of space (3-D conventions, S = D - div u/3 I);
 * :mod:`stability.incompressible` -- incompressible mu(I) in 2-D: Barker et al. (2015)'s criterion, derived;
 * :mod:`stability.workbench` -- the rheology workbench's report of a law;
-* :mod:`stability.report`, :mod:`stability.cli` -- ``verify`` / ``stability`` / ``plot-growth``.
+* :mod:`stability.report` -- the table of ``icidr-pde verify`` (its command line: :mod:`icidr_pde.cli`).
 """
 
 __all__ = ["symbols", "rheologies", "cidr", "linearize", "mui", "icidr", "dissipation", "numeric", "growth",

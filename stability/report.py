@@ -8,6 +8,7 @@ detail), ``fails`` (does not hold; the corrected expression is given).
 from __future__ import annotations
 
 import json
+import sys
 import textwrap
 import time
 
@@ -105,6 +106,15 @@ def write_json(checks, path) -> None:
     write_atomically(path, lambda fh: json.dump([c.to_json() for c in checks], fh, indent=2))
 
 
+def stderr_progress():
+    """A progress(text) that tells a person at a terminal each stage, on stderr (stdout holds the
+    report; a pipe or a log gets only the report and, on bad input, the one error line); None
+    where stderr is not a terminal."""
+    if not sys.stderr.isatty():
+        return None
+    return lambda text: print(text, file=sys.stderr, flush=True)
+
+
 def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) -> int:
     """Run the report, print the table, optionally write JSON/markdown; exit code 0 unless unexpected failures."""
     from icidr_pde.outputs import check_outputs, write_atomically  # noqa: PLC0415
@@ -114,8 +124,6 @@ def verify(json_path=None, markdown_path=None, crosscheck=True, stream=print) ->
 
     check_outputs({"--json": json_path, "--markdown": markdown_path})
     t0 = time.perf_counter()
-    from icidr_pde.law_cli import stderr_progress  # noqa: PLC0415
-
     progress = stderr_progress()  # at a terminal, on stderr: stdout holds the table
     checks = run_checks(crosscheck, progress)
     n_groups = 7 + bool(crosscheck)

@@ -289,7 +289,7 @@ def test_2d_default_is_second_order_central_and_1d_stays_upwind():
 
 def test_upwind_reproduces_the_first_order_study():
     """`advection='upwind'` still gives the first-order study of data/sim2d/convergence_upwind.json
-    (``python -m icidr_pde.studies.sim2d convergence --advection upwind``)."""
+    (``icidr-pde study sim2d convergence --advection upwind``)."""
     import json
     import pathlib
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import json
+from pathlib import Path
 
 import pytest
 
@@ -92,6 +93,23 @@ def test_changed_code_does_not_reuse_the_entries(counted, tmp_path, monkeypatch)
     assert len(made) == 6
 
 
+def test_a_changed_law_file_does_not_reuse_the_entries(tmp_path):
+    """A case whose law is a file (``tstar --rheology law.toml --cache DIR``) is keyed by the file's text
+    too: an edited law at the same path is another case."""
+    law = tmp_path / "law.toml"
+    source = (Path(__file__).resolve().parents[1] / "examples" / "half_rate_law.toml").read_text()
+    law.write_text(source)
+    cache = case_cache.CaseCache(tmp_path / "cache", "failure_time")
+    case = {"rheology": str(law), "N": 21}
+    first = cache.key(case)
+    assert cache.key(dict(case)) == first
+    law.write_text(source.replace("k = 0.5", "k = 0.25"))
+    assert cache.key(case) != first
+    law.write_text(source)
+    assert cache.key(case) == first
+    assert cache.key({"rheology": "mui", "N": 21}) != cache.key({"rheology": "icidr", "N": 21})
+
+
 def test_the_code_version_hashes_the_sources(tmp_path, monkeypatch):
     first = case_cache.code_version()
     monkeypatch.setattr(case_cache, "_VERSION", [])
@@ -148,22 +166,18 @@ def test_grid_convergence_rerun_from_its_cache_runs_nothing_and_gives_the_same_n
 
     argv = ["--t", "0.05", "--N", "11", "21", "--ref", "41", "--no-progress", "--cache", str(tmp_path / "c")]
     plain = grid_convergence.convergence_study("icidr", "sine", 0.05, (11, 21), 41, progress=False)
-    grid_convergence.main([*argv, "--json", str(tmp_path / "first.json")])
+    assert main(["study", "grid-convergence", *argv, "--json", str(tmp_path / "first.json")]) == 0
     assert json.loads((tmp_path / "first.json").read_text()) == plain
     assert len(case_cache.CaseCache(tmp_path / "c", "grid_convergence")) == 3
     monkeypatch.setattr(grid_convergence, "run", _no_run)
-    grid_convergence.main([*argv, "--json", str(tmp_path / "again.json")])
+    assert main(["study", "grid-convergence", *argv, "--json", str(tmp_path / "again.json")]) == 0
     assert json.loads((tmp_path / "again.json").read_text()) == plain
 
 
 def test_a_study_cache_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
-    from icidr_pde.studies import grid_convergence, sim2d
-
     path = tmp_path / "file"
     path.write_text("")
-    for main_of in (grid_convergence.main, lambda argv: sim2d.main(["tstar", *argv])):
-        with pytest.raises(SystemExit) as stop:
-            main_of(["--cache", str(path), "--no-progress"])
-        assert stop.value.code == 2
+    for study in (["grid-convergence"], ["sim2d", "tstar"]):
+        assert main(["study", *study, "--cache", str(path), "--no-progress"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert "`--cache` must be a directory" in err[-1] and not any("Traceback" in line for line in err)

@@ -94,7 +94,7 @@ def test_run_cases_refuses_a_pool_beyond_the_machine(no_processes):
 def test_tstar_N_is_bounded(capsys, monkeypatch, text, expected):
     import re
 
-    from icidr_pde import tstar_cli
+    from icidr_pde.cli import tstar as tstar_cli
 
     def no_sweep(*args, **kwargs):
         raise AssertionError("the sweep was started")

@@ -159,7 +159,7 @@ def test_unreadable_law_file(tmp_path, monkeypatch, capsys):
 
 def test_unknown_movie_refused_before_any_figure(tmp_path, monkeypatch, capsys):
     """`figures --movies movie99` computed fig 3 first and then raised KeyError."""
-    from icidr_pde.figures import cli as figures_cli
+    from icidr_pde.cli import figures as figures_cli
 
     def no_figures(*args, **kwargs):
         raise AssertionError("a figure was computed before the movies were checked")

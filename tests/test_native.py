@@ -37,7 +37,7 @@ def run_native(*args, **kwargs):
 
 
 def test_catalog_is_what_the_registries_hold():
-    from icidr_pde.cli import discretization_options
+    from icidr_pde.cli.run import discretization_options
     from icidr_pde.discretizations import DISCRETIZATIONS
     from icidr_pde.engines import JACOBIAN_MODES, METHODS
 

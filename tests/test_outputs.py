@@ -92,16 +92,16 @@ def test_a_rewritten_output_keeps_its_mode(tmp_path, umask_027):
 
 
 def test_stability_outputs_follow_the_umask(tmp_path, umask_027):
-    from stability.cli import add_stability_parser
+    from icidr_pde.cli import stability
 
     out, png = tmp_path / "s.json", tmp_path / "p.png"
     import argparse
 
     parser = argparse.ArgumentParser()
-    add_stability_parser(parser.add_subparsers(dest="command"))
+    stability.add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["stability", "--rheology", "mui", "--phi", "0.78", "--velocity-gradient", "0",
                               str(1 / 30), "0", "0", "--angles", "0:180:10", "--json", str(out), "--plot", str(png)])
-    assert args.func(args) == 0
+    assert stability.cmd(args) == 0
     assert mode(out) == mode(png) == umask_027
 
 

@@ -351,7 +351,7 @@ def test_dem_help_states_each_default_once(capsys):
 
 
 def test_dem_ctrl_c_is_one_line_not_a_traceback(monkeypatch, capsys):
-    import icidr_pde.dem.cli as dem_cli
+    import icidr_pde.cli.dem as dem_cli
 
     def interrupted(args):
         raise KeyboardInterrupt

@@ -1,4 +1,5 @@
-"""The field images and movie of docs/sim2d.md: written where asked, from arguments, whole."""
+"""The field images and movie of docs/sim2d.md (``icidr-pde figures sim2d-fields``): written where asked,
+from arguments, whole."""
 
 import subprocess
 import sys
@@ -6,18 +7,20 @@ import sys
 import numpy as np
 import pytest
 
-from icidr_pde.figures import sim2d_fields
+from icidr_pde.cli import main
 
 
 def test_a_missing_output_folder_is_one_line_and_exit_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "icidr_pde.figures.sim2d_fields", "--out", str(tmp_path / "nowhere")],
+    proc = subprocess.run([sys.executable, "-m", "icidr_pde.cli", "figures", "sim2d-fields", "--out",
+                           str(tmp_path / "nowhere")],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "--out" in proc.stderr and "nowhere" in proc.stderr and "Traceback" not in proc.stderr
 
 
 def test_a_grid_below_its_range_names_the_range(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "icidr_pde.figures.sim2d_fields", "--out", str(tmp_path), "--N", "2"],
+    proc = subprocess.run([sys.executable, "-m", "icidr_pde.cli", "figures", "sim2d-fields", "--out", str(tmp_path),
+                           "--N", "2"],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and ">= 8" in proc.stderr and "'2'" in proc.stderr
 
@@ -26,7 +29,7 @@ def test_a_grid_below_its_range_names_the_range(tmp_path):
 def test_the_figure_and_the_movie_are_written_into_the_folder_asked(tmp_path):
     from PIL import Image
 
-    assert sim2d_fields.main(["--out", str(tmp_path), "--N", "8", "--movie-N", "8", "--frames", "3"]) == 0
+    assert main(["figures", "sim2d-fields", "--out", str(tmp_path), "--N", "8", "--movie-N", "8", "--frames", "3"]) == 0
     with Image.open(tmp_path / "sim2d_fields.png") as image:
         assert image.size[0] > 300 and np.asarray(image).std() > 0  # drawn, not blank
     movie = tmp_path / "sim2d.mp4"

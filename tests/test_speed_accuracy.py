@@ -36,7 +36,7 @@ def test_run_records_the_settings_it_used():
 def test_reference_cache_is_consistent(case):
     """The committed reference matches the code's scene, material and settings, is
     converged in space and time as recorded, conserves mass and decays to (3.10)."""
-    assert (REFERENCE_DIR / f"{case}.npz").exists(), "run: python -m icidr_pde.studies.references"
+    assert (REFERENCE_DIR / f"{case}.npz").exists(), "run: icidr-pde study references"
     ref = reference(case)
     meta = ref["meta"]
     spec = CASES[case]

@@ -146,3 +146,32 @@ def test_the_gallery_reads_a_sweep_in_either_form(one, tmp_path, monkeypatch):
     assert list(N_new) == list(N_old) == [21, 101]
     np.testing.assert_array_equal(t_new, t_old)
     assert np.isnan(t_new[0]) and t_new[1] == flat["101"]
+
+
+def test_a_law_file_is_taken_as_run_takes_it(tmp_path, capsys):
+    """``tstar --rheology FILE`` runs the law of the file, in the worker processes too (the settings of
+    the document are those of the API's run of that file), and refuses a file that cannot be used
+    in one line, exit 2, before any run."""
+    from pathlib import Path
+
+    law = Path(__file__).resolve().parents[1] / "examples" / "half_rate_law.toml"
+    out = tmp_path / "law.json"
+    argv = ["tstar", "--rheology", str(law), "--scene", "sine", "--discretization", "fd", "--N", "11",
+            "--t-end", "0.02", "--jobs", "2", "--no-progress"]
+    assert cli.main(argv + ["--json", str(out)]) == 0
+    entry = json.loads(out.read_text())["discretizations"]["fd"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = run(str(law), "sine", 11, 0.02, [0.0], discretization="fd", method="BDF", rtol=1e-6, atol=1e-9,
+                     engine="pde", series_times=())
+    assert entry["settings"] == _settings_of(result)
+    assert entry["settings"]["rheology"] == "half-rate-toml"  # the file's name for its law, not the default mui
+    assert entry["t_star"] == {"11": result.t_star}
+    capsys.readouterr()
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "bad"\nyield_function = "M * p * import_os"\n')
+    for rheology in (str(bad), str(tmp_path / "missing.toml")):
+        assert cli.main([*argv[:2], rheology, *argv[3:], "--json", str(tmp_path / "no.json")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("icidr-pde: error:") and rheology in err, err
+        assert not (tmp_path / "no.json").exists()

@@ -18,11 +18,9 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..outputs import write_json
 from . import cache
 from .fit import fit_mu, fit_phi, mu_of_I
 from .params import DEMParams
@@ -421,39 +419,3 @@ def markdown(s):
                          f"| {a['chi2'] / a['dof']:.1f}, {a['p_value']:.2g} | {b['weighted_mean']:+.4f} ± "
                          f"{b['weighted_mean_se']:.4f} | {b['chi2'] / b['dof']:.1f}, {b['p_value']:.2g} |")
     return "\n".join(lines)
-
-
-def main(argv=None):
-    import argparse
-
-    from .cache import default_cache_dir
-
-    ap = argparse.ArgumentParser(prog="python -m icidr_pde.dem.pool",
-                                 description="fig 1 pooled over H, N and k_n (resumable)")
-    ap.add_argument("action", choices=("run", "summary", "tables"))
-    ap.add_argument("configs", nargs="*", help=f"configurations (default: all of {list(CONFIGS)})")
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--json", default="steady_pool.json")
-    ap.add_argument("--fig", default="fig1_dem.png")
-    a = ap.parse_args(argv)
-    cache_dir = a.cache or default_cache_dir()
-    names = a.configs or None
-    if a.action == "run":
-        run(cache_dir, names)
-        return 0
-    from .plots import fig1_pool
-
-    if a.action == "tables":
-        print(markdown(json.loads(Path(a.json).read_text())))
-        return 0
-
-    s = summary(cache_dir, names)
-    write_json(s, Path(a.json))
-    if a.fig:
-        fig1_pool(s, a.fig)
-    print(f"wrote {a.json}" + (f", {a.fig}" if a.fig else ""))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """The field images and the movie of docs/sim2d.md (scene bump2d, both rheologies).
 
-``python -m icidr_pde.figures.sim2d_fields [--out DIR] [--N N] [--movie-N N] [--frames K]`` writes
+``icidr-pde figures sim2d-fields [--out DIR] [--N N] [--movie-N N] [--frames K]`` writes
 DIR/sim2d_fields.png (w and phi - phi0 of both rheologies) and DIR/sim2d.mp4 (both runs side by
 side, through :func:`icidr_pde.movies.render.movie_from_results_2d`), from runs with the settings of
 :mod:`icidr_pde.studies.sim2d`. DIR defaults to ``docs``.
@@ -8,18 +8,15 @@ side, through :func:`icidr_pde.movies.render.movie_from_results_2d`), from runs 
 
 from __future__ import annotations
 
-import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from ..argtypes import int_at_least
 from ..outputs import save_figure
 from ..plotting import field_panel
 from ..studies.sim2d import SETTINGS
 
-__all__ = ["field_figure", "movie", "main"]
+__all__ = ["field_figure", "movie"]
 
 
 def _failure_time(n: int, t_end: float = 10.0) -> float:
@@ -71,21 +68,3 @@ def movie(path="docs/sim2d.mp4", n=48, n_frames=60, progress=True) -> Path:
     icidr = _snapshots("icidr", n, 0.99 * t_star, n_frames)
     return movie_from_results_2d({"mu(I)": mui, "iCIDR": icidr}, path, fps=12,
                                  title=f"bump2d, {n}x{n}: mu(I),Phi(I) fails at t* = {t_star:.3g}, iCIDR decays", progress=progress)
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.figures.sim2d_fields", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("docs"), help="folder of sim2d_fields.png and sim2d.mp4 (default docs)")
-    parser.add_argument("--N", type=int_at_least(8), default=64, help="cells per side of the field images (default 64)")
-    parser.add_argument("--movie-N", type=int_at_least(8), default=48, help="cells per side of the movie (default 48)")
-    parser.add_argument("--frames", type=int_at_least(2), default=60, help="snapshots in the movie (default 60)")
-    args = parser.parse_args(argv)
-    if not args.out.is_dir():
-        parser.error(f"--out: folder {args.out} does not exist")
-    print(f"figure written to {field_figure(args.out / 'sim2d_fields.png', args.N)}")
-    print(f"movie written to {movie(args.out / 'sim2d.mp4', args.movie_N, args.frames)}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -263,7 +263,7 @@ def _plain_ticks(ax, values, fmt="{:g}"):
 @register_figure("tstar2d", "2-D cell: mu(I),Phi(I) t*(N) on bump2d falls under refinement while the x-independent "
                  "1-D run decays up to N = 64; iCIDR's max|w| converges (committed study + a fresh run on small grids)",
                  "not in the paper: the 2-D analogue of fig 4(b) and of figs 6-7's grid agreement. Grids up to 128^2 "
-                 "are expensive, so the lines are the committed `python -m icidr_pde.studies.sim2d tstar` and "
+                 "are expensive, so the lines are the committed `icidr-pde study sim2d tstar` and "
                  "`... convergence` (data/sim2d/*.json); the stars are recomputed by the same study code here",
                  dims="2d", source="data/sim2d/tstar.json, data/sim2d/convergence.json + computed")
 def tstar2d(runs):

@@ -8,7 +8,7 @@
 * :mod:`.parallel` -- worker processes; :mod:`.distributed` -- the runs as dask tasks;
 * :mod:`.case_cache` -- finished cases kept in a folder, so that an interrupted study resumes.
 
-The command ``icidr-pde tstar`` is :mod:`icidr_pde.tstar_cli`, its figure :mod:`icidr_pde.figures.tstar_plot`.
+The command ``icidr-pde tstar`` is :mod:`icidr_pde.cli.tstar`, its figure :mod:`icidr_pde.figures.tstar_plot`.
 """
 
 from .discrete import compare_discretizations, spectral_convergence, tolerance_study

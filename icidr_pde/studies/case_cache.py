@@ -2,7 +2,7 @@
 
 Each finished case is one JSON file ``<key>.json`` holding the case, its result and the key;
 the key hashes everything that determines the result: the study's function, the case (law,
-scene, scheme, N, tolerances, engine, ...: every keyword argument), and the code version
+scene, scheme, N, tolerances, engine, ...: every keyword argument; the text of a law file), and the code version
 (:func:`code_version`: this package's sources and the versions of Python and of the numerical
 libraries under it). A rerun of the same sweep takes what is there and runs the rest; a
 changed setting or a changed source is another key, so the old entry is not used. An entry is
@@ -23,7 +23,7 @@ from pathlib import Path
 from ..outputs import write_json, writable_folder
 from .parallel import StudyInterrupted, run_cases
 
-__all__ = ["CaseCache", "add_cache_option", "check_cache_option", "code_version", "run_cached"]
+__all__ = ["CaseCache", "code_version", "run_cached"]
 
 #: the libraries whose round-off and step control a result depends on (their versions enter the key)
 _LIBRARIES = ("numpy", "scipy", "numba", "scikit-sundae", "py-pde", "sympy")
@@ -66,7 +66,12 @@ class CaseCache:
         self.function = function
 
     def key(self, case: dict) -> str:
+        from ..rheology.law_files import is_file_law
+
         text = _canonical(self.function, case)
+        law = case.get("rheology")
+        if is_file_law(law) and Path(law).is_file():  # a law read from a file: its text decides the result
+            text += "\0" + hashlib.sha256(Path(law).read_bytes()).hexdigest()
         return hashlib.sha256(f"{text}\0{code_version()}".encode()).hexdigest()[:32]
 
     def _path(self, key: str) -> Path:
@@ -93,26 +98,6 @@ class CaseCache:
 
     def __len__(self) -> int:
         return sum(1 for name in os.listdir(self.folder) if name.endswith(".json") and not name.startswith("."))
-
-
-def add_cache_option(parser, what: str = "case") -> None:
-    """``--cache DIR`` of a command whose runs are independent (``tstar``, the studies' commands)."""
-    parser.add_argument("--cache", default=None, metavar="DIR",
-                        help=f"keep each finished {what} in DIR and take it from there on a rerun (resumes an "
-                             f"interrupted study; a {what} whose settings or code changed is run again)")
-
-
-def check_cache_option(args, parser=None) -> None:
-    """Refuse a ``--cache`` that cannot be written, before any run: OutputError naming the option,
-    or with `parser` its one-line error and exit 2."""
-    if args.cache is None:
-        return
-    try:
-        writable_folder("--cache", args.cache)
-    except ValueError as err:
-        if parser is None:
-            raise
-        parser.error(str(err))
 
 
 def _indexed(function, item):

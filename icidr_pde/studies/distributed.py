@@ -9,7 +9,7 @@
 * :func:`check_task_result` -- a task's result of another shape refused in one line.
 
 The options ``--workers N`` / ``--scheduler ADDRESS`` of the commands that run independent
-runs open their client through :func:`cluster` (:mod:`icidr_pde.cluster_cli`).
+runs open their client through :func:`cluster` (:mod:`icidr_pde.cli.cluster`).
 
 A task computes what the serial run computes: the same function on the same arguments in
 a process with one BLAS thread, so t* agrees bit for bit (tests/test_distributed.py).

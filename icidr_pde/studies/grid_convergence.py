@@ -1,21 +1,17 @@
 """Grid-convergence study: error of coarse runs against a fine run, and the observed order.
 
-Run ``python -m icidr_pde.studies.grid_convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``;
+Run ``icidr-pde study grid-convergence [--scene sine --t 5 --N 51 101 201 401 --ref 1601]``;
 the runs are independent: ``--jobs N`` runs them on this machine's process pool, ``--workers N`` /
 ``--scheduler ADDRESS`` as dask tasks (docs/distributed.md), with the numbers of the serial run.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-
 import numpy as np
 
 from ..api import run
 from ..discretizations import get_discretization
-from .case_cache import add_cache_option, check_cache_option, run_cached
-from ..cluster_cli import add_cluster_options, client_of
+from .case_cache import run_cached
 
 __all__ = ["convergence_study"]
 
@@ -66,31 +62,3 @@ def convergence_study(rheology="icidr", scene="sine", t=5.0, Ns=(51, 101, 201, 4
     return {"rheology": rheology, "scene": scene, "t": t, "N_ref": N_ref, "advection": advection,
             "discretization": discretization, "errors": {str(k): v for k, v in errors.items()},
             "orders": orders}
-
-
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--rheology", default="icidr")
-    parser.add_argument("--scene", default="sine")
-    parser.add_argument("--t", type=float, default=5.0)
-    parser.add_argument("--N", type=int, nargs="+", default=[51, 101, 201, 401])
-    parser.add_argument("--ref", type=int, default=1601)
-    parser.add_argument("--advection", default="upwind")
-    parser.add_argument("--json", default=None)
-    add_cluster_options(parser, "the grids")
-    add_cache_option(parser, "grid")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
-    check_cache_option(args, parser)
-    with client_of(args, parser, dashboard=not args.no_progress) as client:
-        out = convergence_study(args.rheology, args.scene, args.t, args.N, args.ref, args.advection,
-                                jobs=args.jobs, client=client, progress=not args.no_progress, cache=args.cache)
-    print(json.dumps(out, indent=1))
-    if args.json:
-        from ..outputs import write_json
-
-        write_json(out, args.json)
-
-
-if __name__ == "__main__":
-    main()

@@ -145,14 +145,3 @@ def reference_tstar(discretization: str, recompute: bool = False) -> dict:
     REFERENCE_DIR.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=1))
     return data
-
-
-if __name__ == "__main__":
-    import sys
-
-    for name in sys.argv[1:] or list(CASES) + ["tstar-fd", "tstar-cheb"]:
-        if name.startswith("tstar-"):
-            print(name, json.dumps(reference_tstar(name[6:], recompute=True)))
-            continue
-        data = reference(name, recompute=True)
-        print(name, json.dumps({k: data["meta"][k] for k in ("space_check", "time_check", "wall_s")}))

@@ -1,15 +1,15 @@
 """Studies of the 2-D shear cell (scene ``bump2d``), their tables, field images and movie.
 
-``python -m icidr_pde.studies.sim2d convergence`` -- iCIDR on bump2d at 16^2 .. 128^2: max_w,
+``icidr-pde study sim2d convergence`` -- iCIDR on bump2d at 16^2 .. 128^2: max_w,
 max_phi_dev, l2_velocity at t = 0.5, 1, 2, 5, 10 and the observed orders
 (data/sim2d/convergence.json);
-``python -m icidr_pde.studies.sim2d tstar`` -- mu(I),Phi(I) on bump2d at 16^2 .. 128^2: the
+``icidr-pde study sim2d tstar`` -- mu(I),Phi(I) on bump2d at 16^2 .. 128^2: the
 failure time t* of every 2-D grid beside the 1-D finite-volume run of the same perturbation
 made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 (data/sim2d/tstar.json);
-``python -m icidr_pde.studies.sim2d growth`` -- mode2d waves at several angles, the measured
+``icidr-pde study sim2d growth`` -- mode2d waves at several angles, the measured
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
-``python -m icidr_pde.studies.sim2d tables`` -- the tables of docs/sim2d.md from those files.
+``icidr-pde study sim2d tables`` -- the tables of docs/sim2d.md from those files.
 
 The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
@@ -21,17 +21,13 @@ a study are independent: ``--jobs N`` runs them on this machine's process pool, 
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import pathlib
-import sys
 
 import numpy as np
 
 from ..outputs import write_json
-from ..cluster_cli import add_cluster_options, client_of
-from .case_cache import add_cache_option, check_cache_option, run_cached
+from .case_cache import run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
            "observed_orders", "mode_growth", "predicted_growth", "SETTINGS", "SOLVER_2D"]
@@ -86,7 +82,7 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
     advection = f" --advection {settings['advection']}" if "advection" in settings else ""
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": "python -m icidr_pde.studies.sim2d convergence" + advection}
+               "command": "icidr-pde study sim2d convergence" + advection}
     write_json(payload, path)
     return payload
 
@@ -124,7 +120,7 @@ def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "ts
                      "reason_1d": reason1, "max_w_1d_end": max_w1})
         print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
-               "command": "python -m icidr_pde.studies.sim2d tstar"}
+               "command": "icidr-pde study sim2d tstar"}
     write_json(payload, path)
     return payload
 
@@ -231,7 +227,7 @@ def growth_study(angles=(0.0, 45.0, 90.0, 135.0), n=32, path=DATA / "mode_growth
         rows.append(row)
         print(f"{row['rheology']} theta = {row['theta']:g}: measured {row['measured']:.4g}, "
               f"symbol {row['symbol']:.4g}", flush=True)
-    payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "python -m icidr_pde.studies.sim2d growth"}
+    payload = {"scene": "mode2d", "N": n, "rows": rows, "command": "icidr-pde study sim2d growth"}
     write_json(payload, path)
     return payload
 
@@ -243,35 +239,3 @@ def growth_table(payload: dict) -> str:
         lines.append(f"| {r['rheology']} | {r['theta']:g} | {r['angle_deg']:.1f} | {r['xi']:.3f} | {r['measured']:.4g} | "
                      f"{r['symbol']:.4g} | {r['xi2_lambda_max']:.4g} | {'fails' if r['blew_up'] else 'ok'} |")
     return "\n".join(lines)
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.studies.sim2d", description=__doc__.split("\n")[0])
-    parser.add_argument("study", choices=["convergence", "tstar", "growth", "tables"])
-    parser.add_argument("--sizes", type=int, nargs="+", default=None)
-    parser.add_argument("--advection", choices=("central", "upwind"), default=None,
-                        help="convergence: the advection scheme (default central; upwind writes convergence_upwind.json)")
-    add_cluster_options(parser, "the study's runs")
-    add_cache_option(parser, "run")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
-    check_cache_option(args, parser)
-    sizes = {"sizes": tuple(args.sizes)} if args.sizes else {}
-    if args.advection == "upwind":
-        sizes.update(advection="upwind", path=DATA / "convergence_upwind.json")
-    studies = {"convergence": lambda **kw: convergence_study(**sizes, **kw),
-               "tstar": lambda **kw: tstar_study(**sizes, **kw), "growth": growth_study}
-    if args.study in studies:
-        with client_of(args, parser, dashboard=not args.no_progress) as client:
-            studies[args.study](jobs=args.jobs, client=client, progress=not args.no_progress, cache=args.cache)
-    else:
-        print(convergence_table(json.loads((DATA / "convergence.json").read_text())))
-        print()
-        print(tstar_table(json.loads((DATA / "tstar.json").read_text())))
-        print()
-        print(growth_table(json.loads((DATA / "mode_growth.json").read_text())))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

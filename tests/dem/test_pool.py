@@ -188,14 +188,17 @@ def test_run_order_holds_every_configured_run_once():
 
 
 def test_cli_pool_summary_writes_json_and_figure_and_refuses_unknown_configs(tmp_path, monkeypatch, capsys):
-    from icidr_pde.dem.cli import main
+    from icidr_pde.cli import main
 
     monkeypatch.setattr(pool, "run_cell", _fake_run)
     cache_dir = tmp_path / "cache"
     pool.run(cache_dir, ["H40_N1335"], {"H40_N1335": 1}, progress=False)
     out = tmp_path / "out"
-    assert main(["pool", "summary", "--cache", str(cache_dir), "--out", str(out)]) == 0
+    assert main(["dem", "pool", "summary", "--cache", str(cache_dir), "--out", str(out)]) == 0
     assert (out / "steady_pool.json").is_file() and (out / "fig1_dem.png").is_file()
     assert "H40_N1335" in capsys.readouterr().out
-    assert main(["pool", "run", "H99", "--cache", str(cache_dir)]) == 2
+    assert main(["dem", "pool", "tables", "--out", str(out)]) == 0  # the tables of docs/dem.md, from that file
+    assert "| H40_N1335 |" in capsys.readouterr().out
+    assert main(["dem", "pool", "tables", "--out", str(tmp_path / "none")]) == 2
+    assert main(["dem", "pool", "run", "H99", "--cache", str(cache_dir)]) == 2
     assert "H99" in capsys.readouterr().err

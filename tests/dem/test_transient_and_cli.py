@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from icidr_pde.dem import transient
-from icidr_pde.dem.cli import add_parser
+from icidr_pde.cli.dem import add_parser
 
 
 def _fake_runs(R=4, T=3, B=15):
@@ -74,7 +74,7 @@ def _parse(argv):
 
 
 def test_default_outputs_go_to_the_current_directory_not_the_committed_data(tmp_path, monkeypatch):
-    from icidr_pde.dem.cli import _output, _writable_dir
+    from icidr_pde.cli.dem import _output, _writable_dir
     from icidr_pde.dem.paths import committed_dir
 
     monkeypatch.chdir(tmp_path)
@@ -103,21 +103,21 @@ def test_transient_reads_the_committed_fit_from_any_directory(tmp_path, monkeypa
 
 
 def test_transient_checks_inputs_before_any_run(tmp_path, capsys):
-    from icidr_pde.dem.cli import main
+    from icidr_pde.cli import main
 
-    rc = main(["transient", "--steady-json", str(tmp_path / "missing.json"), "--out", str(tmp_path)])
+    rc = main(["dem", "transient", "--steady-json", str(tmp_path / "missing.json"), "--out", str(tmp_path)])
     assert rc == 2 and "--steady-json" in capsys.readouterr().err
     (tmp_path / "f").write_text("")
-    rc = main(["transient", "--out", str(tmp_path / "f")])
+    rc = main(["dem", "transient", "--out", str(tmp_path / "f")])
     assert rc == 2 and "--out" in capsys.readouterr().err
-    rc = main(["transient", "--bin-height", "4", "--out", str(tmp_path)])
+    rc = main(["dem", "transient", "--bin-height", "4", "--out", str(tmp_path)])
     assert rc == 2 and "--bin-height" in capsys.readouterr().err
     for bad in (["--bin-height", "0"], ["--bin-height", "1.5"]):
-        rc = main(["transient", *bad, "--out", str(tmp_path)])
+        rc = main(["dem", "transient", *bad, "--out", str(tmp_path)])
         assert rc == 2 and "--bin-height" in capsys.readouterr().err
-    for bad, name in ((["--k-n", "-1"], "k_n"), (["--H", "nan"], "H"), (["--t-end", "0"], "t_end"),
-                      (["--t-shear", "-1"], "t_shear"), (["--particles", "7"], "n_particles")):
-        rc = main(["transient", *bad, "--out", str(tmp_path)])
+    for bad, name in ((["--k-n", "-1"], "--k-n"), (["--H", "nan"], "--H"), (["--t-end", "0"], "--t-end"),
+                      (["--t-shear", "-1"], "--t-shear"), (["--particles", "7"], "n_particles")):
+        rc = main(["dem", "transient", *bad, "--out", str(tmp_path)])
         err = capsys.readouterr().err
         assert rc == 2 and f"`{name}`" in err and "got" in err, (bad, err)
     with pytest.raises(SystemExit):

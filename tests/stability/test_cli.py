@@ -5,22 +5,29 @@ import json
 
 import pytest
 
-from stability import cli, report
+from icidr_pde.cli import main
+from icidr_pde.cli import stability as cli
+from icidr_pde.cli import verify
+from stability import report
 
 
 def _parser():
     parser = argparse.ArgumentParser(prog="icidr-pde")
     sub = parser.add_subparsers(dest="command", required=True)
-    cli.add_verify_parser(sub)
-    cli.add_stability_parser(sub)
+    verify.add_parser(sub)
+    cli.add_parser(sub)
     return parser
+
+
+def _cmd(args):
+    return {"verify": verify, "stability": cli}[args.command].cmd(args)
 
 
 def test_stability_subcommand_json(tmp_path, capsys):
     out = tmp_path / "s.json"
     args = _parser().parse_args(["stability", "--rheology", "mui", "--phi", "0.78", "--uz", "0.0333333", "--wz",
                                  "0.05", "--xi", "1e4", "--json", str(out)])
-    assert args.func(args) == 0
+    assert _cmd(args) == 0
     data = json.loads(out.read_text())
     for k in ("M", "chi", "trace_gamma", "det_gamma", "lambda_plus", "lambda_minus", "max_re_eig_over_xi2",
               "lambda0_limit"):
@@ -31,7 +38,7 @@ def test_stability_subcommand_json(tmp_path, capsys):
 
 def test_stability_subcommand_bad_input(capsys):
     args = _parser().parse_args(["stability", "--rheology", "icidr", "--phi", "0.9", "--uz", "0.1", "--wz", "0"])
-    assert args.func(args) == 2
+    assert _cmd(args) == 2
     assert "phi" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         _parser().parse_args(["stability", "--rheology", "newtonian", "--phi", "0.7", "--uz", "1", "--wz", "0"])
@@ -53,12 +60,12 @@ def test_verify_json_structure(all_checks, tmp_path, capsys):
 def test_verify_subcommand_full(tmp_path):
     out = tmp_path / "v.json"
     args = _parser().parse_args(["verify", "--json", str(out)])
-    assert args.func(args) == 0
+    assert _cmd(args) == 0
     data = json.loads(out.read_text())
     assert any(d["equation"] == "(A4) growth" and d["status"] == "numeric" for d in data)
 
 
 def test_module_entry_point_help():
     with pytest.raises(SystemExit) as e:
-        cli.main(["--help"])
+        main(["--help"])
     assert e.value.code == 0

@@ -5,15 +5,15 @@ import json
 
 import pytest
 
-from stability import cli
+from icidr_pde.cli import stability as cli
 
 
 def _run(argv):
     parser = argparse.ArgumentParser(prog="icidr-pde")
     sub = parser.add_subparsers(dest="command", required=True)
-    cli.add_stability_parser(sub)
+    cli.add_parser(sub)
     args = parser.parse_args(["stability", *argv])
-    return args.func(args)
+    return cli.cmd(args)
 
 
 ONE_D = ("M", "chi", "trace_gamma", "det_gamma", "lambda_plus", "lambda_minus", "max_re_eig_over_xi2", "lambda0_limit")

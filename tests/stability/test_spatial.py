@@ -12,7 +12,8 @@ import json
 import numpy as np
 import pytest
 
-from stability import cli, directional, spatial
+from icidr_pde.cli import stability as cli
+from stability import directional, spatial
 
 MU_S, MU_D, I0, PHI_C, A = 0.248, 0.588, 0.145, 0.817, 0.314      # Table 1
 
@@ -179,9 +180,9 @@ def test_bad_directions():
 def _run(argv):
     parser = argparse.ArgumentParser(prog="icidr-pde")
     sub = parser.add_subparsers(dest="command", required=True)
-    cli.add_stability_parser(sub)
+    cli.add_parser(sub)
     args = parser.parse_args(["stability", *argv])
-    return args.func(args)
+    return cli.cmd(args)
 
 
 def test_cli_dim3_json(tmp_path, capsys):

@@ -22,19 +22,11 @@ import sys
 from .argtypes import subcommand
 
 
-def stderr_progress():
-    """A progress(text) that tells a person at a terminal each stage, on stderr (stdout holds the
-    report; a pipe or a log gets only the report and, on bad input, the one error line); None
-    where stderr is not a terminal."""
-    if not sys.stderr.isatty():
-        return None
-    return lambda text: print(text, file=sys.stderr, flush=True)
-
-
 def _check(args) -> int:
+    from stability.report import stderr_progress
     from stability.workbench import law_report, write_report
 
-    from .outputs import check_outputs
+    from ..outputs import check_outputs
 
     check_outputs({"--json": args.json})  # before the law file is run
     report = law_report(args.law, with_curves=not args.no_curves, progress=stderr_progress())
@@ -128,3 +120,8 @@ def add_parser(subparsers):
     ls = subcommand(sub, "list", _list, help="the registered laws")
     ls.add_argument("--json", action="store_true", help="print the list as JSON")
     return p
+
+
+def cmd(args) -> int:
+    """Run ``law check`` or ``law list``, as parsed."""
+    return args.func(args)

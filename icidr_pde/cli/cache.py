@@ -7,7 +7,7 @@ import json
 
 from .argtypes import subcommand
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "cmd"]
 
 
 def add_parser(subparsers):
@@ -36,7 +36,7 @@ def _size(n: int) -> str:
 
 
 def _info(args) -> int:
-    from . import kernel_cache
+    from .. import kernel_cache
 
     out = kernel_cache.info()
     if args.json:
@@ -53,9 +53,14 @@ def _info(args) -> int:
 
 
 def _clear(args) -> int:
-    from . import kernel_cache
+    from .. import kernel_cache
 
     path, count, size = kernel_cache.clear(stale_only=args.stale)
     what = ("stale " if args.stale else "") + ("file" if count == 1 else "files")
     print(f"removed {count} {what} ({_size(size)}) from {path}")
     return 0
+
+
+def cmd(args) -> int:
+    """Run ``cache info`` or ``cache clear``, as parsed."""
+    return args.func(args)

@@ -3,14 +3,15 @@
     icidr-pde tstar --rheology mui --scene shear --discretization cheb --N 21:201:2 \\
         --t-end 20 --json cheb.json --plot fig4b.png
 
-The JSON (:func:`~.studies.failure_time.tstar_report`, docs/cli.md) holds, for each
+The JSON (:func:`~icidr_pde.studies.failure_time.tstar_report`, docs/cli.md) holds, for each
 discretization, the settings the runs used, t* by N (as a string; null where the run reached
 t-end without failing) and the reason each N failed. ``--engine native`` runs each case on the
 native engine (CVODE, tolerances of the standard preset unless given: Chebyshev rtol 1e-7, atol 1e-10)
 instead of scipy's BDF at rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the
 paper's t* are pinned on). Several discretizations at once
 (``--discretization fd cheb``) are entries of the same document; ``--load label=file.json`` adds
-saved sweeps to the plot. Interrupted (Ctrl-C, SIGTERM), the
+saved sweeps to the plot. ``--rheology`` takes a registered law or a law file, as ``run`` does (each
+worker process reads the file itself: a Python law file is run in each). Interrupted (Ctrl-C, SIGTERM), the
 workers are stopped and the cases that finished are written (exit 130, 143).
 """
 
@@ -22,22 +23,23 @@ import os
 import signal
 import sys
 
-from .discretizations import DISCRETIZATIONS
-from .engines import JACOBIAN_MODES, METHODS
-from .engines.choose import REQUESTS
-from .engines.base import check_tolerances
-from .outputs import check_outputs, write_json
-from .rheology import RHEOLOGIES
-from .scenes import SCENES
-from .studies.case_cache import add_cache_option, check_cache_option
-from .cluster_cli import add_cluster_options, client_of
-from .studies.parallel import StudyInterrupted
-from .studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
+from ..discretizations import DISCRETIZATIONS
+from ..engines import JACOBIAN_MODES, METHODS
+from ..engines.choose import REQUESTS
+from ..engines.base import check_tolerances
+from ..outputs import check_outputs, write_json
+from ..rheology.law_files import is_file_law, load_law_file
+from ..scenes import SCENES
+from ..studies.parallel import StudyInterrupted
+from ..studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
                                    tstar_mapping, tstar_report)
-from .times import check_t_end
-from .validation import integer, real
+from ..times import check_t_end
+from ..validation import integer, real
+from .argtypes import add_rheology_option
+from .cluster import add_cache_option, add_cluster_options, check_cache_option, client_of
+from .common import EXIT_INTERRUPTED, PREFIX, interrupt_signals
 
-__all__ = ["add_parser", "cmd_tstar"]
+__all__ = ["add_parser", "cmd"]
 
 
 def _load_spec(text: str) -> tuple[str, str]:
@@ -85,7 +87,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "tstar", help="failure time t*(N) sweep (fig 4b)",
         description="Sweep N and record the failure time t* (null: no failure by --t-end). "
                     "Interrupted (Ctrl-C: exit 130, SIGTERM: 143), the cases that finished are written.")
-    p.add_argument("--rheology", choices=sorted(RHEOLOGIES), default="mui", help="constitutive law")
+    add_rheology_option(p, "mui")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear", help="initial condition")
     p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=["fd"],
                    help="one or both of fd (default) and cheb")
@@ -115,13 +117,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="add a saved `tstar --json` file to the plot (repeatable); "
                         "without --N nothing is run")
     p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_tstar)
     return p
 
 
-def cmd_tstar(args) -> int:
-    from .cli import EXIT_INTERRUPTED, PREFIX, interrupt_signals
-
+def cmd(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
@@ -141,6 +140,8 @@ def cmd_tstar(args) -> int:
         check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
         check_t_end(args.t_end)
         check_cache_option(args)
+        if is_file_law(args.rheology):  # read here, before any run: a file that cannot be used is bad input
+            load_law_file(args.rheology)
         with interrupt_signals() as signals:
             try:
                 with client_of(args, dashboard=not args.no_progress) as client:
@@ -176,7 +177,7 @@ def cmd_tstar(args) -> int:
         write_json(tstar_report(results), args.json)
         print(f"t*(N) written to {args.json}")
     if args.plot:
-        from .figures.tstar_plot import plot_tstar
+        from ..figures.tstar_plot import plot_tstar
 
         if not curves and interrupted is not None:
             return EXIT_INTERRUPTED[interrupted]  # nothing finished: no plot

@@ -13,9 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from ..argtypes import int_at_least, positive_int as _pos_int
+from .argtypes import int_at_least, positive_int as _pos_int
 from ..outputs import check_outputs, writable_folder, write_json
-from ..cluster_cli import add_cluster_options, client_of
+from .cluster import add_cluster_options, client_of
 
 
 def _fraction(text):
@@ -124,12 +124,14 @@ def add_parser(subparsers):
 
     po = sub.add_parser("pool", help="fig 1 pooled over k_n, H and N: run the pool (resumable) or summarise it",
                         description="Runs the pooled fig-1 configurations (one LAMMPS process, each run cached "
-                                    "as it finishes) or fits them with the committed reference sweep "
-                                    "(steady_pool.json, fig1_dem.png).", formatter_class=fmt)
-    po.add_argument("action", choices=("run", "summary"))
+                                    "as it finishes), fits them with the committed reference sweep "
+                                    "(steady_pool.json, fig1_dem.png), or prints the tables of docs/dem.md from "
+                                    "OUT/steady_pool.json.", formatter_class=fmt)
+    po.add_argument("action", choices=("run", "summary", "tables"))
     po.add_argument("configs", nargs="*", help="configurations (default: all, in the default order)")
     po.add_argument("--cache", default=None, help="cache directory (default: the user cache)")
-    po.add_argument("--out", default=".", help="directory for steady_pool.json and fig1_dem.png (summary)")
+    po.add_argument("--out", default=".", help="directory of steady_pool.json and fig1_dem.png (summary writes "
+                                               "them, tables reads steady_pool.json)")
     po.set_defaults(func=_needs_lammps(cmd_pool))
 
     au = sub.add_parser("audit", help="protocol audit of fig 8(d): run factor ensembles or write the report",
@@ -166,7 +168,7 @@ def _output(arg, out: Path, default_name, option: str = "output"):
 
 
 def _params(args):
-    from .params import DEMParams
+    from ..dem.params import DEMParams
 
     eta = 4.2 * (args.k_n / 1.0e4) ** 0.5
     return DEMParams(n_particles=args.particles, H=args.H, k_n=args.k_n, eta_n=eta,
@@ -176,7 +178,7 @@ def _params(args):
 def _cache(args, *, writes: bool = True) -> Path:
     """The per-run cache folder, checked before any run: one a command `writes` to is made and
     probed as every output folder is; one it only reads must be a folder where it exists."""
-    from .cache import default_cache_dir
+    from ..dem.cache import default_cache_dir
 
     path = Path(args.cache) if args.cache else default_cache_dir()
     if writes:
@@ -188,9 +190,9 @@ def _cache(args, *, writes: bool = True) -> Path:
 
 # ------------------------------------------------------------------ commands
 def cmd_steady(args) -> int:
-    from . import plots
-    from .runs import Protocol
-    from .steady import run_steady_study
+    from ..dem import plots
+    from ..dem.runs import Protocol
+    from ..dem.steady import run_steady_study
 
     out = _writable_dir(args.out)
     json_path = _output(args.json, out, "steady.json", "--json")
@@ -220,8 +222,8 @@ def cmd_steady(args) -> int:
 def cmd_transient(args) -> int:
     from icidr_pde.rheology import Material
 
-    from . import analysis, ensemble, plots, transient
-    from .paths import committed
+    from ..dem import analysis, ensemble, plots, transient
+    from ..dem.paths import committed
 
     out = _writable_dir(args.out)
     json_path = _output(args.json, out, "transient.json", "--json")
@@ -281,7 +283,7 @@ def cmd_transient(args) -> int:
 
 
 def cmd_pool(args) -> int:
-    from . import pool
+    from ..dem import pool
 
     unknown = [c for c in args.configs if c not in pool.CONFIGS]
     if unknown:
@@ -290,7 +292,15 @@ def cmd_pool(args) -> int:
     if args.action == "run":
         pool.run(_cache(args), names)
         return 0
-    from .plots import fig1_pool
+    if args.action == "tables":
+        path = Path(args.out) / "steady_pool.json"
+        try:
+            print(pool.markdown(json.loads(path.read_text())))
+        except (OSError, ValueError) as err:
+            raise ValueError(f"`--out` {str(args.out)!r}: cannot read {str(path)!r} as the pool's summary "
+                             f"(`dem pool summary` writes it): {getattr(err, 'strerror', None) or err}") from None
+        return 0
+    from ..dem.plots import fig1_pool
 
     cache_dir = _cache(args, writes=False)
     out = _writable_dir(args.out)
@@ -303,7 +313,7 @@ def cmd_pool(args) -> int:
 
 
 def cmd_audit(args) -> int:
-    from . import audit
+    from ..dem import audit
 
     cache_dir = _cache(args, writes=args.action == "run")
     if args.action == "run":
@@ -316,7 +326,7 @@ def cmd_audit(args) -> int:
         for name, results in runs.items():
             print(f"{name}: members {args.first + 1}..{args.first + len(results)} in {cache_dir}")
         return 0
-    from .audit_report import make_report
+    from ..dem.audit_report import make_report
 
     out = _writable_dir(args.out)
     make_report(cache_dir, out / "audit.json", out / "audit.npz", out / "fig8_audit.png")
@@ -332,13 +342,6 @@ def transient_edges(ens):
     return np.concatenate([z - h / 2, [z[-1] + h / 2]])
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m icidr_pde.dem")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser(sub)
-    args = parser.parse_args(["dem", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return args.func(args)
-    except ValueError as exc:
-        print(f"icidr-pde: error: {exc}", file=sys.stderr)
-        return 2
+def cmd(args) -> int:
+    """Run the ``dem`` subcommand parsed."""
+    return args.func(args)

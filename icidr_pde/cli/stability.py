@@ -1,9 +1,7 @@
-"""argparse subcommands ``verify``, ``stability`` and ``plot-growth``.
+"""``icidr-pde stability``: the symbol of the linearised system at one uniform state (1-D; plane
+waves in the x-z plane; with ``--dim 3`` every direction of space), from :mod:`stability`.
 
-The simulator's ``icidr-pde`` console script wires them in with
-:func:`add_verify_parser` and :func:`add_stability_parser` (and optionally
-:func:`add_plot_growth_parser`); ``python -m stability ...`` works stand-alone.
-Each handler returns an exit code: 0 success, 1 failed verification, 2 bad input.
+Exit status: 0 success, 2 bad input.
 """
 
 from __future__ import annotations
@@ -11,23 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-
-
-def _verify(args) -> int:
-    from .report import verify  # noqa: PLC0415
-    return verify(json_path=args.json, markdown_path=args.markdown, crosscheck=not args.no_crosscheck)
-
-
-def add_verify_parser(subparsers):
-    """Add ``verify [--json out.json] [--markdown out.md] [--no-crosscheck]``."""
-    p = subparsers.add_parser("verify", help="check every equation of the paper symbolically (report table)",
-                              description="Derive and check (2.13)-(5.6), (A4)-(A18), (B1)-(B15) with sympy; "
-                                          "print a table of statuses (exact / numeric / fails).")
-    p.add_argument("--json", metavar="PATH", help="write the report as a JSON list to PATH")
-    p.add_argument("--markdown", metavar="PATH", help="write the report as a markdown table to PATH")
-    p.add_argument("--no-crosscheck", action="store_true", help="skip the numerical growth-rate cross-checks")
-    p.set_defaults(func=_verify)
-    return p
 
 
 ONE_D_KEYS = ("M", "chi", "trace_gamma", "det_gamma", "lambda_plus", "lambda_minus", "max_re_eig_over_xi2",
@@ -55,11 +36,11 @@ def _write_json(path, obj):
     write_atomically(path, lambda fh: json.dump(obj, fh, indent=2))
 
 
-def _stability(args) -> int:
-    from icidr_pde.argtypes import option_names  # noqa: PLC0415
+def cmd(args) -> int:
+    from .argtypes import option_names  # noqa: PLC0415
     from icidr_pde.outputs import check_outputs  # noqa: PLC0415
 
-    from .numeric import stability_numbers  # noqa: PLC0415
+    from stability.numeric import stability_numbers  # noqa: PLC0415
     material = None
     if args.dim == 3:
         return _stability_3d(args)
@@ -72,7 +53,7 @@ def _stability(args) -> int:
         if args.velocity_gradient is not None:
             if args.uz is not None or args.wz is not None:
                 raise ValueError("give either `--velocity-gradient U_X U_Z W_X W_Z` or `--uz`/`--wz`, not both")
-            from .directional import check_gradient  # noqa: PLC0415
+            from stability.directional import check_gradient  # noqa: PLC0415
             grad = check_gradient(args.velocity_gradient)
         elif args.uz is None or args.wz is None:
             raise ValueError("need `--velocity-gradient U_X U_Z W_X W_Z`, or both `--uz` and `--wz` (1-D); got "
@@ -83,7 +64,7 @@ def _stability(args) -> int:
         sn = stability_numbers(args.rheology, args.phi, grad[1], grad[3], args.xi, material) if one_d else None
         ds = None
         if two_d:
-            from .directional import directional_stability, parse_angles  # noqa: PLC0415
+            from stability.directional import directional_stability, parse_angles  # noqa: PLC0415
             angles = parse_angles(args.angles if args.angles is not None else "0:180:1")
             ds = directional_stability(args.rheology, args.phi, grad, angles, material, xi=args.xi)
     except ValueError as e:
@@ -97,7 +78,7 @@ def _stability(args) -> int:
         _print_directional(ds, args.angles or "0:180:1")
         out = ds.to_json() | out          # the 1-D keys (when grad u has the 1-D form) as today
         if args.plot:
-            from .directional import save_polar  # noqa: PLC0415
+            from stability.directional import save_polar  # noqa: PLC0415
             save_polar([ds], args.plot, title=_title(ds))
             print(f"  saved {args.plot}")
     if args.json:
@@ -107,10 +88,10 @@ def _stability(args) -> int:
 
 def _stability_3d(args) -> int:
     """``--dim 3``: the 3-D symbol over the sphere of wave directions (:mod:`stability.spatial`)."""
-    from icidr_pde.argtypes import option_names  # noqa: PLC0415
+    from .argtypes import option_names  # noqa: PLC0415
     from icidr_pde.outputs import check_outputs  # noqa: PLC0415
 
-    from . import spatial  # noqa: PLC0415
+    from stability import spatial  # noqa: PLC0415
     try:
         check_outputs({"--json": args.json, "--plot": args.plot})
         if args.angles is not None:
@@ -121,7 +102,7 @@ def _stability_3d(args) -> int:
                 raise ValueError("give either `--velocity-gradient` or `--uz`/`--wz`, not both")
             g = args.velocity_gradient
             if len(g) == 4:
-                from .directional import check_gradient  # noqa: PLC0415
+                from stability.directional import check_gradient  # noqa: PLC0415
                 L = spatial.planar_gradient(*check_gradient(g))
             elif len(g) == 9:
                 L = spatial.check_gradient(g)
@@ -132,7 +113,7 @@ def _stability_3d(args) -> int:
             raise ValueError("need `--velocity-gradient` (9 numbers, or 4 of a planar flow), or both `--uz` and "
                              f"`--wz`; got uz={args.uz}, wz={args.wz}")
         else:
-            from .directional import check_gradient  # noqa: PLC0415
+            from stability.directional import check_gradient  # noqa: PLC0415
             L = spatial.planar_gradient(*check_gradient((0.0, args.uz, 0.0, args.wz)))
         directions = spatial.DIRECTIONS if args.directions is None else args.directions
         r = spatial.spatial_stability(args.rheology, args.phi, L, directions)
@@ -201,7 +182,7 @@ def _positive_float(text):
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
 
 
-def add_stability_parser(subparsers):
+def add_parser(subparsers):
     """Add ``stability --rheology NAME --phi (--uz --wz | --velocity-gradient ...) [--dim 2|3] [--angles | --directions]
     [--xi] [--json] [--plot]``."""
     p = subparsers.add_parser("stability", help="symbols of the linearised 1-D system / 2-D plane waves at one state",
@@ -234,80 +215,4 @@ def add_stability_parser(subparsers):
     p.add_argument("--plot", metavar="PNG", default=None,
                    help="write the polar plot of Lambda_max(theta) (--dim 3: the map of Lambda_max(n) on the sphere) "
                         "to PNG")
-    p.set_defaults(func=_stability)
     return p
-
-
-def _plot_growth(args) -> int:
-    from .growth import plot_fd_growth  # noqa: PLC0415
-    path, rows = plot_fd_growth(args.out)
-    print(f"{'N':>6} {'h':>10} {'mu(I) max growth':>18} {'iCIDR max growth':>18}")
-    for r in rows:
-        print(f"{r['N']:>6} {r['h']:>10.5f} {r['mui']:>18.6g} {r['icidr']:>18.6g}")
-    print(f"saved {path}")
-    return 0
-
-
-def add_plot_growth_parser(subparsers):
-    """Add ``plot-growth [--out docs/fd_growth.png]``."""
-    p = subparsers.add_parser("plot-growth", help="plot FD-operator growth rate vs grid spacing (PNG)")
-    p.add_argument("--out", default="docs/fd_growth.png", help="output PNG path")
-    p.set_defaults(func=_plot_growth)
-    return p
-
-
-def _plot_plane(args) -> int:
-    from .directional import directional_stability  # noqa: PLC0415
-    from .oblique_growth import plot_oblique_growth  # noqa: PLC0415
-    import matplotlib  # noqa: PLC0415
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-    from .directional import plot_polar  # noqa: PLC0415
-
-    states = [("steady shear", (0.0, 1 / 30, 0.0, 0.0)), ("fig. 2 state", (0.0, 1 / 30, 0.0, 0.05))]
-    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(11, 6.8))
-    for ax, (label, L) in zip(axes, states):
-        rs = [directional_stability(n, 0.78, L) for n in ("mui", "icidr")]
-        plot_polar(rs, ax, title=rf"{label}: $\phi_0$ = 0.78, $u_z$ = {L[1]:.4g}, $w_z$ = {L[3]:g}")
-        for r in rs:
-            iv = ", ".join(f"[{a:.4f}, {b:.4f}]" for a, b in r.ill_posed_intervals_deg) or "none"
-            print(f"{label:<13} {r.rheology:<6} max_lambda {r.max_lambda:.6g} at {r.worst_angle_deg:.4f} deg; "
-                  f"lambda_max(90) {r.at_90_deg['lambda_plus'].real:.6g}; ill-posed {iv}")
-    fig.tight_layout()
-    from icidr_pde.outputs import save_figure  # noqa: PLC0415
-
-    save_figure(fig, args.polar, dpi=120)
-    plt.close(fig)
-    print(f"saved {args.polar}")
-    _, rows = plot_oblique_growth(args.growth)
-    print(f"{'rheology':<8} {'xi':>6} {'theta':>6} {'measured':>16} {'predicted':>16} {'rel. error':>10}")
-    for r in rows:
-        print(f"{r['rheology']:<8} {r['xi']:>6g} {r['angle_deg']:>6g} {r['measured']:>16.9g} {r['predicted']:>16.9g} "
-              f"{r['rel_error']:>10.1e}")
-    print(f"saved {args.growth}")
-    return 0
-
-
-def add_plot_plane_parser(subparsers):
-    """Add ``plot-plane [--polar docs/polar_stability.png] [--growth docs/oblique_growth.png]``."""
-    p = subparsers.add_parser("plot-plane", help="polar plot of Lambda_max(theta) and measured oblique growth (PNGs)")
-    p.add_argument("--polar", default="docs/polar_stability.png", help="polar plot PNG path")
-    p.add_argument("--growth", default="docs/oblique_growth.png", help="measured oblique growth PNG path")
-    p.set_defaults(func=_plot_plane)
-    return p
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Stand-alone parser used by ``python -m stability``."""
-    parser = argparse.ArgumentParser(prog="python -m stability", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_verify_parser(sub)
-    add_stability_parser(sub)
-    add_plot_growth_parser(sub)
-    add_plot_plane_parser(sub)
-    return parser
-
-
-def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    return args.func(args)

@@ -1,7 +1,7 @@
-"""The options of every command that runs independent runs (``icidr-pde tstar``, the DEM's
-commands, the studies' ``python -m`` mains): ``--jobs N`` (this machine's process pool),
-``--workers N`` or ``--scheduler ADDRESS`` (dask, :func:`icidr_pde.studies.distributed.cluster`),
-parsed and checked in this one place.
+"""The options of every command that runs independent runs (``icidr-pde tstar``, ``dem`` and
+``study``): ``--jobs N`` (this machine's process pool), ``--workers N`` or ``--scheduler ADDRESS``
+(dask, :func:`icidr_pde.studies.distributed.cluster`) and ``--cache DIR`` (the finished runs,
+:func:`icidr_pde.studies.case_cache.run_cached`), parsed and checked in this one place.
 """
 
 from __future__ import annotations
@@ -10,10 +10,11 @@ import argparse
 import contextlib
 
 from .argtypes import int_at_least
-from .studies.distributed import cluster
-from .studies.parallel import max_processes
+from ..outputs import writable_folder
+from ..studies.distributed import cluster
+from ..studies.parallel import max_processes
 
-__all__ = ["add_cluster_options", "client_of"]
+__all__ = ["add_cluster_options", "client_of", "add_cache_option", "check_cache_option"]
 
 
 _count_argument = int_at_least(1, max_processes())  # argparse type of --workers and --jobs
@@ -34,13 +35,12 @@ def add_cluster_options(parser: argparse.ArgumentParser, what: str = "the runs",
 
 
 @contextlib.contextmanager
-def client_of(args, parser: argparse.ArgumentParser | None = None, *, dashboard: bool = True):
+def client_of(args, *, dashboard: bool = True):
     """The dask client of ``args.workers``/``args.scheduler`` for the block (None without
     either: the caller's own serial path or process pool), its dashboard's link printed.
 
-    A cluster that cannot start or a scheduler that does not answer is bad input, its message
-    naming the option: with `parser`, its one-line error and exit 2 (``parser.error``); without,
-    a ValueError (the commands' mains print it as one line, exit 2).
+    A cluster that cannot start or a scheduler that does not answer is bad input: a ValueError
+    naming the option (``icidr-pde`` prints it as one line, exit 2).
     """
     if args.workers is None and args.scheduler is None:
         yield None
@@ -52,7 +52,18 @@ def client_of(args, parser: argparse.ArgumentParser | None = None, *, dashboard:
             message = str(err)
             for name in ("workers", "scheduler"):
                 message = message.replace(f"`{name}`", f"`--{name}`")
-            if parser is None:
-                raise ValueError(message) from None
-            parser.error(message)
+            raise ValueError(message) from None
         yield client
+
+
+def add_cache_option(parser, what: str = "case") -> None:
+    """``--cache DIR`` of a command whose runs are independent (``tstar``, ``study``)."""
+    parser.add_argument("--cache", default=None, metavar="DIR",
+                        help=f"keep each finished {what} in DIR and take it from there on a rerun (resumes an "
+                             f"interrupted study; a {what} whose settings or code changed is run again)")
+
+
+def check_cache_option(args) -> None:
+    """Refuse a ``--cache`` that cannot be written, before any run (OutputError naming the option)."""
+    if args.cache is not None:
+        writable_folder("--cache", args.cache)

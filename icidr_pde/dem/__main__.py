@@ -1,8 +1,0 @@
-"""``python -m icidr_pde.dem steady|transient ...``"""
-
-import sys
-
-from .cli import main
-
-if __name__ == "__main__":
-    sys.exit(main())
