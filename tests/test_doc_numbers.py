@@ -2,7 +2,7 @@
 
 Truth used: the committed results in data/ and docs/figures/numbers.json (written by the studies,
 sweeps and `icidr-pde figures`), and the tables those commands print from them
-(`python -m icidr_pde.studies.sim2d tables`, the gallery page). A quoted number agrees when it is
+(`icidr-pde study sim2d tables`, the gallery page). A quoted number agrees when it is
 the file's value rounded to the digits the page shows; a page that says more digits than the
 file holds, or another value, fails.
 
@@ -291,7 +291,7 @@ def test_results_two_d_numbers():
 
 
 def test_sim2d_tables_are_the_studies_tables():
-    """docs/sim2d.md holds the tables `python -m icidr_pde.studies.sim2d tables` prints from data/sim2d."""
+    """docs/sim2d.md holds the tables `icidr-pde study sim2d tables` prints from data/sim2d."""
     from icidr_pde.studies import sim2d
 
     text = page("sim2d.md")
@@ -350,8 +350,8 @@ CHECKED = {"chebyshev.md": ("### t* against the linear solver and the Krylov tol
            "engines.md": ("2 December 2026 on the shared 2-core machine at load 2.8-3.7",
                           "(`--sizes 32 48 64 96 --rhs-sizes --json", "The right-hand side alone at the initial state"),
            "results.md": ("data/tstar/mui_shear_fd_BDF_rtol1e-6_atol1e-9.json;", "**Grid convergence**"),
-           "sim2d.md": ("`python -m icidr_pde.studies.sim2d tstar`", "**max_w**", "**max_phi_dev**", "**l2_velocity**",
-                        "Central advection:", "Upwind advection:", "`python -m icidr_pde.studies.sim2d growth`")}
+           "sim2d.md": ("`icidr-pde study sim2d tstar`", "**max_w**", "**max_phi_dev**", "**l2_velocity**",
+                        "Central advection:", "Upwind advection:", "`icidr-pde study sim2d growth`")}
 #: "*Dated record*: `command`[ how it ran], YYYY-MM-DD[ time], machine and load[; data file]"
 RECORD = re.compile(r"^\*Dated record\*: `(?P<command>[^`]+)`[^,`]*, (?P<date>\d{4}-\d{2}-\d{2})(?: [^,]*)?, "
                     r"(?P<machine>.*machine.*)$")
@@ -399,7 +399,9 @@ def command_exists(command: str) -> bool:
     if not words:
         return False
     if words[0] == "icidr-pde":
-        return True
+        from icidr_pde.cli import SUBCOMMANDS
+
+        return len(words) > 1 and (words[1] in SUBCOMMANDS or words[1].startswith("-"))
     if words[0].startswith("python") and len(words) > 1:
         if words[1] == "-m":
             import importlib.util
@@ -445,5 +447,6 @@ def test_record_check_can_fail():
     assert RECORD.match("*Dated record*: `python benchmarks/startup.py --repeats 3`, 2026-12-01, shared 2-core machine, load 0.8")
     assert not command_exists("python benchmarks/no_such_benchmark.py")
     assert not command_exists("python -m icidr_pde.no_such_module")
+    assert not command_exists("icidr-pde no-such-subcommand")
     assert command_exists('PETSC_OPTIONS="-pc_type gamg" mpiexec -n 2 icidr-pde run --engine petsc')
     assert command_exists("OMP_NUM_THREADS=1 nice -n 5 python benchmarks/shortwave2d.py --sizes 256")
