@@ -225,7 +225,8 @@ def is_compiled_problem(module):
 def is_run_path(module):
     return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines", "icidr_pde.native",
                  "icidr_pde.result", "icidr_pde.validation", "icidr_pde.times", "icidr_pde.presets",
-                 "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress")
+                 "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress", "icidr_pde.schedule",
+                 "icidr_pde.drive", "icidr_pde.recorders")
 
 
 def is_engine(module):
@@ -238,7 +239,8 @@ def is_case_or_screen(module):
     return (is_scheme(module) or is_dem(module) or is_study(module) or is_interface(module)
             or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
                      "icidr_pde.times", "icidr_pde.presets", "icidr_pde.progress", "icidr_pde.result",
-                     "icidr_pde.snapshots", "icidr_pde.api"))
+                     "icidr_pde.snapshots", "icidr_pde.api", "icidr_pde.schedule", "icidr_pde.drive",
+                     "icidr_pde.recorders"))
 
 
 RULES = {
