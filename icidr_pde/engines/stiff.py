@@ -157,7 +157,7 @@ def check_memory(pde, grid, method: str, choice: Choice) -> None:
     if mode == "krylov" and choice.linear_solver.startswith("GMRES (line") and getattr(pde, "is_thin", None) \
             and pde.is_thin(grid):  # GMRES with the line preconditioner (engines.sundae)
         mode = "line"
-    hint = ("; the native engine (without save or movie) and method 'BDF' need no dense array"
+    hint = ("; the native engine and method 'BDF' need no dense array"
             if mode == "analytic-band" else "")
     unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
     limit.check_run(what, unknowns, int(np.prod(shape)), method, mode, hint)
