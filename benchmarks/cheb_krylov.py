@@ -241,7 +241,7 @@ def roofline(N: int) -> dict:
     from scipy.linalg import lu_factor, lu_solve
     from scipy.linalg.lapack import dgbtrf, dgbtrs
 
-    from icidr_pde.native.cheb import ChebCase
+    from icidr_pde.native.cases import ChebCase
 
     case = ChebCase("mui", "shear", N)
     problem = case.problem(linear_solver="krylov", krylov={"preconditioner": "band"})

@@ -13,14 +13,16 @@ import numpy as np
 from .discretizations.registry import get_discretization, get_scheme
 from .rheology import Material, get_rheology
 from .scenes import Scene, get_scene
+from .validation import invalid_state
 
 __all__ = ["Case", "build_case", "make_pde"]
 
 
 class Case:
-    """A ready-to-integrate case: the scene, the scheme's core on its grid (1-D: ``scheme``,
-    ``data``, the initial (3, N) fields) and, made when first asked, the py-pde PDE, grid
-    and initial state."""
+    """A ready-to-integrate case: the scene, the scheme's py-pde-free core on its grid
+    (``scheme``, ``data``, the initial fields) or, made when first asked, the py-pde PDE, grid
+    and initial state. What every engine asks of a case is here, once: the fields of a state
+    vector, the mass, the validity of a state (non-finite, phi outside its range), the nodes."""
 
     def __init__(self, scene: Scene, scheme=None, data=None, *, pde=None, grid=None, state=None):
         self.scene, self.scheme, self.data = scene, scheme, data
@@ -37,28 +39,112 @@ class Case:
     @property
     def grid(self):
         if self._grid is None:
-            self._grid = self.pde.make_grid(self.scheme.N, self.scheme.H)
+            s = self.scheme
+            if self.dim == 2:
+                self._grid = self.pde.make_grid((s.Nx, s.Nz), s.H, L=s.L)
+            else:
+                self._grid = self.pde.make_grid(s.N, s.H)
         return self._grid
 
     @property
     def state(self):
         if self._state is None:
-            self._state = self.pde.state_of(self.grid, self.data)
+            if self.dim == 2:
+                self._state = self.pde.make_state(self.grid, *self.data)
+            else:
+                self._state = self.pde.state_of(self.grid, self.data)
         return self._state
 
     @property
-    def N(self) -> int:
-        """Points along z (the 1-D N; Nz of a 2-D grid)."""
-        return self.scheme.N if self.scheme is not None else int(self.grid.shape[-1])
+    def rheology(self):
+        return self.scheme.rheology if self.scheme is not None else self.pde.rheology
+
+    @property
+    def discretization(self) -> str:
+        """The scheme's registry name."""
+        return self.scheme.name if self.scheme is not None else self.pde.name
+
+    @property
+    def options(self) -> dict:
+        """The scheme's options (advection, ...) with their values."""
+        return dict(self.scheme.option_values) if self.scheme is not None else self.pde.option_values()
+
+    @property
+    def H(self) -> float:
+        return self.scheme.H if self.scheme is not None else float(self.scene.H)
+
+    @property
+    def V0(self) -> float:
+        return self.scheme.V0
+
+    @property
+    def advection(self) -> str | None:
+        return self.options.get("advection")
+
+    @property
+    def initial(self) -> np.ndarray:
+        """The initial fields (3, ...)."""
+        return self.data if self.scheme is not None else self.state.data
+
+    @property
+    def z(self):
+        """Positions of the unknowns."""
+        return self.nodes()
 
     def nodes(self):
-        return self.scheme.z.copy() if self.scheme is not None else self.pde.nodes(self.grid)
+        return self.scheme.nodes() if self.scheme is not None else self.pde.nodes(self.grid)
+
+    @property
+    def y0(self) -> np.ndarray:
+        """The initial state vector of an engine that integrates the core's layout (:meth:`fields`)."""
+        return self.scheme.pack(self.data)
+
+    def fields(self, y) -> np.ndarray:
+        """The fields (3, ...) of a state vector in the core's layout."""
+        return self.scheme.unpack(y)
+
+    def phi(self, y) -> np.ndarray:
+        return self.fields(y)[0]
 
     def mass(self, data=None) -> float:
         """The scheme's integral of phi over the cell (of the initial state by default)."""
         if self.scheme is not None:
             return self.scheme.mass(self.data if data is None else data)
         return self.pde.integral((self.state.data if data is None else data)[0], self.grid)
+
+    def check_state(self, y) -> str | None:
+        """Why the state vector `y` (the core's layout) is invalid, or None."""
+        return invalid_state(y, self.scheme.check_state, self.fields)
+
+    def strain_rates(self, data):
+        """Where the stresses live and (phi, u_z, w_z) there."""
+        return self.scheme.strain_rates(data) if self.scheme is not None else self.pde.strain_rates(data, self.grid)
+
+    # --- what the 2-D cell adds (its grid along x and measures); nothing on the 1-D cells -------
+
+    @property
+    def N(self) -> int:
+        """Points along z (the 1-D N; Nz of a 2-D grid)."""
+        if self.scheme is None:
+            return int(self.grid.shape[-1])
+        return int(self.scheme.Nz if self.dim == 2 else self.scheme.N)
+
+    @property
+    def dim(self) -> int:
+        return int(getattr(self.scheme if self.scheme is not None else self.pde, "dim", 1))
+
+    def plane(self, data) -> dict:
+        """The Result's grid along x and per-snapshot measures of the snapshots `data` of a 2-D
+        run; nothing for the 1-D cells."""
+        if self.dim != 2:
+            return {}
+        from .discretizations.cartesian2d_core import measures
+
+        if self.scheme is not None:
+            s = self.scheme
+            return dict(Nx=s.Nx, L=s.L, measures=[measures(s, None, self.scene, d) for d in data])
+        return dict(Nx=int(self.grid.shape[0]), L=float(self.grid.axes_bounds[0][1]),
+                    measures=[measures(self.pde, self.grid, self.scene, d) for d in data])
 
 
 def _law(rheology, material):
@@ -74,19 +160,26 @@ def make_pde(rheology="icidr", discretization="fd", material: Material | None = 
 
 def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | None = None, *,
                material: Material | None = None, options: dict | None = None,
-               scene_params: dict | None = None, check_grid=None) -> Case:
+               scene_params: dict | None = None, check_grid=None, core=None) -> Case:
     """Build the case: scene `scene` (with `scene_params`), `rheology` with `material`,
-    `discretization` with its `options` on N points (default: the scheme's ``default_N``).
+    `discretization` with its `options` on N points (default: the scheme's ``default_N``), on the
+    scheme's py-pde-free core (`core`, else the registry's), else on its py-pde class.
     ``check_grid(pde, grid)``, if given, is called with the py-pde scheme and its grid before the
     state, the first array of the grid's size, is allocated (the run's memory check)."""
     scene_obj = get_scene(scene, **(scene_params or {}))
     entry = get_scheme(discretization) if isinstance(discretization, str) else None
     dim = getattr(scene_obj, "dim", 1)
-    if entry is not None and entry.core is not None and dim == entry.dim:
+    if core is None and entry is not None and entry.core is not None and dim == entry.dim:
+        core = entry.core_class()
+    if core is not None:
+        if getattr(core, "dim", 1) != dim:
+            raise ValueError(f"scene {scene_obj.name!r} is {dim}-D but discretization {core.name!r} is "
+                             f"{getattr(core, 'dim', 1)}-D; choose a {dim}-D discretization")
         law = _law(rheology, material)
         law.material.check_phi(scene_obj.phi0, "phi0")
-        scheme = entry.core_class()(law, N, scene_obj.H, **(options or {}))
-        return Case(scene_obj, scheme, scheme.initial_data(*scene_obj.initial_condition(scheme.z)))
+        grid_options = scene_obj.grid_options() if hasattr(scene_obj, "grid_options") else {}
+        scheme = core(law, N, scene_obj.H, **grid_options, **(options or {}))
+        return Case(scene_obj, scheme, scheme.initial_data(*scene_obj.initial_condition(scheme.nodes())))
     pde = make_pde(rheology, discretization, material, **(options or {}))
     pde.material.check_phi(scene_obj.phi0, "phi0")
     dims = dim, getattr(pde, "dim", 1)

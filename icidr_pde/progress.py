@@ -79,6 +79,11 @@ class TimeBar:
         """The run has reached time `t` (refreshes at most every mininterval)."""
         self.bar.update(min(float(t), self.t_end) - self.bar.n)
 
+    def discard(self) -> None:
+        """The run did not start (its set-up raised): the bar goes, leaving no line."""
+        self.bar.leave = False
+        self.bar.close()
+
     def close(self, t_final: float, outcome: str = "done", reason: str = "") -> None:
         """End the bar at the time reached `t_final` with its `outcome`: "done" (at t_end),
         "failed" (a blow-up at t* = t_final, red in Jupyter), "interrupted" (Ctrl-C) or

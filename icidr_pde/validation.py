@@ -149,6 +149,14 @@ def check_atol(atol: float, data, asked: bool = True) -> float:
     return atol
 
 
+def invalid_state(y, check_fields, fields) -> str | None:
+    """Why the state vector `y` of an engine is invalid: non-finite, or what check_fields(fields(y))
+    says (phi outside its range); None if it is valid."""
+    if not np.all(np.isfinite(y)):
+        return "state became non-finite"
+    return check_fields(fields(y))
+
+
 def nonfinite_rates(rates, t: float = 0.0) -> str | None:
     """Why the rates (fields first: phi, u, w) at time t make the run meaningless, or None."""
     rates = np.asarray(rates)

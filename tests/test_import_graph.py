@@ -231,7 +231,8 @@ def is_compiled_problem(module):
 def is_run_path(module):
     return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines", "icidr_pde.native",
                  "icidr_pde.result", "icidr_pde.validation", "icidr_pde.times", "icidr_pde.presets",
-                 "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress")
+                 "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress", "icidr_pde.schedule",
+                 "icidr_pde.drive", "icidr_pde.recorders")
 
 
 def is_engine(module):
@@ -249,7 +250,8 @@ def is_case_or_screen(module):
     return (is_scheme(module) or is_dem(module) or is_study(module) or is_interface(module)
             or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
                      "icidr_pde.times", "icidr_pde.presets", "icidr_pde.progress", "icidr_pde.result",
-                     "icidr_pde.snapshots", "icidr_pde.api"))
+                     "icidr_pde.snapshots", "icidr_pde.api", "icidr_pde.schedule", "icidr_pde.drive",
+                     "icidr_pde.recorders"))
 
 
 RULES = {
@@ -272,16 +274,9 @@ KNOWN = {
     ("icidr_pde.result", "icidr_pde.plotting"):
         "Result.plot() draws a finished run with the figure of run --plot, imported when it is "
         "called (no run calls it, a run loads no figure); kept",
-    ("icidr_pde.native", "icidr_pde.case"):
-        "FdCase.build imports case.build_case: the compiled problem is to be built from the cell's "
-        "core, its case by the run path (the cells' and the run path's work)",
-    ("icidr_pde.native", "icidr_pde.scenes"):
-        "FdCase.build looks its scene up: the case, not the compiled problem, has a scene",
-    ("icidr_pde.native.fv2d", "icidr_pde.case"):
-        "Fv2dCase imports case._law: the law of a case belongs to the run path, the compiled "
-        "problem is given it",
-    ("icidr_pde.native.fv2d", "icidr_pde.scenes"):
-        "Fv2dCase looks its scene up: the case, not the compiled problem, has a scene",
+    ("icidr_pde.native.cases", "icidr_pde.case"):
+        "native_case builds the run's case beside the compiled problem: the case is the run path's, "
+        "the compiled problem is to be given the cell's core",
 }
 
 

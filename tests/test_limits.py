@@ -52,9 +52,12 @@ def test_dense_hand_over_array_of_the_band_path_is_counted(monkeypatch):
 
 
 def test_cli_refuses_a_run_that_cannot_fit_before_writing(tmp_path, capsys, monkeypatch):
+    """The py-pde path's CVODE band solve hands its Jacobian over in a dense (3N)^2 array: N = 20000
+    needs 27 GiB (the native engine's band LU does not: it runs this grid, with --save as well)."""
     monkeypatch.setenv(MEMORY_ENV, str(16 * 2**30))
     target = tmp_path / "big.h5"
-    assert cli.main(["run", "--N", "20000", "--save", str(target), "--no-progress"]) == cli.EXIT_BAD_INPUT
+    assert cli.main(["run", "--N", "20000", "--save", str(target), "--no-progress", "--engine", "pde"]) == \
+        cli.EXIT_BAD_INPUT
     line = _error_line(capsys)
     assert "`--N` = 20000" in line and "GiB" in line and "16 GiB available" in line
     assert not target.exists()

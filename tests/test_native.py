@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from icidr_pde import catalog
-from icidr_pde.native import FdCase, FdProblem, NativeUnavailable
+from icidr_pde.native import FdProblem, NativeUnavailable
+from icidr_pde.native.cases import FdCase
 
 try:
     FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)

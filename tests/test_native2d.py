@@ -18,7 +18,7 @@ import pytest
 from icidr_pde import run
 from icidr_pde.engines.choose import FOURIER_SOLVER, NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, choose
 from icidr_pde.scenes2d import Bump2DScene, Scene2D
-from icidr_pde.native.fv2d import Fv2dCase
+from icidr_pde.native.cases import Fv2dCase
 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
 #: CVODE's tolerances of the comparisons (the tests' usual 2-D setting)
@@ -49,7 +49,7 @@ def test_walls_are_py_pdes_boundary_setters():
     from icidr_pde.case import build_case
 
     pde_case = build_case("icidr", "bump2d", "fv2d", (8, 6))
-    assert np.array_equal(Fv2dCase("icidr", "bump2d", (8, 6)).cells.ghost,
+    assert np.array_equal(Fv2dCase("icidr", "bump2d", (8, 6)).scheme.ghost,
                           pde_case.pde.ghost_coefficients(pde_case.grid))
 
 
@@ -104,7 +104,7 @@ def test_native_gmres_runs_at_the_tight_krylov_tolerance():
 
     case, rhs = Fv2dCase("mui", "bump2d", (16, 16)), {}
     for eps_lin in (None, 0.05):
-        c = case.cells
+        c = case.scheme
         problem = Fv2dProblem(case.rheology, c.Nx, c.Nz, c.hx, c.hz, eps_lin=eps_lin)
         problem.start(case.y0, rtol=1e-7, atol=1e-10)
         done, status, _ = problem.advance(np.array([0.5]), np.array([-1]), np.empty(1), np.empty((1, case.y0.size)))

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import NativeUnavailable
-from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebCase, ChebProblem
+from icidr_pde.native.cases import ChebCase
+from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebProblem
 
 try:
     ChebCase("icidr", "shear", 9).problem()

@@ -13,7 +13,8 @@ import pytest
 
 from icidr_pde.native import NativeUnavailable
 from icidr_pde.native import cheb
-from icidr_pde.native.cheb import ChebCase, ChebProblem
+from icidr_pde.native.cases import ChebCase
+from icidr_pde.native.cheb import ChebProblem
 
 from .test_native_cheb import run_native
 

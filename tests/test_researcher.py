@@ -227,7 +227,7 @@ def test_the_jacobian_is_compiled_in_the_set_up_not_the_solve(monkeypatch):
     import icidr_pde.engines.stiff as stiff
 
     calls, seen = [], []
-    scheme_problem, drive = stiff.scheme_problem, api._drive
+    scheme_problem, drive = stiff.scheme_problem, api.drive
 
     def counted_problem(*args, **kwargs):
         problem, ordering = scheme_problem(*args, **kwargs)
@@ -245,7 +245,7 @@ def test_the_jacobian_is_compiled_in_the_set_up_not_the_solve(monkeypatch):
         return drive(*args, **kwargs)
 
     monkeypatch.setattr(stiff, "scheme_problem", counted_problem)
-    monkeypatch.setattr(api, "_drive", watched_drive)
+    monkeypatch.setattr(api, "drive", watched_drive)
     res = run("icidr", "shear", N=21, t_end=0.1, method="BDF")
     assert res.settings["engine"] == "scipy" and seen == [1] and len(calls) > 1
 

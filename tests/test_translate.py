@@ -10,8 +10,8 @@ Python is refused with the line named.
 import numpy as np
 import pytest
 
-from icidr_pde.native import FdCase, NativeUnavailable
-from icidr_pde.native.cheb import ChebCase
+from icidr_pde.native import NativeUnavailable
+from icidr_pde.native.cases import ChebCase, FdCase
 from icidr_pde.native.translate import translate
 
 #: one worker under pytest-xdist: each law's numba kernels, the reference of the C text, compile once,

@@ -101,6 +101,10 @@ class CartesianCells(PhiRange):
     def mass(self, data) -> float:
         return self.integral(data[0])
 
+    def pack(self, data) -> np.ndarray:
+        """The engines' state vector of (3, Nx, Nz) data (the data flattened)."""
+        return np.ascontiguousarray(data, dtype=float).ravel()
+
     def unpack(self, y) -> np.ndarray:
         """(3, Nx, Nz) data of a state vector."""
         return np.asarray(y).reshape(3, self.Nx, self.Nz)

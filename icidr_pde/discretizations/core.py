@@ -97,6 +97,10 @@ class Scheme1D(PhiRange):
     z: np.ndarray       #: positions of the unknowns
     weights: np.ndarray  #: quadrature weights: integral over the cell = weights . values
 
+    def nodes(self) -> np.ndarray:
+        """Positions of the unknowns (a copy of ``z``)."""
+        return self.z.copy()
+
     def sample(self, phi, u, w) -> np.ndarray:
         """(3, N) data of the fields at the nodes from callables of z or arrays (or numbers)."""
         return np.array([np.broadcast_to(np.asarray(f(self.z) if callable(f) else f, float), (self.N,))

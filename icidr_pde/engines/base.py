@@ -8,12 +8,13 @@ a warm native run, which loads neither py-pde, numba, scipy, sympy nor scikit-su
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
-from ..cvode_settings import DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN  # of both CVODE engines
+from ..cvode_settings import BDF_MAX_ORDER, DENSE_LU_DELTA_GAMMA, KRYLOV_DIM, KRYLOV_EPS_LIN  # of both CVODE engines
 from ..time_scale import fastest_time_scale
 from ..validation import real
 
@@ -108,6 +109,9 @@ class Problem:
             (:class:`~icidr_pde.discretizations.cartesian2d.Patches`), for an engine that
             distributes the grid (PETSc's DMDA); None: the scheme offers none or the engine's
             ordering is permuted
+        compiled: the compiled problem (:class:`icidr_pde.native.NativeProblem`: rates, Jacobian,
+            bounds and CVODE's memory in C) whose handle the native engine integrates; None: a
+            problem of Python callables only
     """
 
     y0: np.ndarray
@@ -118,23 +122,32 @@ class Problem:
     margins: Callable | None = None
     margins_into: Callable | None = None
     patches: object = None
+    compiled: object = None
 
     def time_scale(self, t0: float) -> float:
         """The fastest time scale 1/rho(J) at (t0, y0) (:func:`~.time_scale.fastest_time_scale`)."""
         return fastest_time_scale(self.fun, t0, self.y0)
 
 
-class Engine:
-    """Protocol of an integration engine, in the style of scipy's ``OdeSolver``.
+class Engine(ABC):
+    """The contract of an integration engine, in the style of scipy's ``OdeSolver``.
 
     Class attributes:
         name: the engine's key in :data:`icidr_pde.engines.ENGINES` (named in a run's settings)
         methods: the method names the engine implements
 
-    ``Engine(method, problem, t0, *, rtol, atol, max_step, first_step, max_order)`` starts an
-    integration of the :class:`Problem` at (t0, problem.y0), a BDF method taking orders up to
-    `max_order` (:func:`~icidr_pde.engines.choose.time_order`; an engine whose method has no such
-    knob ignores it, and the choice warns where that is known to amplify). Then:
+    State every engine keeps (set by its constructor):
+        problem: the :class:`Problem` it integrates
+        t: the time of its last accepted step
+        linear_solver: the solver of its Newton systems as it set it up ('band LU', 'GMRES', ...)
+        ran: the method it integrates with, where that is not the method it was given (PETSc's
+            TS type: 'PETSC-BDF'), else None
+        ranks: the number of MPI processes that compute it (1 but for PETSc under mpiexec)
+
+    ``Engine(method, problem, t0, *, rtol, atol, max_step, first_step, linear_solver, max_order)``
+    starts an integration of the :class:`Problem` at (t0, problem.y0), a BDF method taking orders
+    up to `max_order` (:func:`~icidr_pde.engines.choose.time_order`; an engine whose method has no
+    such knob ignores it, and the choice warns where that is known to amplify). Then:
 
     * ``advance(t_end)`` takes accepted steps until the engine has passed t_end (or reached
       it); every accepted state is checked by ``problem.check``. Returns None, or
@@ -144,30 +157,40 @@ class Engine:
     * ``advance_outputs(times, store, max_w, states, measure)`` advances through the output
       `times`, writing measure(y) (max|w|) into max_w[k] and the state into states[store[k]]
       where store[k] >= 0; returns (outputs done, None or the failure (t_good, y_good, reason)).
-      Here by :meth:`advance` and :meth:`value_at`; the native engine does it in C;
-    * ``last_good()`` is (t, y) of the last output reached (the initial state before any);
-    * ``linear_solver`` names the solver of its Newton systems ('band LU', 'GMRES', ...);
-    * ``ran`` is the method it integrates with, where that is not the method it was given
-      (PETSc's TS type: 'PETSC-BDF'), else None; ``ranks`` the number of MPI processes (1).
+      Here by :meth:`advance` and :meth:`value_at`. It is the call the run path's drive loop
+      makes (:func:`icidr_pde.drive.drive`), so that an engine may offer a faster one: the native
+      engine advances through many outputs in one call into C, PETSc reduces max|w| over its ranks;
+    * ``last_good()`` is (t, y) of the last output reached (the initial state before any).
 
     The step sequence does not depend on the times asked of ``advance``: both scipy's
     solvers and CVODE step past and interpolate, so output times change no number.
     """
 
-    name = ""
+    name: str = ""
     methods: tuple[str, ...] = ()
-    linear_solver = ""
+    problem: Problem
+    t: float
+    linear_solver: str = ""
     ran: str | None = None
-    ranks = 1
+    ranks: int = 1
 
-    def advance(self, t_end):
-        raise NotImplementedError
+    @abstractmethod
+    def __init__(self, method: str, problem: Problem, t0: float, *, rtol: float, atol: float,
+                 max_step: float = np.inf, first_step: float | None = None, linear_solver: str = "",
+                 max_order: int = BDF_MAX_ORDER):
+        """Start integrating `problem` with `method` at (t0, problem.y0)."""
 
-    def value_at(self, t):
-        raise NotImplementedError
+    @abstractmethod
+    def advance(self, t_end) -> tuple[float, np.ndarray, str] | None:
+        """Accepted steps until t_end is passed or reached; None, or (t_good, y_good, reason)."""
 
-    def counts(self):
-        raise NotImplementedError
+    @abstractmethod
+    def value_at(self, t) -> np.ndarray:
+        """The state at a t inside the last step."""
+
+    @abstractmethod
+    def counts(self) -> tuple[int | None, int, int | None]:
+        """(steps or None, Jacobian evaluations, LU decompositions or None)."""
 
     def advance_outputs(self, times, store, max_w, states, measure):
         if not hasattr(self, "_last_output"):

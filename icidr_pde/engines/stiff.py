@@ -23,7 +23,7 @@ import warnings
 import numpy as np
 from pde.solvers.base import SolverBase
 
-from ..validation import ParameterError, choice as checked_choice, nonfinite_rates, real
+from ..validation import ParameterError, choice as checked_choice, invalid_state, nonfinite_rates, real
 from . import ENGINES, METHODS, engine_class
 from .base import JacobianSpec, Problem, SimulationFailed, StepStatistics, check_tolerances
 from .choose import Choice, JacobianStructure, choose
@@ -313,7 +313,7 @@ def make_problem(pde, y0, ordering: Ordering, spec: JacobianSpec, validity, patc
     to_native = ordering.to_native
 
     def generic_check(y):
-        return "state became non-finite" if not np.all(np.isfinite(y)) else check_state(to_native(y))
+        return invalid_state(y, check_state, to_native)
 
     pde_margins = getattr(pde, "validity_margins", None)
     margins = None if pde_margins is None else (lambda y: pde_margins(to_native(y)))

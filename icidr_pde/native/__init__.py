@@ -39,7 +39,7 @@ from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
-__all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "FdCase", "NativeCase", "ghost_coefficients", "MAX_N"]
+__all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "ghost_coefficients", "MAX_N"]
 
 MAX_N = FD.max_N
 
@@ -180,56 +180,3 @@ class FdProblem(NativeProblem):
             cols = np.arange(max(0, -offset), min(n, n - offset))
             J[cols + offset, cols] = jb[cols, offset + 5]
         return J
-
-
-class NativeCase:
-    """A 1-D case on the native engine: :func:`icidr_pde.case.build_case`'s scene and scheme
-    core (its checks, nodes, walls, initial data, quadrature, strain rates and validity), with
-    the engine's state vector y (the core's ``pack``: interleaved for fd, blocks for cheb)."""
-
-    discretization = ""
-
-    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        from ..case import build_case
-        from ..scenes import get_scene
-
-        if getattr(get_scene(scene, **(scene_params or {})), "dim", 1) != 1:
-            raise NativeUnavailable("a 2-D scene")
-        options = {} if advection is None else {"advection": advection}
-        case = build_case(rheology, scene, self.discretization, N, material=material, options=options,
-                          scene_params=scene_params)
-        self.scheme, self.scene = case.scheme, case.scene
-        self.rheology, self.N, self.H, self.V0 = self.scheme.rheology, self.scheme.N, self.scheme.H, self.scheme.V0
-        self.z = self.scheme.z
-        self.advection = self.scheme.option_values.get("advection")
-        self.y0 = self.scheme.pack(case.data)
-
-    def fields(self, y) -> np.ndarray:
-        """(3, N) fields of the state vector `y`."""
-        return self.scheme.unpack(y)
-
-    def phi(self, y) -> np.ndarray:
-        return self.scheme.phi_of(y)
-
-    def mass(self, data) -> float:
-        """The scheme's integral of phi."""
-        return self.scheme.mass(data)
-
-    def strain_rates(self, data):
-        """Where the stresses live and (phi, u_z, w_z) there."""
-        return self.scheme.strain_rates(data)
-
-    def check_state(self, y) -> str | None:
-        """Why the state `y` is invalid (as the stiff solver's check), or None."""
-        if not np.all(np.isfinite(y)):
-            return "state became non-finite"
-        return self.scheme.check_state(self.fields(y))
-
-
-class FdCase(NativeCase):
-    """A finite-volume case (``discretization="fd"``, option ``advection``) on the native engine."""
-
-    discretization = "fd"
-
-    def problem(self) -> FdProblem:
-        return FdProblem(self.rheology, self.N, self.H, advection=self.advection, V0=self.V0)

@@ -1,11 +1,10 @@
-"""The native engine's Chebyshev collocation: problem and case without py-pde.
+"""The native engine's Chebyshev collocation: its compiled problem, without py-pde.
 
 :class:`ChebProblem` is the compiled Chebyshev problem (the C printed from the numba
 template ``discretizations/templates/cheb.py``: rates, dense Jacobian and the low-order band
-preconditioner) with CVODE's Newton-Krylov solver (GMRES) or its dense LU; :class:`ChebCase` is
-the case of :func:`icidr_pde.case.build_case` for ``discretization="cheb"`` (its core
-:class:`~icidr_pde.discretizations.cheb_core.Collocation`: points, D, walls and initial state).
-The state is the py-pde path's vector (phi, u, w) in blocks, so CVODE integrates the same
+preconditioner) with CVODE's Newton-Krylov solver (GMRES) or its dense LU, on the points, D and
+walls of the core :class:`~icidr_pde.discretizations.cheb_core.Collocation`
+(:func:`icidr_pde.native.cases.native_case`). The state is the py-pde path's vector (phi, u, w) in blocks, so CVODE integrates the same
 numbers in the same order.
 """
 
@@ -18,9 +17,9 @@ import numpy as np
 
 from ..discretizations.grid_size import CHEB, check_memory
 from ..cvode_settings import DENSE_LU_DELTA_GAMMA
-from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
+from . import NativeProblem, NativeUnavailable, _pointer
 
-__all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
+__all__ = ["ChebProblem", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate  # the dense LU's; a problem checks its own linear solver's (CHEB.estimate)
@@ -144,13 +143,3 @@ class ChebProblem(NativeProblem):
         J = np.empty((3 * self.N, 3 * self.N), order="F")
         self.lib.icidr_cheb_jacobian(self.handle, _pointer(y), _pointer(J))
         return J
-
-
-class ChebCase(NativeCase):
-    """A Chebyshev case (``discretization="cheb"``) on the native engine: the state in blocks."""
-
-    discretization = "cheb"
-
-    def problem(self, **options) -> ChebProblem:
-        return ChebProblem(self.rheology, self.scheme.D, **{"solver": DENSE_SOLVER, "weights": self.scheme.weights,
-                                                           **options})

@@ -16,14 +16,14 @@ a run imports neither py-pde, numba nor scipy.
 
 from __future__ import annotations
 
+
 import numpy as np
 
-from ..discretizations.cartesian2d_core import CartesianCells, measures
 from ..cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
 from .build import NativeUnavailable
 from . import NativeProblem, _pointer
 
-__all__ = ["Fv2dProblem", "Fv2dCase", "LINEAR_SOLVER"]
+__all__ = ["Fv2dProblem", "LINEAR_SOLVER"]
 
 #: what the engine reports as its linear solver (:data:`icidr_pde.engines.choose.NATIVE_SCHEMES`)
 LINEAR_SOLVER = "GMRES"
@@ -76,51 +76,3 @@ class Fv2dProblem(NativeProblem):
         self.lib.icidr_krylov_counts(self.handle, out)
         return dict(zip(("iterations", "convergence_failures", "prec_setups", "prec_solves", "jv",
                          "jv_rhs"), map(int, out)))
-
-
-class Fv2dCase:
-    """A 2-D case on the native engine: the scene's data on the cells of
-    :class:`~icidr_pde.discretizations.cartesian2d_core.CartesianCells` (grid, walls, mass,
-    validity), with the engine's state vector the data flattened."""
-
-    discretization = "fv2d"
-
-    def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        from ..case import _law
-        from ..scenes import get_scene
-
-        self.scene = get_scene(scene, **(scene_params or {}))
-        if getattr(self.scene, "dim", 1) != 2:
-            raise NativeUnavailable("a 1-D scene")
-        law = _law(rheology, material)
-        law.material.check_phi(self.scene.phi0, "phi0")
-        options = {} if advection is None else {"advection": advection}
-        self.cells = CartesianCells(law, N, self.scene.H, L=self.scene.L, **options)  # the walls' V0 as py-pde's case
-        self.rheology, self.advection = self.cells.rheology, self.cells.advection
-        self.N, self.Nx, self.L, self.H, self.V0 = self.cells.Nz, self.cells.Nx, self.cells.L, self.cells.H, self.cells.V0
-        self.z = self.cells.nodes()
-        self.y0 = self.cells.initial_data(*self.scene.initial_condition(self.z)).ravel()
-
-    def problem(self) -> Fv2dProblem:
-        c = self.cells
-        return Fv2dProblem(self.rheology, c.Nx, c.Nz, c.hx, c.hz, advection=self.advection, V0=c.V0)
-
-    def fields(self, y) -> np.ndarray:
-        """(3, Nx, Nz) fields of the state vector `y`."""
-        return self.cells.unpack(y)
-
-    def phi(self, y) -> np.ndarray:
-        return self.fields(y)[0]
-
-    def mass(self, data) -> float:
-        return self.cells.mass(data)
-
-    def check_state(self, y) -> str | None:
-        """Why the state `y` is invalid (as the stiff solver's check), or None."""
-        if not np.all(np.isfinite(y)):
-            return "state became non-finite"
-        return self.cells.check_state(self.fields(y))
-
-    def plane(self, data) -> dict:
-        """The Result's grid and per-snapshot measures of the snapshots `data` (as the py-pde path's)."""
-        return dict(Nx=self.Nx, L=self.L, measures=[measures(self.cells, None, self.scene, d) for d in data])

@@ -28,7 +28,7 @@ class CvodeBandLU(LinearSolver):
             return Memory(0.0, "", repr(mode))
         return Memory(8.0 * n * n, f"1 dense {n} x {n} array: scikit-sundae's dense hand-over array of the band "
                       "Jacobian", "'analytic' (band)",
-                      "; the native engine (without save or movie) and method 'BDF' need no dense array")
+                      "; the native engine and method 'BDF' need no dense array")
 
     def cvode_options(self, problem, rtol, atol):
         jacobian = problem.jacobian
