@@ -276,7 +276,7 @@ def _run(case, choice: Choice, settings, t_end, times, *, accuracy, progress, se
 
     def make_engine():
         return engine_class(choice.engine)(settings["method"], view.problem, 0.0, rtol=settings["rtol"],
-                                           atol=settings["atol"], linear_solver=choice.linear_solver,
+                                           atol=settings["atol"], linear_solver=choice.solver or choice.linear_solver,
                                            max_order=choice.max_order)
 
     out, n_done, failure, engine, recording = drive(view, make_engine, sched, t_end, bar, recorders)

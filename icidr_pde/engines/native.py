@@ -48,7 +48,8 @@ class NativeEngine(Engine):
         if kind is not None:
             linear_solver = compiled_solver(kind, getattr(compiled, "preconditioner", ""),
                                             getattr(compiled, "solver", "")).name
-        self.problem, self.compiled, self.linear_solver = problem, compiled, linear_solver
+        self.problem, self.compiled = problem, compiled
+        self.linear_solver = getattr(linear_solver, "name", linear_solver)  # a LinearSolver or its name
         self.t = float(t0)
         self._output: tuple[float, np.ndarray] | None = None  # the state of the last advance()
         compiled.start(problem.y0, rtol=rtol, atol=atol, t0=t0, max_step=max_step, first_step=first_step,
