@@ -386,7 +386,7 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native:
         y = data.ravel()
         t_jac = _best(lambda: jac(0.0, y), repeats=20)
         if native:
-            from icidr_pde.native.cheb import ChebCase
+            from icidr_pde.cells.shear1d.native_cheb import ChebCase
 
             t_rhs, t_jac = ChebCase(spec["rheology"], spec["scene"], spec["N"]).problem().kernel_times(y)
             _BEST_CPU[-2:] = [t_rhs, t_jac]

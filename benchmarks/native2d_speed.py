@@ -46,7 +46,7 @@ def rhs_times(n: int) -> dict:
     import numpy as np
 
     from icidr_pde.case import build_case
-    from icidr_pde.native.fv2d import Fv2dCase
+    from icidr_pde.cells.plane2d.native import Fv2dCase
 
     native = Fv2dCase("icidr", "bump2d", (n, n))
     problem = native.problem()

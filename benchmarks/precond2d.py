@@ -35,9 +35,9 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg
 
-import icidr_pde.discretizations.cartesian2d_core as cartesian2d_core
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-from icidr_pde.scenes2d import Bump2DScene
+import icidr_pde.cells.plane2d.core as cartesian2d_core
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+from icidr_pde.cells.plane2d.scenes import Bump2DScene
 
 
 def newton_matrix(n: int, gamma: float, t: float = 0.0):

@@ -25,7 +25,7 @@ import sys
 import time
 
 import icidr_pde.engines.cvode_counters as cvode_counters
-import icidr_pde.discretizations.cartesian2d_core as cartesian2d_core
+import icidr_pde.cells.plane2d.core as cartesian2d_core
 import icidr_pde.engines.sundae as integrator
 import sksundae.cvode
 

@@ -139,7 +139,7 @@ def _plane_kwargs(case, data) -> dict:
     """Grid and per-snapshot measures of a 2-D run (nothing for the 1-D cell)."""
     if getattr(case.pde, "dim", 1) != 2:
         return {}
-    from .discretizations.cartesian2d import measures
+    from .cells.plane2d.pde import measures
 
     return dict(Nx=int(case.grid.shape[0]), L=float(case.grid.axes_bounds[0][1]),
                 measures=[measures(case.pde, case.grid, case.scene, d) for d in data])
@@ -359,7 +359,7 @@ def _run_pde(rheology, scene, settings, t_end, times, choice, *, accuracy, mater
 def _plane_grid(scene, N, scene_params) -> dict:
     """What :func:`choose` asks of the 2-D grid of `scene` with `N`: its cells and whether it is a
     thin cell (hx > THIN_CELL hz); nothing where the scene or N is invalid (the case builder says why)."""
-    from .discretizations.cartesian2d_core import grid_shape, thin_cell
+    from .cells.plane2d.core import grid_shape, thin_cell
 
     try:
         scene_obj = scene if isinstance(scene, Scene) else get_scene(scene, **(scene_params or {}))
@@ -380,9 +380,9 @@ LAST_STATES = 6
 def _native_case(rheology, scene, settings, *, material, advection, scene_params):
     """The py-pde-free case of the native engine's scheme (:mod:`icidr_pde.native`)."""
     if settings["discretization"] == "cheb":
-        from .native.cheb import ChebCase as case_class
+        from .cells.shear1d.native_cheb import ChebCase as case_class
     elif settings["discretization"] == "fv2d":
-        from .native.fv2d import Fv2dCase as case_class
+        from .cells.plane2d.native import Fv2dCase as case_class
     else:
         from .native import FdCase as case_class
     return case_class(rheology, scene, settings["N"], material=material, advection=advection,

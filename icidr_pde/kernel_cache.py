@@ -50,7 +50,7 @@ __all__ = ["KernelCacheError", "untrusted", "digest", "version", "sympy_version"
 PREFIX = "icidr_pde_"
 TEMP_PREFIX = ".icidr_pde-"
 PRUNE_AFTER_S = 3600.0  # a file of another version younger than this may still be used by a running process
-_VERSION_SOURCES = {"rheology": (".py",), "native": (".py", ".c", ".h"), "discretizations/templates": (".py",),
+_VERSION_SOURCES = {"rheology": (".py",), "native": (".py", ".c", ".h"), "cells/shear1d/templates": (".py",), "cells/plane2d/templates": (".py",),
                     ".": ("kernel_cache.py",)}  # folder of the package -> endings of the files read
 _LOCK = threading.RLock()
 _STATE: dict = {}  # folder, private, listing, version, pruned, numba

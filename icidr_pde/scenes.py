@@ -87,4 +87,4 @@ def get_scene(name: str | Scene, **params) -> Scene:
 
 
 # after the 1-D scenes: SCENES keeps their order first (scene_parameters takes the first help text)
-from . import scenes2d  # noqa: E402,F401  (registers the scenes of the 2-D cell)
+from .cells.plane2d import scenes as scenes2d  # noqa: E402,F401  (registers the scenes of the 2-D cell)

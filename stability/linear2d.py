@@ -64,7 +64,7 @@ import scipy.linalg
 from scipy.interpolate import CubicSpline
 
 from icidr_pde.discretizations.chebyshev import cgl_nodes, diff_matrix
-from icidr_pde.discretizations.fd_core import ghost_coefficients
+from icidr_pde.cells.shear1d.fd_core import ghost_coefficients
 from icidr_pde.rheology import PLANE_FLOW, Rheology, get_rheology
 
 __all__ = ["BaseState", "simple_shear", "from_cells", "from_snapshot", "Linear2D", "growth_rates",

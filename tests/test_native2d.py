@@ -17,8 +17,8 @@ import pytest
 
 from icidr_pde import run
 from icidr_pde.engines.choose import FOURIER_SOLVER, NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, choose
-from icidr_pde.scenes2d import Bump2DScene, Scene2D
-from icidr_pde.native.fv2d import Fv2dCase
+from icidr_pde.cells.plane2d.scenes import Bump2DScene, Scene2D
+from icidr_pde.cells.plane2d.native import Fv2dCase
 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
 #: CVODE's tolerances of the comparisons (the tests' usual 2-D setting)
@@ -100,7 +100,7 @@ def test_x_uniform_data_give_the_1d_native_run(rheology):
 def test_native_gmres_runs_at_the_tight_krylov_tolerance():
     """eps_lin = KRYLOV_EPS_LIN (the py-pde path's), not SUNDIALS' 0.05: more products J v (one RHS each)."""
     from icidr_pde.engines.base import KRYLOV_EPS_LIN
-    from icidr_pde.native.fv2d import Fv2dProblem
+    from icidr_pde.cells.plane2d.native import Fv2dProblem
 
     case, rhs = Fv2dCase("mui", "bump2d", (16, 16)), {}
     for eps_lin in (None, 0.05):

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import NativeUnavailable
-from icidr_pde.native import cheb
-from icidr_pde.native.cheb import ChebCase, ChebProblem
+from icidr_pde.cells.shear1d import native_cheb as cheb
+from icidr_pde.cells.shear1d.native_cheb import ChebCase, ChebProblem
 
 from .test_native_cheb import run_native
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import FdCase, NativeUnavailable
-from icidr_pde.native.cheb import ChebCase
+from icidr_pde.cells.shear1d.native_cheb import ChebCase
 from icidr_pde.native.translate import translate
 
 #: one worker under pytest-xdist: each law's numba kernels, the reference of the C text, compile once,

@@ -145,4 +145,4 @@ class Scheme1D(PhiRange):
         """The source of the scheme's kernels, ``templates/<name>.py``."""
         import importlib.resources
 
-        return importlib.resources.files(__package__).joinpath("templates", f"{cls.name}.py").read_text()
+        return importlib.resources.files(cls.__module__.rpartition(".")[0]).joinpath("templates", f"{cls.name}.py").read_text()

@@ -54,7 +54,7 @@ def _text(name: str) -> str:
 
 
 #: the templates of each kinematics' library (its schemes) and the functions of cartesian2d.py printed as C
-_TEMPLATES = {"shear_cell": ("fd.py", "cheb.py"), "plane_flow": ("cartesian2d.py",)}
+_TEMPLATES = {"shear_cell": ("shear1d/templates/fd.py", "shear1d/templates/cheb.py"), "plane_flow": ("plane2d/templates/plane2d.py",)}
 FV2D_FUNCTIONS = ("walls", "halo_into", "patch_rates")
 
 
@@ -68,7 +68,7 @@ def _scheme_templates(kinematics=None) -> tuple[str, ...]:
     """The numba templates of the schemes of `kinematics` (fd and cheb, or fv2d), the one source
     of each scheme's kernels."""
     # by path: importing icidr_pde.discretizations would import py-pde
-    templates = pathlib.Path(__file__).parent.parent / "discretizations" / "templates"
+    templates = pathlib.Path(__file__).parent.parent / "cells"
     names = _TEMPLATES["plane_flow" if _plane(kinematics) else "shear_cell"]
     return tuple((templates / name).read_text() for name in names)
 

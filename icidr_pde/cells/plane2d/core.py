@@ -14,11 +14,11 @@ import math
 
 import numpy as np
 
-from ..rheology import Material, Rheology, get_rheology
-from .core import PhiRange
-from .fd_core import ghost_coefficients
-from .grid_size import FV2D, check_cells
-from .registry import check_options
+from ...rheology import Material, Rheology, get_rheology
+from ...discretizations.core import PhiRange
+from ..shear1d.fd_core import ghost_coefficients
+from ...discretizations.grid_size import FV2D, check_cells
+from ...discretizations.registry import check_options
 
 __all__ = ["grid_shape", "CartesianCells", "measures", "DEFAULT_N"]
 

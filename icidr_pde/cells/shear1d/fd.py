@@ -13,9 +13,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..rheology import Material, Rheology
-from .base import ShearCell1DBase
-from .registry import ADVECTION_SCHEMES
+from ...rheology import Material, Rheology
+from ...discretizations.base import ShearCell1DBase
+from ...discretizations.registry import ADVECTION_SCHEMES
 
 __all__ = ["ShearCellPDE", "ADVECTION_SCHEMES"]
 

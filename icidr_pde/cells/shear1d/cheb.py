@@ -12,10 +12,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..rheology import Material, Rheology
-from .base import ShearCell1DBase
+from ...rheology import Material, Rheology
+from ...discretizations.base import ShearCell1DBase
 from .cheb_core import interpolate
-from .chebyshev import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
+from ...discretizations.chebyshev import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
 
 __all__ = ["ChebyshevShearCellPDE", "cheb", "clencurt", "cgl_nodes", "diff_matrix", "cc_weights",
            "interpolate"]

@@ -52,18 +52,18 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
-from . import cartesian2d_core
-from .cartesian2d_core import THIN_CELL, grid_shape, measures
-from .grid_size import FV2D
-from .registry import ADVECTION_SCHEMES_2D
-from ..rheology import PLANE_FLOW, Material, Rheology
-from ..rheology.codegen import compose
-from .base import ShearCellBase
+from . import core as cartesian2d_core
+from .core import THIN_CELL, grid_shape, measures
+from ...discretizations.grid_size import FV2D
+from ...discretizations.registry import ADVECTION_SCHEMES_2D
+from ...rheology import PLANE_FLOW, Material, Rheology
+from ...rheology.codegen import compose
+from ...discretizations.base import ShearCellBase
 
 
 __all__ = ["ShearCell2DPDE", "Patches", "measures", "THIN_CELL"]
 
-_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
+_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "plane2d.py").read_text()
 
 
 @dataclass(frozen=True)

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..discretizations.cartesian2d_core import CartesianCells, measures
-from ..cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
-from .build import NativeUnavailable
-from . import NativeProblem, _pointer
+from .core import CartesianCells, measures
+from ...cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
+from ...native.build import NativeUnavailable
+from ...native import NativeProblem, _pointer
 
 __all__ = ["Fv2dProblem", "Fv2dCase", "LINEAR_SOLVER"]
 
@@ -43,9 +43,9 @@ class Fv2dProblem(NativeProblem):
 
     def __init__(self, rheology, Nx: int, Nz: int, hx: float, hz: float, *, advection: str = "central",
                  V0: float = 1.0, bounds=None, eps_lin: float | None = None, krylov_dim: int = KRYLOV_DIM):
-        from ..discretizations.fd_core import ghost_coefficients
-        from ..rheology import PLANE_FLOW
-        from .build import library
+        from ..shear1d.fd_core import ghost_coefficients
+        from ...rheology import PLANE_FLOW
+        from ...native.build import library
 
         self.lib = library(rheology, PLANE_FLOW)
         self._params = params = np.array(rheology.material.params, dtype=float)
@@ -86,8 +86,8 @@ class Fv2dCase:
     discretization = "fv2d"
 
     def __init__(self, rheology, scene, N, *, material=None, advection=None, scene_params=None):
-        from ..case import _law
-        from ..scenes import get_scene
+        from ...case import _law
+        from ...scenes import get_scene
 
         self.scene = get_scene(scene, **(scene_params or {}))
         if getattr(self.scene, "dim", 1) != 2:

@@ -34,7 +34,7 @@ from typing import Callable
 
 import numpy as np
 
-from .core import Scheme1D
+from ...discretizations.core import Scheme1D
 
 __all__ = ["FiniteVolumes", "ghost_coefficients", "BAND"]
 
@@ -99,7 +99,7 @@ class FiniteVolumes(Scheme1D):
         """rhs(data, t) -> (3, N) rates of (3, N) data, the compiled kernel (cached on disk);
         compiled or loaded now, on `probe` data (default: a uniform state); with
         `contiguous` False, a wrapper that py-pde's numba backend can compile (it copies nothing)."""
-        from ..rheology.codegen import first_call
+        from ...rheology.codegen import first_call
 
         loops = self.loops()
         kernel, ghost, h, upwind, params = loops.rates, self.ghost, self.h, self.upwind, self.material.params

@@ -16,9 +16,9 @@ import os
 
 import numpy as np
 
-from ..discretizations.grid_size import CHEB, check_memory
-from ..cvode_settings import DENSE_LU_DELTA_GAMMA
-from . import NativeCase, NativeProblem, NativeUnavailable, _pointer
+from ...discretizations.grid_size import CHEB, check_memory
+from ...cvode_settings import DENSE_LU_DELTA_GAMMA
+from ...native import NativeCase, NativeProblem, NativeUnavailable, _pointer
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
@@ -109,7 +109,7 @@ class ChebProblem(NativeProblem):
     def nodes(self) -> np.ndarray:
         """The points of D: Trefethen's CGL points mapped to [0, H], H from D's corner entry
         D[0, 0] = -(2 (N - 1)^2 + 1) / (3 H)."""
-        from ..discretizations.chebyshev import cgl_nodes
+        from ...discretizations.chebyshev import cgl_nodes
 
         return np.ascontiguousarray(cgl_nodes(self.N, -(2 * (self.N - 1) ** 2 + 1) / (3 * self.D[0, 0])))
 
