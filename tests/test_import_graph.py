@@ -214,8 +214,8 @@ def is_dem(module):
 
 
 def is_scheme(module):
-    """Laws and schemes (the cells)."""
-    return under(module, "icidr_pde.rheology", "icidr_pde.discretizations")
+    """Laws, schemes and the cells."""
+    return under(module, "icidr_pde.rheology", "icidr_pde.discretizations", "icidr_pde.cells")
 
 
 def is_compiled_problem(module):
@@ -236,7 +236,7 @@ def is_case_or_screen(module):
     """What an engine must not know: schemes, the DEM, studies, cases, scenes, the run's schedule
     and Result, screens."""
     return (is_scheme(module) or is_dem(module) or is_study(module) or is_interface(module)
-            or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
+            or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scene_base",
                      "icidr_pde.times", "icidr_pde.presets", "icidr_pde.progress", "icidr_pde.result",
                      "icidr_pde.snapshots", "icidr_pde.api"))
 

@@ -33,7 +33,7 @@ import ctypes
 
 import numpy as np
 
-from ..cells.shear1d.fd_core import ghost_coefficients
+from ..discretizations.core import ghost_coefficients
 from ..discretizations.grid_size import FD
 from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale

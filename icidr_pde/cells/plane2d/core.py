@@ -4,7 +4,7 @@ The cells are those of py-pde's ``CartesianGrid([[0, L], [0, H]], [Nx, Nz], peri
 False])`` (:meth:`.cartesian2d.ShearCell2DPDE.make_grid`, which takes its sizes from
 :func:`grid_shape`): centres ((i + 1/2) hx, (j + 1/2) hz), data (3, Nx, Nz) of (phi, u, w),
 the engines' state vector the data flattened. The walls (3.9) are the 1-D cell's ghost maps
-(:func:`.fd_core.ghost_coefficients`; a test compares them with py-pde's setters on the 2-D
+(:func:`icidr_pde.discretizations.core.ghost_coefficients`; a test compares them with py-pde's setters on the 2-D
 grid). The scheme itself is ``templates/cartesian2d.py`` (:mod:`.cartesian2d`).
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 
 from ...rheology import Material, Rheology, get_rheology
 from ...discretizations.core import PhiRange
-from ..shear1d.fd_core import ghost_coefficients
+from ...discretizations.core import ghost_coefficients
 from ...discretizations.grid_size import FV2D, check_cells
 from ...discretizations.registry import check_options
 

@@ -43,7 +43,7 @@ class Fv2dProblem(NativeProblem):
 
     def __init__(self, rheology, Nx: int, Nz: int, hx: float, hz: float, *, advection: str = "central",
                  V0: float = 1.0, bounds=None, eps_lin: float | None = None, krylov_dim: int = KRYLOV_DIM):
-        from ..shear1d.fd_core import ghost_coefficients
+        from ...discretizations.core import ghost_coefficients
         from ...rheology import PLANE_FLOW
         from ...native.build import library
 

@@ -44,7 +44,7 @@ class ShearCellPDE(ShearCell1DBase):
 
     def ghost_coefficients(self, grid) -> np.ndarray:
         """(3, 2, 2) array: ghost value of field k at side s (0: z = 0, 1: z = H) is
-        ``c[k, s, 0] * edge + c[k, s, 1]`` (:func:`.fd_core.ghost_coefficients`)."""
+        ``c[k, s, 0] * edge + c[k, s, 1]`` (:func:`icidr_pde.discretizations.core.ghost_coefficients`)."""
         return self.core(grid).ghost.copy()
 
     # --- what the stiff integrator asks of a discretization ----------------------------------

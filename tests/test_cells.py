@@ -1,0 +1,170 @@
+"""The cells' registry (icidr_pde.cells): each descriptor against the schemes, scenes, laws,
+templates and engines it names, the look-ups that replace tests of a dimension, and the rule
+that a cell's modules never import another cell."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from icidr_pde.cells import CELLS, PACKAGES, cell_for, cell_of, cell_of_result, cells, get_cell
+from icidr_pde.cells.base import Template
+from icidr_pde.discretizations.registry import SCHEMES
+from icidr_pde.scenes import SCENES
+
+from .test_import_graph import import_graph
+
+
+def test_the_registry_holds_both_cells():
+    assert set(cells()) == {"shear1d", "plane2d"} == set(PACKAGES)
+    assert {c.dim for c in CELLS.values()} == {1, 2}
+    assert get_cell("plane2d") is CELLS["plane2d"]
+    with pytest.raises(ValueError, match="`cell` must be one of"):
+        get_cell("cube3d")
+
+
+@pytest.mark.parametrize("name", PACKAGES)
+def test_each_descriptor_is_consistent(name):
+    from icidr_pde import rheology
+    from icidr_pde.engines.choose import NATIVE_SCHEMES, SCHEME_STRUCTURES, JacobianStructure
+
+    cell = get_cell(name)
+    assert cell.name == name and cell.package == f"icidr_pde.cells.{name}" and cell.folder.is_dir()
+    assert len(cell.grid_axes) == cell.dim
+    # its schemes are registered, of its dimension, and no other cell claims them
+    assert cell.schemes and all(SCHEMES[s].dim == cell.dim for s in cell.schemes)
+    assert all(cell_of(s) is cell for s in cell.schemes)
+    # its scenes are registered, of its dimension, in the module it names
+    assert cell.scenes and all(getattr(SCENES[s], "dim", 1) == cell.dim for s in cell.scenes)
+    assert all(cell_of(s) is cell for s in cell.scenes)
+    assert any(SCENES[s].__module__ == cell.scenes_module for s in cell.scenes)
+    # its laws' kinematics exists
+    kinematics = {k.name: k for k in (rheology.SHEAR_CELL, rheology.PLANE_FLOW)}
+    assert cell_of(kinematics[cell.kinematics]) is cell
+    # its compiled templates exist, and the schemes' cores and adapters read the same files
+    assert cell.templates and all(isinstance(t, Template) and (cell.folder / t.path).is_file() for t in cell.templates)
+    assert all(text.lstrip().startswith('"""') for text in cell.template_texts())
+    # its Jacobian structures are the engines' flags, the table choose keeps, and its native engine's modes
+    fields = {f.name for f in dataclasses.fields(JacobianStructure)}
+    assert set(cell.jacobian) == set(cell.schemes) and all(set(flags) <= fields for flags in cell.jacobian.values())
+    for scheme in cell.schemes:
+        assert JacobianStructure(**cell.jacobian[scheme]) == SCHEME_STRUCTURES[scheme]
+    assert set(cell.native) <= set(cell.schemes) and set(cell.native_cases) == set(cell.native)
+    for scheme, (mode, solver) in cell.native.items():
+        assert NATIVE_SCHEMES[scheme] == solver and mode in ("analytic", "krylov")
+        case = cell.native_case(scheme)
+        assert case.discretization == scheme and hasattr(case, "problem")
+    # what its Result adds are the Result's fields
+    from icidr_pde.result import Result
+
+    assert set(cell.result_fields) <= {f.name for f in dataclasses.fields(Result)}
+
+
+def test_the_descriptors_structures_are_what_the_schemes_offer():
+    """The Jacobian structure a descriptor states, against the real scheme on a small grid."""
+    from icidr_pde.case import build_case
+    from icidr_pde.engines.choose import JacobianStructure
+
+    for name, scene, N in (("fd", "shear", 9), ("cheb", "shear", 9), ("fv2d", "bump2d", (6, 5))):
+        case = build_case("icidr", scene, name, N)
+        assert JacobianStructure.of(case.pde, case.state) == JacobianStructure(**cell_of(name).jacobian[name])
+
+
+def test_look_ups():
+    from icidr_pde.rheology import PLANE_FLOW, SHEAR_CELL
+    from icidr_pde.scenes import get_scene
+
+    plane, shear = get_cell("plane2d"), get_cell("shear1d")
+    assert cell_of("fv2d") is cell_of("bump2d") is cell_of(PLANE_FLOW) is cell_of(get_scene("mode2d")) is plane
+    assert cell_of("fd") is cell_of("cheb") is cell_of("sine") is cell_of(SHEAR_CELL) is shear
+    assert cell_of("nothing", default=None) is None
+    with pytest.raises(ValueError, match="no cell"):
+        cell_of("nothing")
+
+    class Custom:  # a scheme the registry does not know: the cell of its dimension
+        name, dim = "custom", 2
+
+    assert cell_of(Custom()) is plane
+    # a pair (Nx, Nz) is a 2-D grid whatever the scene; else the scene's cell (an unknown one: 1-D)
+    assert cell_for("shear", (8, 8)) is plane and cell_for("bump2d", 8) is plane
+    assert cell_for("shear", 8) is shear and cell_for(None, 8) is shear and cell_for("no such scene", 8) is shear
+
+
+def test_grid_words_and_choice_grid():
+    plane, shear = get_cell("plane2d"), get_cell("shear1d")
+    assert shear.grid_words((201,)) == "`N` = 201"
+    assert plane.grid_words((64, 32)) == "`Nx` x `Nz` = 64 x 32"
+    assert shear.choice_grid("shear", 201) == {}
+    assert plane.choice_grid("bump2d", 64) == {"cells": 64 * 64, "thin_cell": False}
+    # L = 30 over 8 cells against H = 0.3 over 8: hx = 3.75 > 10 hz = 0.375
+    assert plane.choice_grid("bump2d", 8, {"H": 0.3}) == {"cells": 64, "thin_cell": True}
+    assert plane.choice_grid("bump2d", 3) == {}  # invalid N: the case builder says why
+
+
+def test_native_refusal_is_chooses():
+    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS, _not_native_2d
+
+    plane = get_cell("plane2d")
+    assert plane.native_auto_cells == NATIVE_FV2D_AUTO_CELLS
+    for thin, n in ((True, None), (False, None), (False, 64 * 64), (False, 64 * 64 + 1), (True, 10**6)):
+        assert plane.native_refusal(thin, n) == _not_native_2d(thin, n)
+    assert get_cell("shear1d").native_refusal(True, 10**9) == ""
+
+
+def test_result_extras_and_summary_of_the_2d_cell():
+    """The 2-D cell's Result fields from a py-pde case and from the native engine's case are the
+    same numbers, and the summary is that of the measures."""
+    from icidr_pde.case import build_case
+    from icidr_pde.cells.plane2d.core import measures
+    from icidr_pde.cells.plane2d.native import Fv2dCase
+
+    plane = get_cell("plane2d")
+    case = build_case("icidr", "bump2d", "fv2d", (6, 5))
+    data = np.stack([case.state.data, case.state.data * 1.01])
+    extras = plane.result_extras(case, data)
+    assert extras["Nx"] == 6 and extras["L"] == 30.0
+    assert extras["measures"][0] == measures(case.pde, case.grid, case.scene, data[0])
+    native = Fv2dCase("icidr", "bump2d", (6, 5))
+    by_native = plane.result_extras(native, data)
+    assert by_native["Nx"] == 6 and by_native["L"] == 30.0
+    for a, b in zip(by_native["measures"], extras["measures"]):
+        assert a == pytest.approx(b, rel=1e-12)
+
+    class R:
+        discretization, N, time_labels = "fv2d", 5, ["0", "1"]
+        Nx, L, measures = 6, 30.0, extras["measures"]
+
+    summary = plane.result_summary(R)
+    assert summary["Nx"] == 6 and summary["Nz"] == 5 and summary["L"] == 30.0
+    assert summary["l2_velocity"] == {"0": extras["measures"][0]["l2_velocity"], "1": extras["measures"][1]["l2_velocity"]}
+    assert cell_of_result(R) is plane
+    R.discretization = "a custom class"
+    assert cell_of_result(R) is plane
+    R.measures = R.Nx = R.L = None
+    assert cell_of_result(R) is get_cell("shear1d")
+    assert get_cell("shear1d").result_summary(R) == {} and get_cell("shear1d").result_extras(case, data) == {}
+
+
+def _cell(module):
+    """The cell a module belongs to ('shear1d' for icidr_pde.cells.shear1d.fd), else None."""
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["icidr_pde", "cells"] and len(parts) > 2 and parts[2] in PACKAGES else None
+
+
+def test_a_cell_never_imports_another_cell():
+    """No module of a cell's folder imports (at module level or in a function) a module of
+    another cell's, and no module below the cells (laws, the scheme registry and contract,
+    the compiled problems' builder) imports a cell's module: what a cell imports never leads
+    into another cell through the layers below it."""
+    graph = import_graph()
+    crossing = sorted((m, t) for m, targets in graph.items() if _cell(m) for t in targets
+                      if _cell(t) and _cell(t) != _cell(m))
+    assert crossing == []
+    below = ("icidr_pde.rheology", "icidr_pde.discretizations", "icidr_pde.native", "icidr_pde.cells.base")
+    into = sorted((m, t) for m, targets in graph.items() if m.startswith(below) for t in targets if _cell(t))
+    assert into == []
+
+
+def test_the_rule_finds_a_crossing():
+    assert _cell("icidr_pde.cells.plane2d.core") == "plane2d" and _cell("icidr_pde.cells.base") is None
+    assert _cell("icidr_pde.cells") is None and _cell("icidr_pde.native") is None
