@@ -6,7 +6,7 @@
     nice -n 5 python benchmarks/cheb_krylov.py roofline [--N 201]
 
 Linear solvers (``--solvers``, each ``NAME[:key=value,...]`` over
-:data:`icidr_pde.native.cheb.KRYLOV`): ``dense`` (the default: CVODE's dense LU of
+:data:`icidr_pde.cells.shear1d.native_cheb.KRYLOV`): ``dense`` (the default: CVODE's dense LU of
 I - gamma J, LAPACK), ``band`` (SPGMR, J v by CVODE's difference quotients, preconditioned by
 the band LU of I - gamma J_lo, J_lo the law's Jacobian with D replaced by low-order differences
 on the CGL points) and ``lagged`` (SPGMR preconditioned by the dense LU of an earlier step).

@@ -382,9 +382,9 @@ def _native_case(rheology, scene, settings, *, material, advection, scene_params
     if settings["discretization"] == "cheb":
         from .cells.shear1d.native_cheb import ChebCase as case_class
     elif settings["discretization"] == "fv2d":
-        from .cells.plane2d.native import Fv2dCase as case_class
+        from .cells.plane2d.native import Plane2DCase as case_class
     else:
-        from .native import FdCase as case_class
+        from .cells.shear1d.native import FdCase as case_class
     return case_class(rheology, scene, settings["N"], material=material, advection=advection,
                       scene_params=scene_params)
 

@@ -2,7 +2,7 @@
 
 The 2-D equations (2.1)-(2.2), with the corrected index form of (2.2) (``div sigma``,
 ``(d_j sigma_ij)``), non-dimensional (3.12) (d = rho_* = V0 = 1), gravity-free, as the 2-D cell
-``fv2d`` integrates them (:mod:`icidr_pde.discretizations.cartesian2d`):
+``fv2d`` integrates them (:mod:`icidr_pde.cells.plane2d.pde`):
 
     phi_t = -d_x(phi u) - d_z(phi w),                                          (2.1)
     u_t   = (d_x sigma_xx + d_z sigma_xz)/phi - u u_x - w u_z,                 (2.2)

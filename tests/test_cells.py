@@ -116,7 +116,7 @@ def test_result_extras_and_summary_of_the_2d_cell():
     same numbers, and the summary is that of the measures."""
     from icidr_pde.case import build_case
     from icidr_pde.cells.plane2d.core import measures
-    from icidr_pde.cells.plane2d.native import Fv2dCase
+    from icidr_pde.cells.plane2d.native import Plane2DCase
 
     plane = get_cell("plane2d")
     case = build_case("icidr", "bump2d", "fv2d", (6, 5))
@@ -124,7 +124,7 @@ def test_result_extras_and_summary_of_the_2d_cell():
     extras = plane.result_extras(case, data)
     assert extras["Nx"] == 6 and extras["L"] == 30.0
     assert extras["measures"][0] == measures(case.pde, case.grid, case.scene, data[0])
-    native = Fv2dCase("icidr", "bump2d", (6, 5))
+    native = Plane2DCase("icidr", "bump2d", (6, 5))
     by_native = plane.result_extras(native, data)
     assert by_native["Nx"] == 6 and by_native["L"] == 30.0
     for a, b in zip(by_native["measures"], extras["measures"]):
@@ -168,3 +168,137 @@ def test_a_cell_never_imports_another_cell():
 def test_the_rule_finds_a_crossing():
     assert _cell("icidr_pde.cells.plane2d.core") == "plane2d" and _cell("icidr_pde.cells.base") is None
     assert _cell("icidr_pde.cells") is None and _cell("icidr_pde.native") is None
+
+
+#: the modules that ask the cell instead of testing a dimension
+ASK_THE_CELL = ("icidr_pde/result.py", "icidr_pde/snapshots.py", "icidr_pde/engines/stiff.py",
+                "icidr_pde/discretizations/grid_size.py", "icidr_pde/native/build.py")
+
+
+def _dimension_tests(source: str) -> list[str]:
+    """Names and constants of `source` that test a dimension or name one cell: ``dim``, ``ndim``,
+    a kinematics, a scheme or cell named in a string (docstrings aside)."""
+    import ast
+
+    tree = ast.parse(source)
+    docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                  if isinstance(node, (ast.Module, ast.FunctionDef, ast.ClassDef)) and node.body
+                  and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
+    named = {"dim", "ndim", "two_d", "PLANE_FLOW", "SHEAR_CELL"}
+    cells_named = set(SCHEMES) | set(PACKAGES) | {"plane_flow", "shear_cell"}
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and node.id in named or isinstance(node, ast.Attribute) and node.attr in named:
+            found.append(getattr(node, "id", None) or node.attr)
+        elif isinstance(node, ast.Constant) and id(node) not in docstrings and isinstance(node.value, str) \
+                and (node.value in cells_named or "ICIDR_PLANE" in node.value):
+            found.append(node.value)
+    return found
+
+
+@pytest.mark.parametrize("path", ASK_THE_CELL)
+def test_these_modules_ask_the_cell(path):
+    from .test_import_graph import ROOT
+
+    assert _dimension_tests((ROOT / path).read_text()) == []
+
+
+def test_the_dimension_test_finder_finds():
+    found = _dimension_tests("x = pde.dim == 2\nif state.data.ndim > 2: pass\ny = name == 'fv2d'\n")
+    assert sorted(found) == ["dim", "fv2d", "ndim"]
+    assert _dimension_tests('"""A docstring naming fv2d."""\nimport os\n') == []
+
+
+def test_the_driver_selects_no_cell():
+    """cvode_driver.c and problem.h integrate any problem: no cell, scheme or kernel of one is named
+    in them, and no #if chooses one; each cell's C is its folder's problem.c."""
+    import re
+
+    from .test_import_graph import ROOT
+
+    native = ROOT / "icidr_pde" / "native"
+    for name in ("cvode_driver.c", "problem.h"):
+        text = (native / name).read_text()
+        assert not re.search(r"ICIDR_PLANE|KIND_|\b(fd|cheb|fv2d|plane2d)_\w+\(", text), name
+        for line in text.splitlines():
+            if line.startswith("#if"):
+                assert re.fullmatch(r"#ifdef ICIDR_BLAS", line), line  # a build's feature, not a cell
+    for cell in cells().values():
+        text = cell.problem_source()
+        assert all(f"EXPORT Native *{name}(" in text or f" {name}(" in text for name in cell.c_functions)
+
+
+def test_the_library_key_and_code_version_follow_the_c_sources(monkeypatch):
+    """A change to a cell's problem.c changes its library's key (so the kernel cache builds it
+    anew), and the kernel cache's code version reads every cell's C and templates."""
+    import os
+
+    from icidr_pde import kernel_cache
+    from icidr_pde.cells.base import Cell
+    from icidr_pde.native import build
+    from icidr_pde.rheology import PLANE_FLOW, SHEAR_CELL, get_rheology
+
+    args = (["libsundials_cvode.so"], "int", "gcc")
+    for kinematics in (SHEAR_CELL, PLANE_FLOW):
+        before = build._key(get_rheology("icidr"), kinematics, *args)
+        assert cell_of(kinematics).problem_source() in build._driver(kinematics)
+        original = Cell.problem_source
+        monkeypatch.setattr(Cell, "problem_source", lambda self: original(self) + "\n/* changed */\n")
+        assert build._key(get_rheology("icidr"), kinematics, *args) != before
+        monkeypatch.undo()
+    root = os.path.dirname(kernel_cache.__file__)
+    folders = {sub for pattern in kernel_cache._VERSION_SOURCES for sub in kernel_cache._folders(root, pattern)}
+    for cell in cells().values():
+        assert f"cells/{cell.name}" in folders and f"cells/{cell.name}/templates" in folders
+        assert cell.compiled_problem.endswith(kernel_cache._VERSION_SOURCES["cells/*"])
+
+
+def test_each_library_has_its_cells_functions_only():
+    from icidr_pde.native import NativeUnavailable, build
+    from icidr_pde.rheology import PLANE_FLOW, SHEAR_CELL, get_rheology
+
+    try:
+        libraries = {k.name: build.library(get_rheology("icidr"), k) for k in (SHEAR_CELL, PLANE_FLOW)}
+    except NativeUnavailable as err:
+        pytest.skip(str(err))
+    for name, lib in libraries.items():
+        mine = cell_of(name).c_functions
+        others = {f for cell in cells().values() if cell is not cell_of(name) for f in cell.c_functions}
+        assert all(hasattr(lib, f) for f in list(mine) + list(build.DRIVER_FUNCTIONS))
+        assert not any(hasattr(lib, f) for f in others)
+
+
+def _api(name):
+    """A function of icidr_pde.api that a descriptor's method replaces (skipped once the run path asks the cell)."""
+    from icidr_pde import api
+
+    if not hasattr(api, name):
+        pytest.skip(f"icidr_pde.api.{name} is gone: the run path asks the cell")
+    return getattr(api, name)
+
+
+@pytest.mark.parametrize("scene, N, params", [("bump2d", 64, None), ("bump2d", (8, 12), None),
+                                              ("bump2d", 8, {"H": 0.3}), ("shear", (8, 8), None),
+                                              ("mode2d", 3, None), ("shear", 201, None), ("sine", 65, None)])
+def test_cell_for_and_choice_grid_are_the_run_paths(scene, N, params):
+    """cell_for(...).dim and choice_grid(...) give what api.run's `two_d` and `_plane_grid` give."""
+    plane_grid = _api("_plane_grid")
+    from icidr_pde.scenes import SCENES
+
+    two_d = isinstance(N, (tuple, list)) or getattr(SCENES.get(scene), "dim", 1) != 1  # api.run's test
+    cell = cell_for(scene, N)
+    assert cell.dim == (2 if two_d else 1)
+    assert cell.choice_grid(scene, N, params) == (plane_grid(scene, N, params) if two_d else {})
+
+
+def test_native_case_and_result_extras_are_the_run_paths():
+    native_case, plane_kwargs = _api("_native_case"), _api("_plane_kwargs")
+    from icidr_pde.case import build_case
+
+    for scheme, scene, N in (("fd", "shear", 9), ("cheb", "shear", 9), ("fv2d", "bump2d", (6, 5))):
+        settings = {"discretization": scheme, "N": N}
+        case = native_case("icidr", scene, settings, material=None, advection=None, scene_params=None)
+        assert type(case) is cell_of(scheme).native_case(scheme)
+        py_case = build_case("icidr", scene, scheme, N)
+        data = np.stack([py_case.state.data])
+        assert cell_of(py_case.pde).result_extras(py_case, data) == plane_kwargs(py_case, data)

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from icidr_pde import catalog
-from icidr_pde.native import FdCase, FdProblem, NativeUnavailable
+from icidr_pde.cells.shear1d.native import FdCase, FdProblem
+from icidr_pde.native import NativeUnavailable
 
 try:
     FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)

@@ -1,4 +1,4 @@
-"""The native engine's Chebyshev collocation (icidr_pde.native.cheb).
+"""The native engine's Chebyshev collocation (icidr_pde.cells.shear1d.native_cheb).
 
 Against independent truth: a fourth-order difference of the native right-hand side for
 its Jacobian (the C is printed from the numba template, tests/test_translate.py, whose

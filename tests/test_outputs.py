@@ -343,7 +343,8 @@ def test_native_interrupt_keeps_the_outputs_cvode_returned(monkeypatch):
     """Ctrl-C is seen once CVODE returns, before Python counted that call's outputs: the run
     reported 'interrupted at t = 0' and dropped the states the driver had written."""
     from icidr_pde.api import run
-    from icidr_pde.native import FdCase, NativeProblem, NativeUnavailable
+    from icidr_pde.cells.shear1d.native import FdCase
+    from icidr_pde.native import NativeProblem, NativeUnavailable
 
     try:
         FdCase("icidr", "shear", 9).problem()

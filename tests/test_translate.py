@@ -10,7 +10,8 @@ Python is refused with the line named.
 import numpy as np
 import pytest
 
-from icidr_pde.native import FdCase, NativeUnavailable
+from icidr_pde.cells.shear1d.native import FdCase
+from icidr_pde.native import NativeUnavailable
 from icidr_pde.cells.shear1d.native_cheb import ChebCase
 from icidr_pde.native.translate import translate
 

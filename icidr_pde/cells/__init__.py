@@ -14,7 +14,7 @@ import importlib
 
 from .base import CELLS, Cell, Template
 
-__all__ = ["Cell", "CELLS", "Template", "PACKAGES", "cells", "get_cell", "cell_of", "cell_for", "cell_of_result"]
+__all__ = ["Cell", "CELLS", "Template", "PACKAGES", "cells", "get_cell", "cell_of", "cell_for", "cell_of_result", "load_scenes"]
 
 #: the cells' packages, one row a cell (the descriptor is the package's ``cell.py``)
 PACKAGES = ("shear1d", "plane2d")
@@ -60,10 +60,17 @@ def cell_for(scene=None, N=None) -> Cell:
         if cell.owns_grid(N):
             return cell
     if isinstance(scene, str):
-        from ..scenes import SCENES
+        from ..scene_base import SCENES
 
+        load_scenes()
         scene = SCENES.get(scene)
     return cell_of(scene) if scene is not None else _of_dim(1)
+
+
+def load_scenes() -> None:
+    """Register every cell's scenes (its descriptor's ``scenes_module``), in the registry's order."""
+    for cell in cells().values():
+        importlib.import_module(cell.scenes_module)
 
 
 def cell_of_result(result) -> Cell:

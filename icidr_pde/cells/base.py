@@ -71,6 +71,12 @@ class Cell:
     templates: tuple[Template, ...] = ()
     #: C definitions its library needs before the law (the law printer's inline and scratch macros)
     c_defines = ""
+    #: its compiled problems' C file in its folder (:file:`icidr_pde/native/problem.h` says what a problem is)
+    compiled_problem = "problem.c"
+    #: the functions its C file exports beyond the driver's, name -> "restype: argument types" in the
+    #: letters of :func:`icidr_pde.native.build.c_types` (P pointer, D double, I int, L long, S char *,
+    #: *D a pointer to doubles, ...; restype '-': none)
+    c_functions: dict = {}
     #: whether the run's live figure and movie can draw its fields (profiles against z)
     profiles = True
 
@@ -78,6 +84,11 @@ class Cell:
         super().__init_subclass__(**kwargs)
         if cls.__dict__.get("name"):
             CELLS[cls.name] = cls()
+
+    @classmethod
+    def registered(cls) -> "Cell":
+        """The descriptor of this cell in :data:`CELLS`."""
+        return CELLS[cls.name]
 
     def __repr__(self) -> str:
         return f"<cell {self.name}: {self.dim}-D, schemes {', '.join(self.schemes)}>"
@@ -93,6 +104,10 @@ class Cell:
     def template_texts(self) -> tuple[str, ...]:
         """The sources of :attr:`templates` (read by path: no scheme module is imported)."""
         return tuple((self.folder / t.path).read_text() for t in self.templates)
+
+    def problem_source(self) -> str:
+        """The C of its compiled problems (:attr:`compiled_problem`)."""
+        return (self.folder / self.compiled_problem).read_text()
 
     def native_case(self, scheme: str) -> type:
         """The class of the native engine's case of `scheme` (imported now)."""

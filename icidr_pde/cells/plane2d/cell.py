@@ -23,10 +23,11 @@ class Plane2D(Cell):
     grid_axes = ("Nx", "Nz")
     jacobian = {"fv2d": dict(sparse=True, line=True, amg=True, advected=True)}
     native = {"fv2d": ("krylov", "GMRES")}
-    native_cases = {"fv2d": "icidr_pde.cells.plane2d.native:Fv2dCase"}
-    templates = (Template("templates/plane2d.py", "fv2d_", names=("walls", "halo_into", "patch_rates")),)
+    native_cases = {"fv2d": "icidr_pde.cells.plane2d.native:Plane2DCase"}
+    templates = (Template("templates/plane2d.py", "plane2d_", names=("walls", "halo_into", "patch_rates")),)
     c_defines = ("#define LAW_INLINE inline __attribute__((always_inline))\n#define KERNEL_SCRATCH\n"
                  "#define LAW_POWI law_powi")
+    c_functions = {"icidr_plane2d_problem": "P: I I D D I *D *D I D D I D"}
     profiles = False
     #: the largest grid (cells) on which 'auto' takes the native engine (unpreconditioned GMRES in C,
     #: no py-pde or numba to import) rather than the py-pde path's default, GMRES with the x-Fourier

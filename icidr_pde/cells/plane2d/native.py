@@ -1,8 +1,8 @@
 """The 2-D cell (``fv2d``) on the native engine: its rates in C, CVODE with matrix-free GMRES.
 
-The rates are the numba template ``discretizations/templates/cartesian2d.py`` printed as C
-(:mod:`.translate`: the whole grid as one patch, ``halo_into`` then ``patch_rates``), in a
-library of the law of plane flow (:mod:`.build`). CVODE is set up as the py-pde path sets it
+The rates are the numba template ``templates/plane2d.py`` printed as C
+(:mod:`icidr_pde.native.translate`: the whole grid as one patch, ``halo_into`` then ``patch_rates``), in a
+library of the law of plane flow (:mod:`icidr_pde.native.build`). CVODE is set up as the py-pde path sets it
 up on a thick cell (:mod:`icidr_pde.engines.sundae`, linear solver 'GMRES'): BDF, SUNDIALS'
 GMRES of Krylov dimension :data:`icidr_pde.cvode_settings.KRYLOV_DIM` without a preconditioner, the tolerance factor
 :data:`icidr_pde.cvode_settings.KRYLOV_EPS_LIN`, CVODE's difference-quotient products J v;
@@ -10,7 +10,7 @@ the mass stays the exact solves' to round-off as on that path (the rates of phi 
 differences, so every product J v has zero mass up to round-off). A thin cell (hx > THIN_CELL hz),
 where the py-pde path preconditions along z, is not taken here (:func:`icidr_pde.engines.choose.choose`).
 
-The case is py-pde-free (:class:`~icidr_pde.discretizations.cartesian2d_core.CartesianCells`):
+The case is py-pde-free (:class:`.core.PlaneCells`):
 a run imports neither py-pde, numba nor scipy.
 """
 
@@ -18,18 +18,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core import CartesianCells, measures
+from .cell import Plane2D
+from .core import PlaneCells
 from ...cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
 from ...native.build import NativeUnavailable
 from ...native import NativeProblem, _pointer
 
-__all__ = ["Fv2dProblem", "Fv2dCase", "LINEAR_SOLVER"]
+__all__ = ["Plane2DProblem", "Plane2DCase", "LINEAR_SOLVER"]
 
 #: what the engine reports as its linear solver (:data:`icidr_pde.engines.choose.NATIVE_SCHEMES`)
 LINEAR_SOLVER = "GMRES"
 
 
-class Fv2dProblem(NativeProblem):
+class Plane2DProblem(NativeProblem):
     """The compiled 2-D problem of `rheology` on the Nx x Nz cells of widths hx, hz: rates of the
     state vector (the data (3, Nx, Nz) flattened), M(phi) and CVODE with GMRES; valid while
     lo < phi < hi, `bounds` (default: the law's range of phi). ``N`` is the number of cells."""
@@ -45,17 +46,13 @@ class Fv2dProblem(NativeProblem):
                  V0: float = 1.0, bounds=None, eps_lin: float | None = None, krylov_dim: int = KRYLOV_DIM):
         from ...discretizations.core import ghost_coefficients
         from ...rheology import PLANE_FLOW
-        from ...native.build import library
 
-        self.lib = library(rheology, PLANE_FLOW)
-        self._params = params = np.array(rheology.material.params, dtype=float)
-        lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
-        self.bounds = (lo, hi)
+        params, lo, hi = self._open(rheology, bounds, PLANE_FLOW)
         self.Nx, self.Nz, self.N = int(Nx), int(Nz), int(Nx) * int(Nz)
         self.hx, self.hz = float(hx), float(hz)
         self.eps_lin = KRYLOV_EPS_LIN if eps_lin is None else float(eps_lin)
         self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
-        handle = self.lib.icidr_fv2d_problem(self.Nx, self.Nz, self.hx, self.hz, int(advection == "upwind"),
+        handle = self.lib.icidr_plane2d_problem(self.Nx, self.Nz, self.hx, self.hz, int(advection == "upwind"),
                                              _pointer(self.ghost), _pointer(params), params.size, lo, hi,
                                              int(krylov_dim), self.eps_lin)
         if not handle:
@@ -78,9 +75,9 @@ class Fv2dProblem(NativeProblem):
                          "jv_rhs"), map(int, out)))
 
 
-class Fv2dCase:
+class Plane2DCase:
     """A 2-D case on the native engine: the scene's data on the cells of
-    :class:`~icidr_pde.discretizations.cartesian2d_core.CartesianCells` (grid, walls, mass,
+    :class:`~.core.PlaneCells` (grid, walls, mass,
     validity), with the engine's state vector the data flattened."""
 
     discretization = "fv2d"
@@ -95,15 +92,15 @@ class Fv2dCase:
         law = _law(rheology, material)
         law.material.check_phi(self.scene.phi0, "phi0")
         options = {} if advection is None else {"advection": advection}
-        self.cells = CartesianCells(law, N, self.scene.H, L=self.scene.L, **options)  # the walls' V0 as py-pde's case
+        self.cells = PlaneCells(law, N, self.scene.H, L=self.scene.L, **options)  # the walls' V0 as py-pde's case
         self.rheology, self.advection = self.cells.rheology, self.cells.advection
         self.N, self.Nx, self.L, self.H, self.V0 = self.cells.Nz, self.cells.Nx, self.cells.L, self.cells.H, self.cells.V0
         self.z = self.cells.nodes()
         self.y0 = self.cells.initial_data(*self.scene.initial_condition(self.z)).ravel()
 
-    def problem(self) -> Fv2dProblem:
+    def problem(self) -> Plane2DProblem:
         c = self.cells
-        return Fv2dProblem(self.rheology, c.Nx, c.Nz, c.hx, c.hz, advection=self.advection, V0=c.V0)
+        return Plane2DProblem(self.rheology, c.Nx, c.Nz, c.hx, c.hz, advection=self.advection, V0=c.V0)
 
     def fields(self, y) -> np.ndarray:
         """(3, Nx, Nz) fields of the state vector `y`."""
@@ -123,4 +120,4 @@ class Fv2dCase:
 
     def plane(self, data) -> dict:
         """The Result's grid and per-snapshot measures of the snapshots `data` (as the py-pde path's)."""
-        return dict(Nx=self.Nx, L=self.L, measures=[measures(self.cells, None, self.scene, d) for d in data])
+        return Plane2D.registered().result_extras(self, data)

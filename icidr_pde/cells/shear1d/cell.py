@@ -17,10 +17,20 @@ class Shear1D(Cell):
     kinematics = "shear_cell"
     schemes = ("fd", "cheb")
     scenes = ("shear", "sine", "bump1d")
-    scenes_module = "icidr_pde.scenes"
+    scenes_module = "icidr_pde.cells.shear1d.scenes"
     grid_axes = ("N",)
     jacobian = {"fd": dict(banded=True, band_jac=True, sparse=True), "cheb": {}}
     native = {"fd": ("analytic", "band LU"), "cheb": ("analytic", "GMRES + band preconditioner")}
-    native_cases = {"fd": "icidr_pde.native:FdCase", "cheb": "icidr_pde.cells.shear1d.native_cheb:ChebCase"}
+    native_cases = {"fd": "icidr_pde.cells.shear1d.native:FdCase", "cheb": "icidr_pde.cells.shear1d.native_cheb:ChebCase"}
     templates = (Template("templates/fd.py", "fd_", {"J": "FD_BAND_AT"}),
                  Template("templates/cheb.py", "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"}))
+    c_functions = {
+        "icidr_fd_problem": "P: I D I *D *D I D D",
+        "icidr_fd_jacobian": "-: P *D *D",
+        "icidr_cheb_problem": "P: I *D *D I D D I D",
+        "icidr_cheb_jacobian": "-: P *D *D",
+        "icidr_cheb_krylov": "I: P I D L L I *D",
+        "icidr_has_krylov": "I:",
+        "icidr_cheb_conserve": "I: P *D",
+        "icidr_cheb_low_order_jacobian": "-: P *D *D *D",
+    }

@@ -15,6 +15,7 @@ import numpy as np
 
 from ...rheology import Material, Rheology
 from ...discretizations.base import ShearCell1DBase
+from .cell import Shear1D
 from ...discretizations.registry import ADVECTION_SCHEMES
 
 __all__ = ["ShearCellPDE", "ADVECTION_SCHEMES"]
@@ -29,6 +30,8 @@ class ShearCellPDE(ShearCell1DBase):
     """
 
     name = "fd"
+    #: the cell it discretizes (the names of its grid, its Jacobian structure: :mod:`icidr_pde.cells`)
+    cell = Shear1D.registered()
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):

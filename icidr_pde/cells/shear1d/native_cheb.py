@@ -4,7 +4,7 @@
 template ``discretizations/templates/cheb.py``: rates, dense Jacobian and the low-order band
 preconditioner) with CVODE's Newton-Krylov solver (GMRES) or its dense LU; :class:`ChebCase` is
 the case of :func:`icidr_pde.case.build_case` for ``discretization="cheb"`` (its core
-:class:`~icidr_pde.discretizations.cheb_core.Collocation`: points, D, walls and initial state).
+:class:`~icidr_pde.cells.shear1d.cheb_core.Collocation`: points, D, walls and initial state).
 The state is the py-pde path's vector (phi, u, w) in blocks, so CVODE integrates the same
 numbers in the same order.
 """
@@ -18,7 +18,8 @@ import numpy as np
 
 from ...discretizations.grid_size import CHEB, check_memory
 from ...cvode_settings import DENSE_LU_DELTA_GAMMA
-from ...native import NativeCase, NativeProblem, NativeUnavailable, _pointer
+from ...native import NativeProblem, NativeUnavailable, _pointer
+from .native import NativeCase
 
 __all__ = ["ChebProblem", "ChebCase", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
@@ -74,7 +75,9 @@ class ChebProblem(NativeProblem):
             raise ValueError(f"`krylov` takes the keys {sorted(KRYLOV)}; got {sorted(krylov)}")
         if settings["preconditioner"] not in PRECONDITIONERS:
             raise ValueError(f"the preconditioner must be one of {PRECONDITIONERS}; got {settings['preconditioner']!r}")
-        params, lo, hi = self._open(rheology, bounds)
+        from ...rheology import SHEAR_CELL
+
+        params, lo, hi = self._open(rheology, bounds, SHEAR_CELL)
         if linear_solver == "krylov" and not self.lib.icidr_has_krylov():
             if not default:
                 raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
