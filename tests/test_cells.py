@@ -302,3 +302,20 @@ def test_native_case_and_result_extras_are_the_run_paths():
         py_case = build_case("icidr", scene, scheme, N)
         data = np.stack([py_case.state.data])
         assert cell_of(py_case.pde).result_extras(py_case, data) == plane_kwargs(py_case, data)
+
+
+def test_the_registry_keeps_its_order_whatever_was_imported_first():
+    """The 2-D cell's descriptor imported first (by its py-pde adapter) leaves the registry's
+    order, which is the order of the scenes (the first help text of a parameter wins)."""
+    import os
+    import subprocess
+    import sys
+
+    from .test_import_graph import ROOT
+
+    code = ("import icidr_pde.cells.plane2d.pde\nfrom icidr_pde.cells import cells\nimport icidr_pde.scenes as s\n"
+            "print(list(cells()), list(s.SCENES), s.scene_parameters()['eps'])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT,
+                         env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout
+    assert out.split("] ")[0] + "]" == "['shear1d', 'plane2d']"
+    assert "['shear', 'sine', 'bump2d', 'bump1d', 'mode2d']" in out and out.strip().endswith("(3.16)")

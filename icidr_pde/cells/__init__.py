@@ -21,11 +21,12 @@ PACKAGES = ("shear1d", "plane2d")
 
 
 def cells() -> dict[str, Cell]:
-    """name -> descriptor of every cell (their ``cell.py`` imported on the first call)."""
+    """name -> descriptor of every cell in the registry's order, whichever was imported first
+    (their ``cell.py`` imported on the first call)."""
     for package in PACKAGES:
         if package not in CELLS:
             importlib.import_module(f"{__name__}.{package}.cell")
-    return CELLS
+    return {**{package: CELLS[package] for package in PACKAGES}, **CELLS}
 
 
 def get_cell(name: str) -> Cell:
