@@ -280,7 +280,7 @@ def test_native_library_removed_by_a_clear_before_it_is_loaded(own_kernel_cache,
 
     monkeypatch.setattr(build, "_key", lambda *args: f"a law of {tmp_path}")
     monkeypatch.setattr(build, "_compile", compile_then_cleared)
-    monkeypatch.setattr(build, "_declare", lambda lib: None)
+    monkeypatch.setattr(build, "_declare", lambda lib, kinematics: None)
     assert build.library(None, None) is not None
     assert len(compiled) == 2
 
