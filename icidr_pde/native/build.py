@@ -5,7 +5,8 @@ finite-volume and Chebyshev kernels printed from their numba templates
 ``cells/shear1d/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (the 1-D cell's library;
 the 2-D cell's, of the law of plane flow, has the kernels of ``cells/plane2d/templates/plane2d.py``
 instead: each cell's descriptor names its templates, :mod:`icidr_pde.cells`) (with
-``kernel_support.c``) and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
+``kernel_support.c``), the cell's compiled problems (its folder's ``problem.c``, after ``problem.h``)
+and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``): one library a cell and law. It is compiled by gcc
 (``$CC``) into the kernel cache (:mod:`icidr_pde.kernel_cache`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
 found from the package's location without importing it; its LAPACK dense solver where
