@@ -14,7 +14,8 @@ import importlib
 
 from .base import CELLS, Cell, Template
 
-__all__ = ["Cell", "CELLS", "Template", "PACKAGES", "cells", "get_cell", "cell_of", "cell_for", "cell_of_result", "load_scenes"]
+__all__ = ["Cell", "CELLS", "Template", "PACKAGES", "cells", "get_cell", "cell_of", "cell_for", "cell_of_result",
+           "load_scenes"]
 
 #: the cells' packages, one row a cell (the descriptor is the package's ``cell.py``)
 PACKAGES = ("shear1d", "plane2d")

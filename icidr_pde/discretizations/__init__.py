@@ -21,7 +21,8 @@ from .registry import ADVECTION_SCHEMES, DISCRETIZATIONS, SCHEMES, get_discretiz
 __all__ = ["DISCRETIZATIONS", "SCHEMES", "ShearCellBase", "get_discretization", "get_scheme", "ShearCellPDE",
            "ChebyshevShearCellPDE", "ShearCell2DPDE", "ADVECTION_SCHEMES"]
 
-_LAZY = {"ShearCellBase": ".base", "ShearCellPDE": "..cells.shear1d.fd", "ChebyshevShearCellPDE": "..cells.shear1d.cheb",
+_LAZY = {"ShearCellBase": ".base", "ShearCellPDE": "..cells.shear1d.fd",
+         "ChebyshevShearCellPDE": "..cells.shear1d.cheb",
          "ShearCell2DPDE": "..cells.plane2d.pde"}
 
 

@@ -154,4 +154,5 @@ class Scheme1D(PhiRange):
         """The source of the scheme's kernels, ``templates/<name>.py``."""
         import importlib.resources
 
-        return importlib.resources.files(cls.__module__.rpartition(".")[0]).joinpath("templates", f"{cls.name}.py").read_text()
+        cell = cls.__module__.rpartition(".")[0]  # the package of the core: its cell's folder
+        return importlib.resources.files(cell).joinpath("templates", f"{cls.name}.py").read_text()

@@ -57,8 +57,10 @@ class Scheme:
 SCHEMES: dict[str, Scheme] = {s.name: s for s in (
     Scheme("fv2d", "finite volumes, 2-D", 2, 64, PLANE2D, "..cells.plane2d.pde:ShearCell2DPDE",
            options={"advection": ADVECTION_SCHEMES_2D}),
-    Scheme("cheb", "Chebyshev", 1, 65, CHEB, "..cells.shear1d.cheb:ChebyshevShearCellPDE", "..cells.shear1d.cheb_core:Collocation"),
-    Scheme("fd", "finite volumes", 1, 201, FD, "..cells.shear1d.fd:ShearCellPDE", "..cells.shear1d.fd_core:FiniteVolumes",
+    Scheme("cheb", "Chebyshev", 1, 65, CHEB, "..cells.shear1d.cheb:ChebyshevShearCellPDE",
+           "..cells.shear1d.cheb_core:Collocation"),
+    Scheme("fd", "finite volumes", 1, 201, FD, "..cells.shear1d.fd:ShearCellPDE",
+           "..cells.shear1d.fd_core:FiniteVolumes",
            options={"advection": ADVECTION_SCHEMES}),
 )}
 

@@ -21,7 +21,8 @@ class Shear1D(Cell):
     grid_axes = ("N",)
     jacobian = {"fd": dict(banded=True, band_jac=True, sparse=True), "cheb": {}}
     native = {"fd": ("analytic", "band LU"), "cheb": ("analytic", "GMRES + band preconditioner")}
-    native_cases = {"fd": "icidr_pde.cells.shear1d.native:FdCase", "cheb": "icidr_pde.cells.shear1d.native_cheb:ChebCase"}
+    native_cases = {"fd": "icidr_pde.cells.shear1d.native:FdCase",
+                    "cheb": "icidr_pde.cells.shear1d.native_cheb:ChebCase"}
     templates = (Template("templates/fd.py", "fd_", {"J": "FD_BAND_AT"}),
                  Template("templates/cheb.py", "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"}))
     c_functions = {
