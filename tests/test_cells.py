@@ -26,7 +26,11 @@ def test_the_registry_holds_both_cells():
 @pytest.mark.parametrize("name", PACKAGES)
 def test_each_descriptor_is_consistent(name):
     from icidr_pde import rheology
-    from icidr_pde.engines.choose import NATIVE_SCHEMES, SCHEME_STRUCTURES, JacobianStructure
+    from icidr_pde.engines import choose
+    from icidr_pde.engines.choose import JacobianStructure
+
+    # the tables choose keeps today (None once choose asks the cell)
+    structures, native_solvers = getattr(choose, "SCHEME_STRUCTURES", None), getattr(choose, "NATIVE_SCHEMES", None)
 
     cell = get_cell(name)
     assert cell.name == name and cell.package == f"icidr_pde.cells.{name}" and cell.folder.is_dir()
@@ -48,10 +52,10 @@ def test_each_descriptor_is_consistent(name):
     fields = {f.name for f in dataclasses.fields(JacobianStructure)}
     assert set(cell.jacobian) == set(cell.schemes) and all(set(flags) <= fields for flags in cell.jacobian.values())
     for scheme in cell.schemes:
-        assert JacobianStructure(**cell.jacobian[scheme]) == SCHEME_STRUCTURES[scheme]
+        assert structures is None or JacobianStructure(**cell.jacobian[scheme]) == structures[scheme]
     assert set(cell.native) <= set(cell.schemes) and set(cell.native_cases) == set(cell.native)
     for scheme, (mode, solver) in cell.native.items():
-        assert NATIVE_SCHEMES[scheme] == solver and mode in ("analytic", "krylov")
+        assert (native_solvers is None or native_solvers[scheme] == solver) and mode in ("analytic", "krylov")
         case = cell.native_case(scheme)
         assert case.discretization == scheme and hasattr(case, "problem")
     # what its Result adds are the Result's fields
