@@ -6,7 +6,7 @@
     nice -n 5 python benchmarks/cheb_krylov.py roofline [--N 201]
 
 Linear solvers (``--solvers``, each ``NAME[:key=value,...]`` over
-:data:`icidr_pde.native.cheb.KRYLOV`): ``dense`` (the default: CVODE's dense LU of
+:data:`icidr_pde.cells.shear1d.native_cheb.KRYLOV`): ``dense`` (the default: CVODE's dense LU of
 I - gamma J, LAPACK), ``band`` (SPGMR, J v by CVODE's difference quotients, preconditioned by
 the band LU of I - gamma J_lo, J_lo the law's Jacobian with D replaced by low-order differences
 on the CGL points) and ``lagged`` (SPGMR preconditioned by the dense LU of an earlier step).
@@ -78,7 +78,7 @@ def parse_solver(text: str) -> tuple[str, dict]:
 def one(solver: str, case: str, N: int, rtol=None, atol=None) -> dict:
     """One project run (in this process): t*, max|w| at the snapshot times, counts, times."""
     from icidr_pde.api import run
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
 
     linear_solver, options = parse_solver(solver)
     cheb.LINEAR_SOLVER = linear_solver
@@ -241,7 +241,7 @@ def roofline(N: int) -> dict:
     from scipy.linalg import lu_factor, lu_solve
     from scipy.linalg.lapack import dgbtrf, dgbtrs
 
-    from icidr_pde.native.cases import ChebCase
+    from icidr_pde.native_case import ChebCase
 
     case = ChebCase("mui", "shear", N)
     problem = case.problem(linear_solver="krylov", krylov={"preconditioner": "band"})

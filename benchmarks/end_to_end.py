@@ -368,7 +368,7 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native:
         jac_into, y = pde.make_band_jacobian(state), data.ravel()[perm]
         t_jac = _best(lambda: jac_into(y, J))
         if native:  # the native engine's own kernels, timed in C (no Python call around them)
-            from icidr_pde.native import FdProblem
+            from icidr_pde.cells.shear1d.native import FdProblem
 
             problem = FdProblem(c.pde.rheology, spec["N"], float(c.grid.axes_bounds[0][1]))
             t_rhs, t_jac = problem.kernel_times(y)
@@ -386,7 +386,7 @@ def roofline(case: str, n_rhs: int, n_jac: int, n_lu: int | None = None, native:
         y = data.ravel()
         t_jac = _best(lambda: jac(0.0, y), repeats=20)
         if native:
-            from icidr_pde.native.cases import ChebCase
+            from icidr_pde.native_case import ChebCase
 
             t_rhs, t_jac = ChebCase(spec["rheology"], spec["scene"], spec["N"]).problem().kernel_times(y)
             _BEST_CPU[-2:] = [t_rhs, t_jac]

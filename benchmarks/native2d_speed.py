@@ -46,9 +46,9 @@ def rhs_times(n: int) -> dict:
     import numpy as np
 
     from icidr_pde.case import build_case
-    from icidr_pde.native.cases import Fv2dCase
+    from icidr_pde.native_case import Plane2DCase
 
-    native = Fv2dCase("icidr", "bump2d", (n, n))
+    native = Plane2DCase("icidr", "bump2d", (n, n))
     problem = native.problem()
     case = build_case("icidr", "bump2d", "fv2d", (n, n))
     pde = case.pde

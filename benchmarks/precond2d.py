@@ -35,9 +35,9 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg
 
-import icidr_pde.discretizations.cartesian2d_core as cartesian2d_core
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-from icidr_pde.scenes2d import Bump2DScene
+import icidr_pde.cells.plane2d.core as plane2d_core
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+from icidr_pde.cells.plane2d.scenes import Bump2DScene
 
 
 def newton_matrix(n: int, gamma: float, t: float = 0.0):
@@ -52,9 +52,9 @@ def newton_matrix(n: int, gamma: float, t: float = 0.0):
         state = pde.make_state(grid, r.phi[-1], r.u[-1], r.w[-1])
     J = pde.make_jacobian(state)(t, state.data.ravel())
     M = sparse.csc_matrix(sparse.identity(J.shape[0]) - gamma * J)
-    cartesian2d_core.THIN_CELL = 0.0
+    plane2d_core.THIN_CELL = 0.0
     line = pde.line_pattern(state)
-    cartesian2d_core.THIN_CELL = 10.0
+    plane2d_core.THIN_CELL = 10.0
     M_line = sparse.csc_matrix(M.multiply(line))
     return M, M_line
 

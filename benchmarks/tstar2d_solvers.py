@@ -25,7 +25,7 @@ import sys
 import time
 
 import icidr_pde.engines.cvode_counters as cvode_counters
-import icidr_pde.discretizations.cartesian2d_core as cartesian2d_core
+import icidr_pde.cells.plane2d.core as plane2d_core
 import icidr_pde.engines.sundae as integrator
 import sksundae.cvode
 
@@ -89,7 +89,7 @@ def one(name: str, n: int, advection: str, t_end: float) -> dict:
     kwargs, extra = CASES[name]
     _EXTRA.clear()
     _EXTRA.update(extra)
-    cartesian2d_core.THIN_CELL = 0.0 if extra.get("line") else 10.0
+    plane2d_core.THIN_CELL = 0.0 if extra.get("line") else 10.0
     integrator.KRYLOV_EPS_LIN = extra.get("eps_lin", 0.05)  # 'gmres': SUNDIALS' default
     settings = {"rtol": 1e-7, "atol": 1e-10, **kwargs}
     start = time.perf_counter()

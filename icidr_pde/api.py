@@ -179,7 +179,7 @@ def run(
     settings["atol_asked"] = atol is not None
     ask = dict(method=settings["method"], jacobian=jacobian, discretization=settings["discretization"],
                structure=SCHEME_STRUCTURES.get(settings["discretization"], JacobianStructure()), request=engine,
-               backend=backend, max_order=max_order, **_plane_ask(scene, scene_cls, settings["N"], scene_params))
+               backend=backend, max_order=max_order, **_cell_ask(scene, scene_cls, settings["N"], scene_params))
     choice = choose(**ask)
     if choice.warning:
         sys.stderr.write(f"icidr-pde: warning: {choice.warning}\n")
@@ -193,7 +193,7 @@ def run(
     if choice.engine == "native":
         from .discretizations.registry import get_scheme
         from .native import NativeUnavailable
-        from .native.cases import core_class
+        from .native_case import core_class
 
         core = core_class(settings["discretization"])
     case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
@@ -308,7 +308,7 @@ def _native_set_up(case, choice, settings, t_end, backend):
     """(View, rates counted, the bar's note) of the native engine on `case`: its compiled problem
     (:mod:`icidr_pde.native`) behind a Problem (:func:`~icidr_pde.engines.native.native_problem`)."""
     from .engines.native import native_problem
-    from .native.cases import compiled_problem
+    from .native_case import compiled_problem
     from .rheology.base import chi_of_M
 
     compiled = compiled_problem(case)
@@ -369,24 +369,13 @@ def _compile_jacobian(problem) -> None:
         spec.band_jac(y0, np.zeros((y0.size, y0.size)))
 
 
-def _plane_ask(scene, scene_cls, N, scene_params) -> dict:
-    """What :func:`choose` asks of the cell: its dimension and, for the 2-D cell, its grid
-    (:func:`_plane_grid`)."""
-    two_d = isinstance(N, (tuple, list)) or getattr(scene_cls, "dim", 1) != 1
-    return dict(dim=2, **_plane_grid(scene, N, scene_params)) if two_d else dict(dim=1)
+def _cell_ask(scene, scene_cls, N, scene_params) -> dict:
+    """What :func:`choose` asks of the cell of the run: its dimension and its grid (the 2-D cell:
+    cells and whether it is thin; :meth:`~icidr_pde.cells.base.Cell.choice_grid`)."""
+    from .cells import cell_for
 
-
-def _plane_grid(scene, N, scene_params) -> dict:
-    """What :func:`choose` asks of the 2-D grid of `scene` with `N`: its cells and whether it is a
-    thin cell (hx > THIN_CELL hz); nothing where the scene or N is invalid (the case builder says why)."""
-    from .discretizations.cartesian2d_core import grid_shape, thin_cell
-
-    try:
-        scene_obj = scene if isinstance(scene, Scene) else get_scene(scene, **(scene_params or {}))
-        Nx, Nz, L = grid_shape(N, scene_obj.H, L=getattr(scene_obj, "L", None))
-    except (ValueError, TypeError):
-        return {}
-    return dict(cells=Nx * Nz, thin_cell=thin_cell(Nx, Nz, L, scene_obj.H))
+    cell = cell_for(scene_cls, N)
+    return dict(dim=cell.dim, **cell.choice_grid(scene, N, scene_params))
 
 
 def _not_written(result: Result, name: str, path, why: str) -> None:

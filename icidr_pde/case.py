@@ -134,17 +134,11 @@ class Case:
         return int(getattr(self.scheme if self.scheme is not None else self.pde, "dim", 1))
 
     def plane(self, data) -> dict:
-        """The Result's grid along x and per-snapshot measures of the snapshots `data` of a 2-D
-        run; nothing for the 1-D cells."""
-        if self.dim != 2:
-            return {}
-        from .discretizations.cartesian2d_core import measures
+        """What the cell's Result adds for the snapshots `data` (the 2-D cell: its grid along x and
+        per-snapshot measures; the 1-D cell: nothing): the cell's :meth:`~icidr_pde.cells.base.Cell.result_extras`."""
+        from .cells import cell_of
 
-        if self.scheme is not None:
-            s = self.scheme
-            return dict(Nx=s.Nx, L=s.L, measures=[measures(s, None, self.scene, d) for d in data])
-        return dict(Nx=int(self.grid.shape[0]), L=float(self.grid.axes_bounds[0][1]),
-                    measures=[measures(self.pde, self.grid, self.scene, d) for d in data])
+        return cell_of(self.scheme if self.scheme is not None else self.pde).result_extras(self, data)
 
 
 def _law(rheology, material):

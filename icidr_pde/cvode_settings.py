@@ -22,7 +22,7 @@ DENSE_LU_DELTA_GAMMA = 1.0
 #: CVODE's Krylov tolerance factor. SUNDIALS' 0.05 is too loose for an ill-posed law: the inexact
 #: Newton solves delay the grid-scale growth (mu(I) bump2d 128^2: t* 0.11844; eps_lin 5e-4: 0.11709,
 #: 5e-5: 0.11700, 5e-6: 0.11697; docs/scaling.md, benchmarks/tstar2d_solvers.py). Here (numpy only)
-#: for both CVODE engines: scikit-sundae's (:mod:`icidr_pde.engines.sundae`) and the native one (:mod:`icidr_pde.native.fv2d`)
+#: for both CVODE engines: scikit-sundae's (:mod:`icidr_pde.engines.sundae`) and the native one (:mod:`icidr_pde.cells.plane2d.native`)
 KRYLOV_EPS_LIN = 5e-5
 #: the Krylov subspace dimension of CVODE's GMRES on the 2-D cell (both CVODE engines)
 KRYLOV_DIM = 20

@@ -50,8 +50,9 @@ __all__ = ["KernelCacheError", "untrusted", "digest", "version", "sympy_version"
 PREFIX = "icidr_pde_"
 TEMP_PREFIX = ".icidr_pde-"
 PRUNE_AFTER_S = 3600.0  # a file of another version younger than this may still be used by a running process
-_VERSION_SOURCES = {"rheology": (".py",), "native": (".py", ".c", ".h"), "discretizations/templates": (".py",),
-                    ".": ("kernel_cache.py",)}  # folder of the package -> endings of the files read
+#: folder of the package ("*": every folder there, each cell's) -> endings of the files read
+_VERSION_SOURCES = {"rheology": (".py",), "native": (".py", ".c", ".h"), "cells/*": (".c", ".h"),
+                    "cells/*/templates": (".py",), ".": ("kernel_cache.py",)}
 _LOCK = threading.RLock()
 _STATE: dict = {}  # folder, private, listing, version, pruned, numba
 
@@ -89,13 +90,24 @@ def version() -> str:
     if "version" not in _STATE:
         root = os.path.dirname(os.path.abspath(__file__))
         parts = [sys.version, sympy_version()]
-        for sub, endings in _VERSION_SOURCES.items():  # os.listdir: pathlib's glob costs ms of start-up
-            directory = os.path.join(root, sub)
-            for name in sorted(n for n in os.listdir(directory) if n.endswith(endings)):
-                with open(os.path.join(directory, name), "rb") as f:
-                    parts += [f"{sub}/{name}", f.read()]
+        for pattern, endings in _VERSION_SOURCES.items():  # os.listdir: pathlib's glob costs ms of start-up
+            for sub in _folders(root, pattern):
+                directory = os.path.join(root, sub)
+                for name in sorted(n for n in os.listdir(directory) if n.endswith(endings)):
+                    with open(os.path.join(directory, name), "rb") as f:
+                        parts += [f"{sub}/{name}", f.read()]
         _STATE["version"] = digest(*parts)[:12]
     return _STATE["version"]
+
+
+def _folders(root: str, pattern: str) -> list[str]:
+    """The folders of `pattern` under `root`: itself, or with its "*" each folder there (sorted)."""
+    if "*" not in pattern:
+        return [pattern]
+    head, _, tail = pattern.partition("*")
+    parent = os.path.join(root, head)
+    return [head + name + tail for name in sorted(os.listdir(parent))
+            if not name.startswith(("_", ".")) and os.path.isdir(os.path.join(parent, name + tail))]
 
 
 def stem(kind: str, key: str) -> str:

@@ -100,7 +100,7 @@ def plot_result(result: Result, path=None):
 def field_panel(ax, result, k, frame, label, state=None, t=None):
     """Image of w (k = "w") or phi - phi0 of snapshot `frame` of a 2-D run of scene bump2d,
     or of `state` (fields first) at time `t` if given."""
-    from .scenes2d import Bump2DScene
+    from .cells.plane2d.scenes import Bump2DScene
 
     scene = Bump2DScene(**{k_: v for k_, v in result.scene_params.items() if k_ in ("L", "H", "phi0", "eps", "ell")})
     if state is None:

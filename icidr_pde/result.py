@@ -8,6 +8,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .cells import cell_of_result
 from .outputs import write_atomically
 
 __all__ = ["Result", "Fields"]
@@ -128,10 +129,7 @@ class Result:
         }
         if self.not_written:
             out["not_written"] = dict(self.not_written)
-        if self.measures is not None:  # the 2-D cell
-            out.update(Nx=self.Nx, Nz=self.N, L=self.L)
-            for key in ("max_phi_dev", "l2_velocity"):
-                out[key] = {label: m[key] for label, m in zip(self.time_labels, self.measures)}
+        out.update(cell_of_result(self).result_summary(self))  # what the run's cell adds
         return out
 
     def plot(self, path=None):

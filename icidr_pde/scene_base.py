@@ -1,8 +1,9 @@
 """The base of every scene and the registry :data:`SCENES` its named subclasses fill.
 
 A subclass with a ``name`` registers itself in :data:`SCENES`; its dataclass fields are
-its parameters. The scenes themselves live in :mod:`icidr_pde.scenes` (the 1-D cell,
-(3.16) and (5.7)) and :mod:`icidr_pde.scenes2d` (the 2-D cell).
+its parameters. The scenes themselves live in :mod:`icidr_pde.cells.shear1d.scenes` (the 1-D
+cell, (3.16) and (5.7)) and :mod:`icidr_pde.cells.plane2d.scenes` (the 2-D cell), registered by
+:mod:`icidr_pde.scenes`.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The 2-D equations (2.1)-(2.2), with the corrected index form of (2.2) (``div sigma``,
 ``(d_j sigma_ij)``), non-dimensional (3.12) (d = rho_* = V0 = 1), gravity-free, as the 2-D cell
-``fv2d`` integrates them (:mod:`icidr_pde.discretizations.cartesian2d`):
+``fv2d`` integrates them (:mod:`icidr_pde.cells.plane2d.pde`):
 
     phi_t = -d_x(phi u) - d_z(phi w),                                          (2.1)
     u_t   = (d_x sigma_xx + d_z sigma_xz)/phi - u u_x - w u_z,                 (2.2)
@@ -21,7 +21,7 @@ coefficient is typed in here.
 **Base state.** phi0(z), u0(z), w0(z) on 0 <= z <= H (:class:`BaseState`): uniform simple shear
 (:func:`simple_shear`), or the x-average of a 2-D snapshot (:func:`from_snapshot`): the cell-centre
 values with the walls' values of the cell's ghost maps
-(:func:`icidr_pde.discretizations.fd_core.ghost_coefficients`: u = 0 at z = 0, u = V0 at z = H,
+(:func:`icidr_pde.discretizations.core.ghost_coefficients`: u = 0 at z = 0, u = V0 at z = H,
 w = 0 on both, phi of zero gradient), joined by a cubic spline that gives the z-derivatives. The
 base need not be steady: what is linearized is the right-hand side at that instant (the frozen
 base, its own rate dropped).
@@ -64,7 +64,7 @@ import scipy.linalg
 from scipy.interpolate import CubicSpline
 
 from icidr_pde.discretizations.chebyshev import cgl_nodes, diff_matrix
-from icidr_pde.discretizations.fd_core import ghost_coefficients
+from icidr_pde.discretizations.core import ghost_coefficients
 from icidr_pde.rheology import PLANE_FLOW, Rheology, get_rheology
 
 __all__ = ["BaseState", "simple_shear", "from_cells", "from_snapshot", "Linear2D", "growth_rates",
@@ -109,7 +109,7 @@ def simple_shear(phi0: float = 0.78, H: float = 30.0, V0: float = 1.0) -> BaseSt
 
 
 def wall_conditions(V0: float = 1.0) -> dict:
-    """The walls of the 2-D cell from its ghost maps (:func:`~icidr_pde.discretizations.fd_core.ghost_coefficients`):
+    """The walls of the 2-D cell from its ghost maps (:func:`~icidr_pde.discretizations.core.ghost_coefficients`):
     {field: ('value', (value at z = 0, value at z = H)) or ('gradient', None)}. Raises if a map is neither
     Dirichlet (ghost = 2 value - edge) nor zero gradient (ghost = edge): this module would not know it."""
     g = ghost_coefficients(V0)

@@ -12,10 +12,10 @@ import pytest
 from scipy import sparse
 from scipy.sparse import linalg
 
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 from icidr_pde.engines.linear.amg_hierarchy import AmgHierarchy, amg_preconditioner
 from icidr_pde.engines.choose import AMG_SOLVER, SCHEME_STRUCTURES, choose
-from icidr_pde.scenes2d import Bump2DScene
+from icidr_pde.cells.plane2d.scenes import Bump2DScene
 from icidr_pde.validation import ParameterError
 
 #: one worker under pytest-xdist: the AMG kernels (and the 2-D rates they precondition) compile once,
@@ -179,7 +179,7 @@ def test_x_independent_run_reproduces_the_1d_run():
     (scipy BDF, analytic Jacobian: an independent solver) to the integrators' tolerance."""
     from pde.solvers import Controller
 
-    from icidr_pde.discretizations.fd import ShearCellPDE
+    from icidr_pde.cells.shear1d.fd import ShearCellPDE
     from icidr_pde.engines.stiff import StiffSolver
 
     H = 30.0

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from icidr_pde.engines.colored_fd import colored_fd_jacobian
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-from icidr_pde.discretizations.fd import ShearCellPDE
-from icidr_pde.scenes2d import Bump2DScene, Mode2DScene
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+from icidr_pde.cells.shear1d.fd import ShearCellPDE
+from icidr_pde.cells.plane2d.scenes import Bump2DScene, Mode2DScene
 from .oracles import oracle_rhs
 
 #: one worker under pytest-xdist: the 2-D kernels of each law and advection compile once, not on both

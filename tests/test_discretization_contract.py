@@ -186,7 +186,7 @@ def test_nodes_state_strain_rates_and_validity(scheme):
 def test_fd_walls_are_py_pdes_boundary_conditions(V0):
     """The core's ghost maps (3.9) are what py-pde's own boundary setters of the adapter's
     conditions do, and its nodes are py-pde's cell centres."""
-    from icidr_pde.discretizations.fd import ShearCellPDE
+    from icidr_pde.cells.shear1d.fd import ShearCellPDE
 
     from .oracles.fd import setter_ghost_coefficients
 
@@ -211,7 +211,7 @@ def test_registry_is_readable_without_py_pde():
 def test_fd_jacobian_of_the_compiled_kernel_is_the_oracles(advection):
     """The scipy path's sparse fd Jacobian (the compiled band kernel's entries in the block
     ordering) is the chain rule of the independent numpy oracle, to round-off."""
-    from icidr_pde.discretizations.fd import ShearCellPDE
+    from icidr_pde.cells.shear1d.fd import ShearCellPDE
 
     from .oracles.fd import fd_jacobian
 

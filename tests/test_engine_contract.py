@@ -54,7 +54,7 @@ def test_every_registered_engine_implements_the_contract(name):
 def _native_problem():
     from icidr_pde.engines.native import native_problem
     from icidr_pde.native import NativeUnavailable
-    from icidr_pde.native.cases import FdCase
+    from icidr_pde.native_case import FdCase
 
     case = FdCase("icidr", "sine", 21)
     try:

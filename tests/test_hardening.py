@@ -22,7 +22,7 @@ import pytest
 
 from icidr_pde import ShearCellPDE, run
 from icidr_pde import cli
-from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE, cgl_nodes
+from icidr_pde.cells.shear1d.cheb import ChebyshevShearCellPDE, cgl_nodes
 from icidr_pde.rheology import ICIDR, Material, MuIPhiI
 from icidr_pde.scenes import get_scene
 

@@ -280,7 +280,7 @@ def test_native_library_removed_by_a_clear_before_it_is_loaded(own_kernel_cache,
 
     monkeypatch.setattr(build, "_key", lambda *args: f"a law of {tmp_path}")
     monkeypatch.setattr(build, "_compile", compile_then_cleared)
-    monkeypatch.setattr(build, "_declare", lambda lib: None)
+    monkeypatch.setattr(build, "_declare", lambda lib, kinematics: None)
     assert build.library(None, None) is not None
     assert len(compiled) == 2
 
@@ -368,10 +368,10 @@ def test_memory_refusal_comes_before_the_state_is_allocated(monkeypatch):
     import tracemalloc
 
     from icidr_pde import run
-    from icidr_pde.discretizations.grid_size import FV2D
+    from icidr_pde.discretizations.grid_size import PLANE2D
 
     n = 512
-    least, _ = FV2D.least(n * n)
+    least, _ = PLANE2D.least(n * n)
     monkeypatch.setenv(MEMORY_ENV, f"{2.1 * least:.0f}")
     with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 512 x 512 with method 'CVODE'"):
         run("icidr", "bump2d", (n, n), 1e-3)  # kernels compiled and modules imported: not counted below
@@ -435,11 +435,11 @@ def test_thin_cell_run_counts_its_line_preconditioner(monkeypatch):
     256 x 32: with memory for the scheme's estimate and half of the preconditioner's, the run is
     refused before it starts, naming the preconditioner."""
     from icidr_pde import run
-    from icidr_pde.discretizations.grid_size import FV2D
+    from icidr_pde.discretizations.grid_size import PLANE2D
     from icidr_pde.engines.linear.line import LineGmres
 
     nx, nz, H = 256, 32, 30.0
-    scheme, _ = FV2D.estimate(nx * nz)
+    scheme, _ = PLANE2D.estimate(nx * nz)
     line = LineGmres().memory(3 * nx * nz, "CVODE", "krylov", thin=True).bytes
     monkeypatch.setenv(MEMORY_ENV, f"{2 * (scheme + line / 2):.0f}")
     with pytest.raises(ParameterError, match=r"`Nx` x `Nz` = 256 x 32 with method 'CVODE', Jacobian 'krylov' "

@@ -232,7 +232,7 @@ def is_run_path(module):
     return under(module, "icidr_pde.api", "icidr_pde.case", "icidr_pde.engines", "icidr_pde.native",
                  "icidr_pde.result", "icidr_pde.validation", "icidr_pde.times", "icidr_pde.presets",
                  "icidr_pde.outputs", "icidr_pde.snapshots", "icidr_pde.progress", "icidr_pde.schedule",
-                 "icidr_pde.drive", "icidr_pde.recorders")
+                 "icidr_pde.drive", "icidr_pde.recorders", "icidr_pde.native_case")
 
 
 def is_engine(module):
@@ -241,14 +241,14 @@ def is_engine(module):
 
 def is_case(module):
     """What builds a case: the case and its scenes."""
-    return under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base")
+    return under(module, "icidr_pde.case", "icidr_pde.native_case", "icidr_pde.scenes", "icidr_pde.scene_base")
 
 
 def is_case_or_screen(module):
     """What an engine must not know: schemes, the DEM, studies, cases, scenes, the run's schedule
     and Result, screens."""
     return (is_scheme(module) or is_dem(module) or is_study(module) or is_interface(module)
-            or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scenes2d", "icidr_pde.scene_base",
+            or under(module, "icidr_pde.case", "icidr_pde.scenes", "icidr_pde.scene_base",
                      "icidr_pde.times", "icidr_pde.presets", "icidr_pde.progress", "icidr_pde.result",
                      "icidr_pde.snapshots", "icidr_pde.api", "icidr_pde.schedule", "icidr_pde.drive",
                      "icidr_pde.recorders"))
@@ -274,9 +274,6 @@ KNOWN = {
     ("icidr_pde.result", "icidr_pde.plotting"):
         "Result.plot() draws a finished run with the figure of run --plot, imported when it is "
         "called (no run calls it, a run loads no figure); kept",
-    ("icidr_pde.native.cases", "icidr_pde.case"):
-        "native_case builds the run's case beside the compiled problem: the case is the run path's, "
-        "the compiled problem is to be given the cell's core",
 }
 
 

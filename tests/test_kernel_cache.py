@@ -44,7 +44,7 @@ def test_parameter_values_are_arguments_not_compiled_in():
 CHILD_2D = r"""
 import json, sys
 import numpy as np
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 pde = ShearCell2DPDE("icidr")
 grid = pde.make_grid((int(sys.argv[1]), 8), 30.0)
 state = pde.make_state(grid, 0.78, 0.5, 0.0)

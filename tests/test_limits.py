@@ -262,7 +262,7 @@ def test_square_2d_cell_keeps_the_unpreconditioned_krylov_solves():
     """Where the cell is not thin, GMRES alone is the faster path (1.75 s against 5.3 s at 64^2):
     no preconditioner, so its numbers are those it always gave."""
     from icidr_pde.case import build_case
-    from icidr_pde.discretizations.cartesian2d import THIN_CELL
+    from icidr_pde.cells.plane2d.pde import THIN_CELL
 
     square = build_case("icidr", "bump2d", "fv2d", (32, 32))
     assert square.pde.line_pattern(square.state) is None

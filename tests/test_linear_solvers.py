@@ -546,8 +546,8 @@ def test_the_engine_sets_a_preconditioner_up(toy):
     x-independent 2-D state follows the 1-D cell (as tests/test_amg.py checks the AMG path)."""
     from pde.solvers import Controller
 
-    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-    from icidr_pde.discretizations.fd import ShearCellPDE
+    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+    from icidr_pde.cells.shear1d.fd import ShearCellPDE
     from icidr_pde.engines.stiff import StiffSolver
 
     H = 30.0

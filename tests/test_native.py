@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from icidr_pde import catalog
-from icidr_pde.native import FdProblem, NativeUnavailable
-from icidr_pde.native.cases import FdCase
+from icidr_pde.cells.shear1d.native import FdProblem
+from icidr_pde.native import NativeUnavailable
+from icidr_pde.native_case import FdCase
 
 try:
     FdProblem(FdCase("icidr", "shear", 9).rheology, 9, 30.0)

@@ -1,4 +1,4 @@
-"""The 2-D cell (fv2d) on the native engine (icidr_pde.native.fv2d).
+"""The 2-D cell (fv2d) on the native engine (icidr_pde.cells.plane2d.native).
 
 Independent truths: the numba kernel of the same template (the C is printed from it), the
 py-pde path's CVODE + GMRES run (solver B: scikit-sundae, Python rates), the 1-D native fd run
@@ -17,8 +17,8 @@ import pytest
 
 from icidr_pde import run
 from icidr_pde.engines.choose import FOURIER_SOLVER, NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, choose
-from icidr_pde.scenes2d import Bump2DScene, Scene2D
-from icidr_pde.native.cases import Fv2dCase
+from icidr_pde.cells.plane2d.scenes import Bump2DScene, Scene2D
+from icidr_pde.native_case import Plane2DCase
 
 HEAVY = ("pde", "numba", "scipy", "sympy", "sksundae", "matplotlib")
 #: CVODE's tolerances of the comparisons (the tests' usual 2-D setting)
@@ -36,7 +36,7 @@ def _perturbed(case, seed=1):
 def test_c_rates_are_the_numba_kernels(rheology, advection):
     from icidr_pde.case import build_case
 
-    native = Fv2dCase(rheology, "bump2d", (16, 24), advection=advection)
+    native = Plane2DCase(rheology, "bump2d", (16, 24), advection=advection)
     pde_case = build_case(rheology, "bump2d", "fv2d", (16, 24), options={"advection": advection})
     assert np.array_equal(native.y0, pde_case.state.data.ravel())  # the same cells and initial data
     numba_rates = pde_case.pde.make_rates(pde_case.state)
@@ -49,7 +49,7 @@ def test_walls_are_py_pdes_boundary_setters():
     from icidr_pde.case import build_case
 
     pde_case = build_case("icidr", "bump2d", "fv2d", (8, 6))
-    assert np.array_equal(Fv2dCase("icidr", "bump2d", (8, 6)).scheme.ghost,
+    assert np.array_equal(Plane2DCase("icidr", "bump2d", (8, 6)).scheme.ghost,
                           pde_case.pde.ghost_coefficients(pde_case.grid))
 
 
@@ -100,12 +100,12 @@ def test_x_uniform_data_give_the_1d_native_run(rheology):
 def test_native_gmres_runs_at_the_tight_krylov_tolerance():
     """eps_lin = KRYLOV_EPS_LIN (the py-pde path's), not SUNDIALS' 0.05: more products J v (one RHS each)."""
     from icidr_pde.engines.base import KRYLOV_EPS_LIN
-    from icidr_pde.native.fv2d import Fv2dProblem
+    from icidr_pde.cells.plane2d.native import Plane2DProblem
 
-    case, rhs = Fv2dCase("mui", "bump2d", (16, 16)), {}
+    case, rhs = Plane2DCase("mui", "bump2d", (16, 16)), {}
     for eps_lin in (None, 0.05):
         c = case.scheme
-        problem = Fv2dProblem(case.rheology, c.Nx, c.Nz, c.hx, c.hz, eps_lin=eps_lin)
+        problem = Plane2DProblem(case.rheology, c.Nx, c.Nz, c.hx, c.hz, eps_lin=eps_lin)
         problem.start(case.y0, rtol=1e-7, atol=1e-10)
         done, status, _ = problem.advance(np.array([0.5]), np.array([-1]), np.empty(1), np.empty((1, case.y0.size)))
         assert (done, status) == (1, 0)

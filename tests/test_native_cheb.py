@@ -1,4 +1,4 @@
-"""The native engine's Chebyshev collocation (icidr_pde.native.cheb).
+"""The native engine's Chebyshev collocation (icidr_pde.cells.shear1d.native_cheb).
 
 Against independent truth: a fourth-order difference of the native right-hand side for
 its Jacobian (the C is printed from the numba template, tests/test_translate.py, whose
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import NativeUnavailable
-from icidr_pde.native.cases import ChebCase
-from icidr_pde.native.cheb import DENSE_LU_DELTA_GAMMA, ChebProblem
+from icidr_pde.cells.shear1d.native_cheb import DENSE_LU_DELTA_GAMMA, ChebProblem
+from icidr_pde.native_case import ChebCase
 
 try:
     ChebCase("icidr", "shear", 9).problem()
@@ -45,10 +45,10 @@ def perturbed(case, seed, amplitude=0.05):
 
 
 def test_settings_are_the_py_pde_paths():
-    from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE
+    from icidr_pde.cells.shear1d.cheb import ChebyshevShearCellPDE
     from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
     from icidr_pde.engines.sundae import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
 
     assert DENSE_LU_DELTA_GAMMA == pde_delta_gamma
     assert cheb.MAX_N == ChebyshevShearCellPDE.max_N
@@ -83,7 +83,7 @@ def test_tstar_is_the_converged_one_and_the_py_pde_paths(monkeypatch):
     steps) agrees to the tolerance; the run fails in CVODE's error test at h_min, not at phi's
     range. (The default Krylov path: tests/test_native_cheb_krylov.py.)"""
     from icidr_pde.api import run
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
     from icidr_pde.studies.references import reference_tstar
 
     monkeypatch.setattr(cheb, "LINEAR_SOLVER", "dense")
@@ -117,7 +117,7 @@ def test_sine_reaches_the_reference(linear_solver, monkeypatch):
     for D(phi w), so the discrete mass cannot change but by rounding; the Krylov path's GMRES
     residual would carry mass into every Newton update (3.5e-13 here, 3.4e-10 at N = 17) but
     for the projection of each step onto the initial mass)."""
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
     from icidr_pde.studies.references import reference
 
     monkeypatch.setattr(cheb, "LINEAR_SOLVER", linear_solver)
@@ -135,11 +135,11 @@ def test_sine_reaches_the_reference(linear_solver, monkeypatch):
 
 
 def test_sundials_own_dense_lu_integrates_the_same_problem(monkeypatch):
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
 
     monkeypatch.setattr(cheb, "LINEAR_SOLVER", "dense")
     a = run_native("mui", "shear", 65, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)
-    from icidr_pde.native import cheb
+    from icidr_pde.cells.shear1d import native_cheb as cheb
 
     saved, cheb.DENSE_SOLVER = cheb.DENSE_SOLVER, "sundials"
     try:
@@ -196,7 +196,8 @@ def test_without_lapack_the_plain_loops_compute_the_same(monkeypatch):
     SUNDIALS' own dense LU and plain C loops for the products with D: the same rates and
     Jacobian as the numba/numpy kernels, the same t* as the LAPACK build to the tolerance."""
     from icidr_pde.case import build_case
-    from icidr_pde.native import build, cheb
+    from icidr_pde.native import build
+    from icidr_pde.cells.shear1d import native_cheb as cheb
 
     monkeypatch.setattr(cheb, "LINEAR_SOLVER", "dense")
     lapack_run = run_native("mui", "shear", 101, 1.0, discretization="cheb", method="CVODE", rtol=1e-7, atol=1e-10)

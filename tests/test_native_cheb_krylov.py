@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import NativeUnavailable
-from icidr_pde.native import cheb
-from icidr_pde.native.cases import ChebCase
-from icidr_pde.native.cheb import ChebProblem
+from icidr_pde.cells.shear1d import native_cheb as cheb
+from icidr_pde.cells.shear1d.native_cheb import ChebProblem
+from icidr_pde.native_case import ChebCase
 
 from .test_native_cheb import run_native
 

@@ -344,7 +344,7 @@ def test_native_interrupt_keeps_the_outputs_cvode_returned(monkeypatch):
     reported 'interrupted at t = 0' and dropped the states the driver had written."""
     from icidr_pde.api import run
     from icidr_pde.native import NativeProblem, NativeUnavailable
-    from icidr_pde.native.cases import FdCase
+    from icidr_pde.native_case import FdCase
 
     try:
         FdCase("icidr", "shear", 9).problem()

@@ -59,6 +59,8 @@ def test_non_editable_install_finds_the_data_outside_the_repository(tmp_path):
             "assert 'fit' in json.loads(committed('steady.json').read_text())\n"
             "import icidr_pde.native.build as b\n"  # the native engine's C sources are package data
             "assert b._template() and b._text('cvode_driver.c') and b._text('sundials_api.h')\n"
+            "from icidr_pde.cells import cells\n"  # and each cell's compiled problems
+            "assert b._text('problem.h') and all(c.problem_source() for c in cells().values())\n"
             "print('ok')\n")
     env = {**os.environ, "PYTHONPATH": str(site)}
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)

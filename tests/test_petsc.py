@@ -188,11 +188,11 @@ def test_serial_runs_say_one_rank():
 def _bump2d_block_grid(rheology, advection, shape, proc_sizes=None):
     """(BlockGrid of bump2d's patches on COMM_WORLD, the scheme, its state perturbed so that
     every upwind branch is taken)."""
-    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
     from icidr_pde.engines.petsc import BlockGrid, _petsc
 
     PETSc = _petsc()
-    from icidr_pde.scenes2d import Bump2DScene
+    from icidr_pde.cells.plane2d.scenes import Bump2DScene
 
     pde = ShearCell2DPDE(rheology, advection=advection)
     scene = Bump2DScene()

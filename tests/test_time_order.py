@@ -217,7 +217,7 @@ def test_native_engine_takes_the_order():
 
 def test_pypde_solve_warns_as_run_does():
     """py-pde's solve() on the 2-D cell with scipy's BDF (orders up to 5, no cap) warns as run() does."""
-    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 
     pde = ShearCell2DPDE("icidr")
     state = pde.make_state(pde.make_grid((8, 8), 30.0), 0.78, lambda x, z: z / 30, 0.0)

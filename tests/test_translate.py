@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from icidr_pde.native import NativeUnavailable
-from icidr_pde.native.cases import ChebCase, FdCase
+from icidr_pde.native_case import ChebCase, FdCase
 from icidr_pde.native.translate import translate
 
 #: one worker under pytest-xdist: each law's numba kernels, the reference of the C text, compile once,

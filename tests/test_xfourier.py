@@ -15,10 +15,10 @@ import pytest
 from scipy import sparse
 from scipy.sparse import linalg
 
-from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
+from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 from icidr_pde.engines.choose import FOURIER_SOLVER, SCHEME_STRUCTURES, choose
 from icidr_pde.engines.linear.xfourier_inverse import XFourierPreconditioner
-from icidr_pde.scenes2d import Bump2DScene
+from icidr_pde.cells.plane2d.scenes import Bump2DScene
 from icidr_pde.validation import ParameterError
 
 #: one worker under pytest-xdist: the preconditioner's kernels compile once, not on both workers at once

@@ -1,6 +1,6 @@
 """Chebyshev-Gauss-Lobatto operators on [0, H] (Trefethen 2000, *Spectral Methods in MATLAB*).
 
-numpy only (no py-pde): the collocation scheme :mod:`icidr_pde.discretizations.cheb` and the
+numpy only (no py-pde): the collocation scheme :mod:`icidr_pde.cells.shear1d.cheb` and the
 native engine (:mod:`icidr_pde.native`) take their points, differentiation matrix and
 quadrature weights from here, so both discretize with the same numbers.
 """

@@ -25,7 +25,16 @@ from ..validation import real
 from .grid_size import check_N
 from .registry import SCHEMES, check_options
 
-__all__ = ["Scheme1D", "PhiRange"]
+__all__ = ["Scheme1D", "PhiRange", "ghost_coefficients"]
+
+
+def ghost_coefficients(V0: float = 1.0) -> np.ndarray:
+    """(3, 2, 2) ghost-cell maps of the walls (3.9): the ghost value of field k at side s
+    (0: z = 0, 1: z = H) is ``c[k, s, 0] * edge + c[k, s, 1]``. phi zero gradient (ghost =
+    edge), u = 0 and V0 and w = 0 as Dirichlet values on the wall (ghost = 2 value - edge)."""
+    return np.array([[[1.0, 0.0], [1.0, 0.0]],
+                     [[-1.0, 0.0], [-1.0, 2.0 * V0]],
+                     [[-1.0, 0.0], [-1.0, 0.0]]])
 
 
 class PhiRange:
@@ -149,4 +158,5 @@ class Scheme1D(PhiRange):
         """The source of the scheme's kernels, ``templates/<name>.py``."""
         import importlib.resources
 
-        return importlib.resources.files(__package__).joinpath("templates", f"{cls.name}.py").read_text()
+        cell = cls.__module__.rpartition(".")[0]  # the package of the core: its cell's folder
+        return importlib.resources.files(cell).joinpath("templates", f"{cls.name}.py").read_text()

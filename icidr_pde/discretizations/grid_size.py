@@ -3,7 +3,7 @@
 One table for every run path, importing no py-pde: the discretizations
 (:meth:`icidr_pde.discretizations.base.ShearCellBase.check_N`, the 2-D scheme's
 ``make_grid``) and the native engine (:class:`icidr_pde.native.NativeCase`) check the grid
-with :func:`check_N` / :func:`check_cells` against the least a run of the scheme needs (the
+with :func:`check_N` / :func:`check_size` against the least a run of the scheme needs (the
 estimate of its cheapest linear solver, :meth:`GridLimit.least`); the stiff solver adds what its
 linear solver allocates (the solver's own ``memory``, :class:`icidr_pde.engines.linear.Memory`,
 checked by :func:`check_path` before the integration starts), the native Chebyshev problem checks the estimate of its linear solver
@@ -37,7 +37,7 @@ from typing import Callable
 
 from ..validation import ParameterError, format_bytes, integer, memory_bytes
 
-__all__ = ["GridLimit", "FD", "CHEB", "FV2D", "check_N", "check_cells", "check_path", "check_memory"]
+__all__ = ["GridLimit", "FD", "CHEB", "PLANE2D", "check_N", "check_size", "check_path", "check_memory"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ def _cheb_krylov_bytes(N: int) -> float:
     return 8.0 * (2 * N**2 + 3 * N * (11 + 16 + 35))
 
 
-def _fv2d_bytes(cells: int) -> float:
+def _plane2d_bytes(cells: int) -> float:
     return 2500.0 * cells  # measured, see the module docstring
 
 
@@ -92,15 +92,15 @@ def _fv2d_bytes(cells: int) -> float:
 FD = GridLimit(100_000, "banded Jacobian and work vectors", _fd_bytes)
 #: Chebyshev: the dense 3N x 3N Jacobian and its LU, ~3.7 GB at N = 4001 (the dense LU of the py-pde
 #: path and of the native engine's ``linear_solver="dense"``); the native engine's Newton-Krylov path
-#: with the band preconditioner (:data:`icidr_pde.native.cheb.KRYLOV`, its default) stores no dense
+#: with the band preconditioner (:data:`icidr_pde.cells.shear1d.native_cheb.KRYLOV`, its default) stores no dense
 #: 3N x 3N array: ~0.26 GB at N = 4001
 CHEB = GridLimit(4001, "dense 3N x 3N Jacobian, its LU and the N x N differentiation matrix", _cheb_bytes,
                  paths=(("krylov", "the N x N differentiation matrix, the band preconditioner and its LU, "
                          "CVODE's and GMRES's vectors", _cheb_krylov_bytes),))
 #: 2-D finite volumes, per cell of the Nx x Nz grid; at most 3 Nx Nz < 2^31 unknowns (the 32-bit
 #: indices of the sparse Jacobian)
-FV2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5 kB a cell, measured",
-                 _fv2d_bytes)
+PLANE2D = GridLimit((2**31 - 1) // 3, "state, CVODE's history and Krylov basis: 2.5 kB a cell, measured",
+                 _plane2d_bytes)
 
 
 def _memory_text(need: float, note: str, have: int | None) -> str:
@@ -117,7 +117,10 @@ def check_memory(subject: str, need: float, note: str, hint: str = "") -> None:
     raise ParameterError(f"{subject} {_memory_text(need, note, have)} and a run may take half of it{hint}")
 
 
-def _check_size(subject: str, size: int, limit: GridLimit, unit: str) -> None:
+def check_size(subject: str, size: int, limit: GridLimit, unit: str = "") -> None:
+    """Refuse a grid of `size` (N, or cells with `unit` " cells") beyond `limit.max_N` or whose least
+    memory estimate does not fit into half the memory available; `subject` names the grid, e.g.
+    "`N` = 20000 is too large for discretization 'fd'"."""
     need, note = limit.least(size)
     if size > limit.max_N:
         raise ParameterError(f"{subject}: the maximum is {limit.max_N}{unit}, and it "
@@ -128,14 +131,8 @@ def _check_size(subject: str, size: int, limit: GridLimit, unit: str) -> None:
 def check_N(scheme: str, N, limit: GridLimit) -> int:
     """N as an int in [4, limit.max_N] whose least memory estimate fits into half the memory available."""
     N = integer("N", N, 4)
-    _check_size(f"`N` = {N} is too large for discretization {scheme!r}", N, limit, "")
+    check_size(f"`N` = {N} is too large for discretization {scheme!r}", N, limit)
     return N
-
-
-def check_cells(scheme: str, Nx: int, Nz: int, limit: GridLimit) -> None:
-    """Refuse an Nx x Nz grid beyond `limit.max_N` cells or half the memory available."""
-    _check_size(f"`Nx` x `Nz` = {Nx} x {Nz} = {Nx * Nz} cells is too large for discretization {scheme!r}",
-                Nx * Nz, limit, " cells")
 
 
 def check_path(what: str, scheme_bytes: float, method: str, memory, scheme_note: str = "") -> None:

@@ -13,7 +13,7 @@ import importlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from .grid_size import CHEB, FD, FV2D, GridLimit
+from .grid_size import CHEB, FD, PLANE2D, GridLimit
 
 __all__ = ["Scheme", "SCHEMES", "DISCRETIZATIONS", "ADVECTION_SCHEMES", "ADVECTION_SCHEMES_2D", "get_discretization",
            "get_scheme", "option_choices", "PYPDE_SOLVERS", "pypde_solver"]
@@ -55,10 +55,12 @@ class Scheme:
 
 
 SCHEMES: dict[str, Scheme] = {s.name: s for s in (
-    Scheme("fv2d", "finite volumes, 2-D", 2, 64, FV2D, ".cartesian2d:ShearCell2DPDE",
+    Scheme("fv2d", "finite volumes, 2-D", 2, 64, PLANE2D, "..cells.plane2d.pde:ShearCell2DPDE",
            options={"advection": ADVECTION_SCHEMES_2D}),
-    Scheme("cheb", "Chebyshev", 1, 65, CHEB, ".cheb:ChebyshevShearCellPDE", ".cheb_core:Collocation"),
-    Scheme("fd", "finite volumes", 1, 201, FD, ".fd:ShearCellPDE", ".fd_core:FiniteVolumes",
+    Scheme("cheb", "Chebyshev", 1, 65, CHEB, "..cells.shear1d.cheb:ChebyshevShearCellPDE",
+           "..cells.shear1d.cheb_core:Collocation"),
+    Scheme("fd", "finite volumes", 1, 201, FD, "..cells.shear1d.fd:ShearCellPDE",
+           "..cells.shear1d.fd_core:FiniteVolumes",
            options={"advection": ADVECTION_SCHEMES}),
 )}
 

@@ -106,7 +106,7 @@ class Problem:
             of phi in the engine vector), for an engine's root finding; None: no bounds
         margins_into: margins_into(y, out), the same into `out`; None: the engine wraps `margins`
         patches: the right-hand side on blocks of a structured grid with one ghost layer
-            (:class:`~icidr_pde.discretizations.cartesian2d.Patches`), for an engine that
+            (:class:`~icidr_pde.cells.plane2d.pde.Patches`), for an engine that
             distributes the grid (PETSc's DMDA); None: the scheme offers none or the engine's
             ordering is permuted
         compiled: the compiled problem (:class:`icidr_pde.native.NativeProblem`: rates, Jacobian,

@@ -70,7 +70,7 @@ class JacobianStructure:
 
 
 #: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
-#: solver there (the engine names the one its problem set up: icidr_pde.native.cheb.LINEAR_SOLVER)
+#: solver there (the engine names the one its problem set up: icidr_pde.cells.shear1d.native_cheb.LINEAR_SOLVER)
 NATIVE_SCHEMES = {"fd": CvodeBandLU(), "cheb": CompiledGmres("band"), "fv2d": CompiledGmres()}
 #: the largest grid (cells) on which 'auto' takes the native engine for fv2d (unpreconditioned GMRES
 #: in C, no py-pde or numba to import) rather than the py-pde path's default, GMRES with the

@@ -3,7 +3,7 @@ Newton on the analytic sparse Jacobian, KSP GMRES preconditioned by block Jacobi
 on one rank or many (``mpiexec -n P``).
 
 Distribution: where the problem brings its scheme on patches (``Problem.patches``, the 2-D
-cell's :class:`~icidr_pde.discretizations.cartesian2d.Patches`), the grid is a DMDA (x
+cell's :class:`~icidr_pde.cells.plane2d.pde.Patches`), the grid is a DMDA (x
 periodic, z ghosted beyond the walls, the three fields interleaved, a box stencil of width 1)
 and each rank owns a block of cells: for each right-hand side it receives one ghost layer from
 its neighbours (``globalToLocal``) and evaluates the patch kernel on its own cells; each
@@ -418,7 +418,7 @@ def _reason_name(PETSc, reason) -> str:
 
 
 class BlockGrid:
-    """The 2-D grid of a problem's :class:`~icidr_pde.discretizations.cartesian2d.Patches` as a
+    """The 2-D grid of a problem's :class:`~icidr_pde.cells.plane2d.pde.Patches` as a
     PETSc DMDA: x periodic, z bounded with ghost rows beyond the walls (DM_BOUNDARY_GHOSTED,
     filled by the scheme from its wall conditions), the `dof` fields interleaved, a box stencil
     of the scheme's width. Each rank owns a block of cells; its right-hand side is the patch

@@ -98,7 +98,7 @@ class StiffSolver(SolverBase):
     def _choose(self, state) -> Choice:
         if self.choice is None:
             thin = getattr(self.pde, "line_pattern", lambda state: None)(state) is not None
-            cells = int(np.prod(state.data.shape[1:])) if state.data.ndim > 2 else None  # fields first
+            cells = int(np.prod(state.data.shape[1:]))  # fields first: the grid's points or cells
             self.choice = choose(method=self.method, jacobian=self._asked, request="pde",
                                  structure=JacobianStructure.of(self.pde, state), thin_cell=thin, cells=cells)
             if self.choice.warning:  # as run() says it: py-pde's solve() is the other way in
@@ -156,7 +156,7 @@ def check_memory(pde, grid, method: str, choice: Choice) -> None:
     if limit is None:
         return
     shape = tuple(grid.shape)
-    what = f"`N` = {shape[0]}" if len(shape) == 1 else "`Nx` x `Nz` = " + " x ".join(map(str, shape))
+    what = pde.cell.grid_words(shape)  # the scheme's cell names its grid
     thin = bool(getattr(pde, "is_thin", None) and pde.is_thin(grid))
     unknowns = len(pde.fields) * int(np.prod(shape))  # the size of the state on this grid
     memory = _solver(choice).memory(unknowns, method, choice.jacobian, thin)

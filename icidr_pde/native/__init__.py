@@ -1,27 +1,25 @@
-"""The native engine's compiled problems: the 1-D shear cell as C for SUNDIALS CVODE.
+"""The native engine's compiled problems: a cell's scheme as C for SUNDIALS CVODE.
 
-``run(..., discretization="fd", method="CVODE")`` takes the native engine
+``run(..., method="CVODE")`` on a scheme with a compiled problem takes the native engine
 (:class:`icidr_pde.engines.native.NativeEngine`, chosen by :func:`icidr_pde.engines.choose.choose`)
 over the problem built here: same scheme, same CVODE settings, with no Python in the loop:
 the law printed as C from its sympy definition (:mod:`icidr_pde.rheology.ccode`), the
-finite-volume right-hand side and analytic band Jacobian in C, printed from the numba
-template ``discretizations/templates/fd.py`` by :mod:`.translate` (the scheme's one source),
-and a C driver that
-calls CVODE (``cvode_driver.c``), compiled once per installation (:mod:`.build`). A warm
-run imports neither py-pde, numba, scipy, sympy nor scikit-sundae: only numpy, ctypes and
-the light parts of the package (rheology classes, scenes, presets, Result).
+scheme's right-hand side (and Jacobian) in C, printed from its numba template by
+:mod:`.translate` (the scheme's one source), the cell's problem (its folder's ``problem.c``:
+its linear solver) and a C driver that calls CVODE on any problem (``problem.h``,
+``cvode_driver.c``), compiled once per installation and cell (:mod:`.build`). A warm run
+imports neither py-pde, numba, scipy, sympy nor scikit-sundae: only numpy, ctypes and the
+light parts of the package (rheology classes, scenes, presets, Result).
 
-Chebyshev collocation (``discretization="cheb"``) runs the same way (:mod:`.cheb`):
-the C printed from ``templates/cheb.py`` (the right-hand side and the dense Jacobian), with
-the py-pde path's points, differentiation matrix and walls (:mod:`icidr_pde.discretizations.chebyshev`), and
-CVODE's dense LU (LAPACK's where scikit-sundae ships it) kept as the py-pde path keeps it.
+:class:`NativeProblem` is what every compiled problem shares; each cell binds its own in its
+folder (:mod:`icidr_pde.cells`): the 1-D cell's finite volumes and Chebyshev collocation
+(:mod:`icidr_pde.cells.shear1d.native`, :mod:`icidr_pde.cells.shear1d.native_cheb`), the 2-D
+cell's finite volumes (:mod:`icidr_pde.cells.plane2d.native`).
 
-The walls are the ghost-cell maps of :meth:`ShearCellPDE.ghost_coefficients` (a test
-compares them with py-pde's boundary setters); the grid is py-pde's cell-centred
-``CartesianGrid([[0, H]], N)``. Failure handling is the stiff solver's: a run that leaves
-(lo, hi) of phi (CVODE's root function, exact crossing), fails in CVODE (the minimum step,
-repeated error-test or Newton failures) or reaches an invalid state returns what it
-recorded, the time reached and the reason; Ctrl-C ends it at the last output reached.
+Failure handling is the stiff solver's: a run that leaves (lo, hi) of phi (CVODE's root
+function, exact crossing), fails in CVODE (the minimum step, repeated error-test or Newton
+failures) or reaches an invalid state returns what it recorded, the time reached and the
+reason; Ctrl-C ends it at the last output reached.
 
 Building the library raises :class:`NativeUnavailable` where gcc, the SUNDIALS libraries or a C
 form of the law are missing.
@@ -33,15 +31,11 @@ import ctypes
 
 import numpy as np
 
-from ..discretizations.fd_core import ghost_coefficients
-from ..discretizations.grid_size import FD
 from ..cvode_settings import BDF_MAX_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
-__all__ = ["NativeUnavailable", "NativeProblem", "FdProblem", "ghost_coefficients", "MAX_N"]
-
-MAX_N = FD.max_N
+__all__ = ["NativeUnavailable", "NativeProblem"]
 
 
 def _pointer(array):
@@ -49,7 +43,8 @@ def _pointer(array):
 
 
 class NativeProblem:
-    """What the compiled problems share (:class:`FdProblem`, :class:`~.cheb.ChebProblem`): the
+    """What the compiled problems of every cell share (their bindings are in the cells' folders,
+    e.g. :class:`icidr_pde.cells.shear1d.native.FdProblem`): the
     library of `rheology`, its parameters and the valid range (lo, hi) of phi (`bounds`,
     default the law's), the right-hand side, the time scale, the kernels' timings, M(phi) and
     CVODE on the problem's handle. A subclass allocates the handle (:meth:`_attach`)."""
@@ -59,11 +54,11 @@ class NativeProblem:
     #: right-hand sides evaluated outside CVODE (the time scale of :meth:`start`)
     _own_rhs = 0
 
-    def _open(self, rheology, bounds):
-        from ..rheology import SHEAR_CELL
+    def _open(self, rheology, bounds, kinematics):
+        """The library of `rheology` in `kinematics` (its cell's), its parameters and (lo, hi) of phi."""
         from .build import library
 
-        self.lib = library(rheology, SHEAR_CELL)
+        self.lib = library(rheology, kinematics)
         self._params = np.array(rheology.material.params, dtype=float)
         lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
         self.bounds = (lo, hi)
@@ -150,33 +145,3 @@ class NativeProblem:
         out[1] += self._own_rhs
         return dict(zip(("steps", "rhs", "jac", "lu", "error_test_failures", "newton_iterations",
                          "newton_failures"), map(int, out)))
-
-
-class FdProblem(NativeProblem):
-    """The compiled finite-volume problem of `rheology` on N cells of height H (interleaved
-    vector y[3 i + k]): right-hand side, band Jacobian, M(phi), and CVODE; valid while
-    lo < phi < hi, `bounds` (default: the law's range of phi).
-
-    The band is ``jb[col, row - col + 5]`` (11 entries a column, :meth:`jacobian_band`);
-    :meth:`jacobian_dense` spreads it into the (3N, 3N) matrix."""
-
-    def __init__(self, rheology, N: int, H: float, *, advection: str = "upwind", V0: float = 1.0, bounds=None):
-        params, lo, hi = self._open(rheology, bounds)
-        self.N, self.H, self.h = int(N), float(H), float(H) / int(N)
-        self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
-        self._attach(self.lib.icidr_fd_problem(self.N, self.h, int(advection == "upwind"), _pointer(self.ghost),
-                                               _pointer(params), params.size, lo, hi))
-
-    def jacobian_band(self, y) -> np.ndarray:
-        y = np.ascontiguousarray(y, dtype=float)
-        jb = np.empty((3 * self.N, 11))
-        self.lib.icidr_fd_jacobian(self.handle, _pointer(y), _pointer(jb))
-        return jb
-
-    def jacobian_dense(self, y) -> np.ndarray:
-        jb, n = self.jacobian_band(y), 3 * self.N
-        J = np.zeros((n, n))
-        for offset in range(-5, 6):
-            cols = np.arange(max(0, -offset), min(n, n - offset))
-            J[cols + offset, cols] = jb[cols, offset + 5]
-        return J

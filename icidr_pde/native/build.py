@@ -2,9 +2,11 @@
 
 The C text of a library is the law printed by :mod:`icidr_pde.rheology.ccode`, the
 finite-volume and Chebyshev kernels printed from their numba templates
-``discretizations/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (the 1-D cell's library;
-the 2-D cell's, of the law of plane flow, has the kernels of ``cartesian2d.py`` instead) (with
-``kernel_support.c``) and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``). It is compiled by gcc
+``cells/shear1d/templates/fd.py`` and ``cheb.py`` by :mod:`.translate` (the 1-D cell's library;
+the 2-D cell's, of the law of plane flow, has the kernels of ``cells/plane2d/templates/plane2d.py``
+instead: each cell's descriptor names its templates, :mod:`icidr_pde.cells`) (with
+``kernel_support.c``), the cell's compiled problems (its folder's ``problem.c``, after ``problem.h``)
+and the CVODE driver ``cvode_driver.c`` (with ``sundials_api.h``): one library a cell and law. It is compiled by gcc
 (``$CC``) into the kernel cache (:mod:`icidr_pde.kernel_cache`)
 and linked against the SUNDIALS libraries that scikit-sundae ships (``scikit_sundae.libs``,
 found from the package's location without importing it; its LAPACK dense solver where
@@ -53,24 +55,22 @@ def _text(name: str) -> str:
     return importlib.resources.files(__package__).joinpath(name).read_text()
 
 
-#: the templates of each kinematics' library (its schemes) and the functions of cartesian2d.py printed as C
-_TEMPLATES = {"shear_cell": ("fd.py", "cheb.py"), "plane_flow": ("cartesian2d.py",)}
-FV2D_FUNCTIONS = ("walls", "halo_into", "patch_rates")
+def _cell(kinematics):
+    """The cell whose laws are evaluated in `kinematics`: its library's templates and
+    definitions (:mod:`icidr_pde.cells`)."""
+    from ..cells import cell_of
 
-
-def _plane(kinematics) -> bool:
-    from ..rheology import PLANE_FLOW
-
-    return kinematics == PLANE_FLOW
+    return cell_of(kinematics)
 
 
 def _scheme_templates(kinematics=None) -> tuple[str, ...]:
-    """The numba templates of the schemes of `kinematics` (fd and cheb, or fv2d), the one source
-    of each scheme's kernels."""
-    # by path: importing icidr_pde.discretizations would import py-pde
-    templates = pathlib.Path(__file__).parent.parent / "discretizations" / "templates"
-    names = _TEMPLATES["plane_flow" if _plane(kinematics) else "shear_cell"]
-    return tuple((templates / name).read_text() for name in names)
+    """The numba templates of the schemes of `kinematics`' cell (fd and cheb, or fv2d; None: of
+    every cell), the one source of each scheme's kernels (read by path: importing a scheme would
+    import py-pde)."""
+    from ..cells import cells
+
+    chosen = cells().values() if kinematics is None else [_cell(kinematics)]
+    return tuple(text for cell in chosen for text in cell.template_texts())
 
 
 def _template(kinematics=None) -> str:
@@ -78,16 +78,20 @@ def _template(kinematics=None) -> str:
     return "\n".join([*_scheme_templates(kinematics), _text("translate.py"), _text("kernel_support.c")])
 
 
-def _scheme_kernels(kinematics=None) -> str:
+def _scheme_kernels(kinematics) -> str:
     """C of the kernels of `kinematics`' schemes, printed from the numba templates (:mod:`.translate`)."""
     from .translate import translate
 
-    if _plane(kinematics):
-        (fv2d,) = _scheme_templates(kinematics)
-        return "\n".join([_text("kernel_support.c"), translate(fv2d, "fv2d_", names=FV2D_FUNCTIONS)])
-    fd, cheb = _scheme_templates(kinematics)
-    return "\n".join([_text("kernel_support.c"), translate(fd, "fd_", {"J": "FD_BAND_AT"}),
-                      translate(cheb, "cheb_", {"J": "COLUMN_MAJOR_AT", "B": "FD_BAND_AT"})])
+    cell = _cell(kinematics)
+    return "\n".join([_text("kernel_support.c")] + [
+        translate(text, template.prefix, template.macros or None, names=template.names)
+        for template, text in zip(cell.templates, cell.template_texts())])
+
+
+def _driver(kinematics) -> str:
+    """The C of the cell's compiled problems between what a problem is (``problem.h``) and the
+    CVODE driver that integrates any (``cvode_driver.c``)."""
+    return "\n".join([_text("problem.h"), _cell(kinematics).problem_source(), _text("cvode_driver.c")])
 
 
 def _lapack_dense(libs: pathlib.Path) -> list[pathlib.Path]:
@@ -141,7 +145,7 @@ def _key(rheology, kinematics, libs, index, cc) -> str:
         codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
         rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
         dilatancy.__qualname__, type(kinematics).__qualname__, inspect.getsource(type(kinematics)),
-        _template(kinematics), _text("sundials_api.h"), _text("cvode_driver.c"), codegen._module_source(__name__),
+        _template(kinematics), _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__),
         *map(str, libs), index, cc, *LIBRARY_FLAGS])
 
 
@@ -153,11 +157,9 @@ def _source(rheology, kinematics, index, libs=()) -> str:
     return "\n".join([f"#define SUNINDEXTYPE {index}",
                       "#define ICIDR_LAPACK_DENSE\n#define ICIDR_BLAS" if lapack else "",
                       "#define ICIDR_SPGMR" if spgmr else "",
-                      "#define ICIDR_PLANE\n#define LAW_INLINE inline __attribute__((always_inline))\n#define KERNEL_SCRATCH\n"
-                      "#define LAW_POWI law_powi"
-                      if _plane(kinematics) else "",
+                      _cell(kinematics).c_defines,
                       _text("sundials_api.h"),
-                      c_law_source(rheology, kinematics), _scheme_kernels(kinematics), _text("cvode_driver.c")])
+                      c_law_source(rheology, kinematics), _scheme_kernels(kinematics), _driver(kinematics)])
 
 
 def library(rheology, kinematics) -> ctypes.CDLL:
@@ -191,7 +193,7 @@ def library(rheology, kinematics) -> ctypes.CDLL:
                     continue
                 path.unlink(missing_ok=True)  # rebuilt by the next run
                 raise NativeUnavailable(f"native library not loadable: {err}") from None
-        _declare(lib)
+        _declare(lib, kinematics)
         _LIBRARIES[name] = lib
         return lib
 
@@ -206,7 +208,7 @@ def _compile(rheology, kinematics, index, cc, libdir, libs, name) -> pathlib.Pat
     except UnsupportedLaw as err:
         kernel_cache.store(name, ".unsupported", f"{err}\n".encode())
         raise NativeUnavailable(str(err)) from None
-    schemes = "fv2d" if _plane(kinematics) else "fd, cheb"
+    schemes = ", ".join(_cell(kinematics).schemes)
     sys.stderr.write(f"icidr-pde: compiling native kernels for {rheology.name} ({schemes}; once per installation) ...\n")
     sys.stderr.flush()
     start = time.perf_counter()
@@ -239,31 +241,37 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
-def _declare(lib) -> None:
-    P, D, I, L = ctypes.c_void_p, ctypes.c_double, ctypes.c_int, ctypes.c_long
-    ptr = ctypes.POINTER
-    signatures = {
-        "icidr_fd_problem": (P, [I, D, I, ptr(D), ptr(D), I, D, D]),
-        "icidr_rates": (None, [P, ptr(D), ptr(D)]),
-        "icidr_fd_jacobian": (None, [P, ptr(D), ptr(D)]),
-        "icidr_law_M": (None, [P, I, ptr(D), ptr(D)]),
-        "icidr_kernel_times": (None, [P, ptr(D), I, ptr(D)]),
-        "icidr_cheb_problem": (P, [I, ptr(D), ptr(D), I, D, D, I, D]),
-        "icidr_fv2d_problem": (P, [I, I, D, D, I, ptr(D), ptr(D), I, D, D, I, D]),
-        "icidr_cheb_jacobian": (None, [P, ptr(D), ptr(D)]),
-        "icidr_cheb_krylov": (I, [P, I, D, L, L, I, ptr(D)]),
-        "icidr_krylov_counts": (None, [P, ptr(L)]),
-        "icidr_has_krylov": (I, []),
-        "icidr_cheb_conserve": (I, [P, ptr(D)]),
-        "icidr_cheb_low_order_jacobian": (None, [P, ptr(D), ptr(D), ptr(D)]),
-        "icidr_blas_threads": (I, [I]),
-        "icidr_cvode_start": (I, [P, D, ptr(D), D, D, D, D, L, D, I, ctypes.c_char_p, I]),
-        "icidr_cvode_advance": (I, [P, I, ptr(D), ptr(I), ptr(D), ptr(D), ptr(I), ptr(I), ptr(I)]),
-        "icidr_cvode_last_good": (D, [P, ptr(D)]),
-        "icidr_cvode_message": (None, [P, I, ctypes.c_char_p, I]),
-        "icidr_cvode_counts": (None, [P, ptr(L)]),
-        "icidr_free": (None, [P]),
-    }
-    for name, (restype, argtypes) in signatures.items():
+#: the driver's functions (cvode_driver.c), name -> "restype: argument types" (:func:`c_types`)
+DRIVER_FUNCTIONS = {
+    "icidr_rates": "-: P *D *D",
+    "icidr_law_M": "-: P I *D *D",
+    "icidr_kernel_times": "-: P *D I *D",
+    "icidr_krylov_counts": "-: P *L",
+    "icidr_blas_threads": "I: I",
+    "icidr_cvode_start": "I: P D *D D D D D L D I S I",
+    "icidr_cvode_advance": "I: P I *D *I *D *D *I *I *I",
+    "icidr_cvode_last_good": "D: P *D",
+    "icidr_cvode_message": "-: P I S I",
+    "icidr_cvode_counts": "-: P *L",
+    "icidr_free": "-: P",
+}
+
+
+def c_types(signature: str) -> tuple:
+    """(restype, argtypes) of ctypes for "restype: argument types" in letters: P a pointer, D double,
+    I int, L long, S char *, a leading * a pointer to that type, '-' no value."""
+    letters = {"P": ctypes.c_void_p, "D": ctypes.c_double, "I": ctypes.c_int, "L": ctypes.c_long,
+               "S": ctypes.c_char_p}
+
+    def one(word):
+        return ctypes.POINTER(letters[word[1:]]) if word.startswith("*") else letters[word]
+
+    restype, _, arguments = signature.partition(":")
+    return (None if restype.strip() == "-" else one(restype.strip())), [one(w) for w in arguments.split()]
+
+
+def _declare(lib, kinematics) -> None:
+    """The ctypes signatures of the driver's functions and of those of the cell's problems."""
+    for name, signature in {**DRIVER_FUNCTIONS, **_cell(kinematics).c_functions}.items():
         function = getattr(lib, name)
-        function.restype, function.argtypes = restype, argtypes
+        function.restype, function.argtypes = c_types(signature)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..discretizations.cheb import interpolate
+from ..cells.shear1d.cheb import interpolate
 from ..engines import METHODS
 from ..scenes import get_scene
 from .failure_time import BDF_ATOL, BDF_RTOL, failure_time

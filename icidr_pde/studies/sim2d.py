@@ -92,7 +92,7 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
     or on its x-independent 1-D fd form (n cells): t*, the reason, max|w| at the end of a 1-D run
     that did not fail, the summary."""
     from ..api import run
-    from ..scenes2d import Bump2DScene
+    from ..cells.plane2d.scenes import Bump2DScene
 
     n, t_end, settings = case["n"], case["t_end"], case["settings"]
     times = ["0", f"{t_end:g}"]
@@ -191,7 +191,7 @@ def mode_growth(rheology, theta, n=64, k=0.9, eps=1e-8, material=None) -> dict:
     log-slope fitted over the second half of the snapshots reached.
     """
     from ..api import run
-    from ..scenes2d import Mode2DScene
+    from ..cells.plane2d.scenes import Mode2DScene
 
     scene = Mode2DScene(theta=theta, k=k, eps=eps)
     pred = predicted_growth(rheology, scene, material)

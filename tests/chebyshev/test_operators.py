@@ -4,7 +4,7 @@ Trefethen's printed matrices, Clenshaw-Curtis exactness, spectral convergence.""
 import numpy as np
 import pytest
 
-from icidr_pde.discretizations.cheb import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
+from icidr_pde.cells.shear1d.cheb import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
 
 
 def test_cheb_small_cases_match_trefethen():
@@ -84,7 +84,7 @@ def test_invalid_sizes():
 def test_rhs_of_analytic_data_converges_exponentially():
     # the collocated right-hand side of iCIDR at the (entire) sine IC (5.7) converges
     # geometrically to that of a much finer grid: error ~ exp(-r N), r > 0.05
-    from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE, interpolate
+    from icidr_pde.cells.shear1d.cheb import ChebyshevShearCellPDE, interpolate
     from icidr_pde.scenes import get_scene
 
     pde = ChebyshevShearCellPDE("icidr")

@@ -7,7 +7,7 @@ from pde.pdes.base import PDEBase
 
 from icidr_pde.case import make_pde
 from icidr_pde.discretizations import DISCRETIZATIONS
-from icidr_pde.discretizations.cheb import ChebyshevShearCellPDE, cc_weights, cgl_nodes
+from icidr_pde.cells.shear1d.cheb import ChebyshevShearCellPDE, cc_weights, cgl_nodes
 from icidr_pde.rheology import MuIPhiI
 from icidr_pde.scenes import get_scene
 
@@ -95,7 +95,7 @@ def test_rhs_against_independent_formula():
     phiw_z = (0.01 * (1 - 2 * s) / H) * w + phi * wz
     np.testing.assert_allclose(rate[0], -phiw_z, atol=1e-14)
     z_f = cgl_nodes(121, H)
-    from icidr_pde.discretizations.cheb import diff_matrix
+    from icidr_pde.cells.shear1d.cheb import diff_matrix
 
     def fine(f):
         sf = z_f / H

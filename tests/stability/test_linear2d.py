@@ -103,8 +103,8 @@ def _perturbation(z, field):
 def test_operator_is_the_cells_linearization(rheology):
     """Each block (row field, perturbed field) of the operator against the 2-D cell's Jacobian, relative to the
     block's own size, away from the walls (the cell's wall rows are first order there)."""
-    from icidr_pde.discretizations.cartesian2d import ShearCell2DPDE
-    from icidr_pde.discretizations.cheb_core import interpolate
+    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+    from icidr_pde.cells.shear1d.cheb_core import interpolate
 
     base, k = _trig_base(), 2
     op = linear2d.Linear2D(rheology, base, L, 40)

@@ -3,8 +3,8 @@
 :class:`ChebProblem` is the compiled Chebyshev problem (the C printed from the numba
 template ``discretizations/templates/cheb.py``: rates, dense Jacobian and the low-order band
 preconditioner) with CVODE's Newton-Krylov solver (GMRES) or its dense LU, on the points, D and
-walls of the core :class:`~icidr_pde.discretizations.cheb_core.Collocation`
-(:func:`icidr_pde.native.cases.native_case`). The state is the py-pde path's vector (phi, u, w) in blocks, so CVODE integrates the same
+walls of the core :class:`~icidr_pde.cells.shear1d.cheb_core.Collocation`
+(:func:`cheb_problem`). The state is the py-pde path's vector (phi, u, w) in blocks, so CVODE integrates the same
 numbers in the same order.
 """
 
@@ -15,11 +15,11 @@ import os
 
 import numpy as np
 
-from ..discretizations.grid_size import CHEB, check_memory
-from ..cvode_settings import DENSE_LU_DELTA_GAMMA
-from . import NativeProblem, NativeUnavailable, _pointer
+from ...discretizations.grid_size import CHEB, check_memory
+from ...cvode_settings import DENSE_LU_DELTA_GAMMA
+from ...native import NativeProblem, NativeUnavailable, _pointer
 
-__all__ = ["ChebProblem", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
+__all__ = ["ChebProblem", "cheb_problem", "DENSE_SOLVERS", "DENSE_LU_DELTA_GAMMA", "LINEAR_SOLVERS", "KRYLOV", "MAX_N"]
 
 MAX_N = CHEB.max_N  # and the memory a run needs: the py-pde path's limits (icidr_pde.discretizations.grid_size)
 memory_estimate = CHEB.memory_estimate  # the dense LU's; a problem checks its own linear solver's (CHEB.estimate)
@@ -73,7 +73,9 @@ class ChebProblem(NativeProblem):
             raise ValueError(f"`krylov` takes the keys {sorted(KRYLOV)}; got {sorted(krylov)}")
         if settings["preconditioner"] not in PRECONDITIONERS:
             raise ValueError(f"the preconditioner must be one of {PRECONDITIONERS}; got {settings['preconditioner']!r}")
-        params, lo, hi = self._open(rheology, bounds)
+        from ...rheology import SHEAR_CELL
+
+        params, lo, hi = self._open(rheology, bounds, SHEAR_CELL)
         if linear_solver == "krylov" and not self.lib.icidr_has_krylov():
             if not default:
                 raise NativeUnavailable("linear_solver 'krylov' needs SUNDIALS' SPGMR and LAPACK, "
@@ -108,7 +110,7 @@ class ChebProblem(NativeProblem):
     def nodes(self) -> np.ndarray:
         """The points of D: Trefethen's CGL points mapped to [0, H], H from D's corner entry
         D[0, 0] = -(2 (N - 1)^2 + 1) / (3 H)."""
-        from ..discretizations.chebyshev import cgl_nodes
+        from ...discretizations.chebyshev import cgl_nodes
 
         return np.ascontiguousarray(cgl_nodes(self.N, -(2 * (self.N - 1) ** 2 + 1) / (3 * self.D[0, 0])))
 
@@ -143,3 +145,9 @@ class ChebProblem(NativeProblem):
         J = np.empty((3 * self.N, 3 * self.N), order="F")
         self.lib.icidr_cheb_jacobian(self.handle, _pointer(y), _pointer(J))
         return J
+
+
+def cheb_problem(case, **options) -> ChebProblem:
+    """The compiled problem of the run path's Chebyshev case `case` (its core
+    :class:`~icidr_pde.cells.shear1d.cheb_core.Collocation`: D and the quadrature weights)."""
+    return ChebProblem(case.rheology, case.scheme.D, **{"solver": DENSE_SOLVER, "weights": case.scheme.weights, **options})

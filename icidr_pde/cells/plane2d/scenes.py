@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scene_base import Scene
-from .validation import real
+from ...scene_base import Scene
+from ...validation import real
 
 __all__ = ["Scene2D", "Bump2DScene", "Bump1DScene", "Mode2DScene"]
 

@@ -13,9 +13,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..rheology import Material, Rheology
-from .base import ShearCell1DBase
-from .registry import ADVECTION_SCHEMES
+from ...rheology import Material, Rheology
+from ...discretizations.base import ShearCell1DBase
+from .cell import Shear1D
+from ...discretizations.registry import ADVECTION_SCHEMES
 
 __all__ = ["ShearCellPDE", "ADVECTION_SCHEMES"]
 
@@ -29,6 +30,8 @@ class ShearCellPDE(ShearCell1DBase):
     """
 
     name = "fd"
+    #: the cell it discretizes (the names of its grid, its Jacobian structure: :mod:`icidr_pde.cells`)
+    cell = Shear1D.registered()
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "upwind", **options):
@@ -44,7 +47,7 @@ class ShearCellPDE(ShearCell1DBase):
 
     def ghost_coefficients(self, grid) -> np.ndarray:
         """(3, 2, 2) array: ghost value of field k at side s (0: z = 0, 1: z = H) is
-        ``c[k, s, 0] * edge + c[k, s, 1]`` (:func:`.fd_core.ghost_coefficients`)."""
+        ``c[k, s, 0] * edge + c[k, s, 1]`` (:func:`icidr_pde.discretizations.core.ghost_coefficients`)."""
         return self.core(grid).ghost.copy()
 
     # --- what the stiff integrator asks of a discretization ----------------------------------

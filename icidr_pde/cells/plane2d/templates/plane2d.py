@@ -2,7 +2,7 @@
 
 Combined with a law module of the ``plane_flow`` kinematics by
 :func:`icidr_pde.rheology.codegen.compose`, which replaces the ``__law__`` import below;
-see :mod:`icidr_pde.discretizations.cartesian2d` for the scheme. Data are (3, nx, nz):
+see :mod:`icidr_pde.cells.plane2d.pde` for the scheme. Data are (3, nx, nz):
 (phi, u, w) on cell (i, j); x is periodic, the walls z = 0, H enter through ghost rows.
 
 The scheme is written once, on a *patch*: a block of (mx, mz) cells with one ghost layer

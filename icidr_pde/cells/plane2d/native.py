@@ -1,8 +1,8 @@
 """The 2-D cell (``fv2d``) on the native engine: its rates in C, CVODE with matrix-free GMRES.
 
-The rates are the numba template ``discretizations/templates/cartesian2d.py`` printed as C
-(:mod:`.translate`: the whole grid as one patch, ``halo_into`` then ``patch_rates``), in a
-library of the law of plane flow (:mod:`.build`). CVODE is set up as the py-pde path sets it
+The rates are the numba template ``templates/plane2d.py`` printed as C
+(:mod:`icidr_pde.native.translate`: the whole grid as one patch, ``halo_into`` then ``patch_rates``), in a
+library of the law of plane flow (:mod:`icidr_pde.native.build`). CVODE is set up as the py-pde path sets it
 up on a thick cell (:mod:`icidr_pde.engines.sundae`, linear solver 'GMRES'): BDF, SUNDIALS'
 GMRES of Krylov dimension :data:`icidr_pde.cvode_settings.KRYLOV_DIM` without a preconditioner, the tolerance factor
 :data:`icidr_pde.cvode_settings.KRYLOV_EPS_LIN`, CVODE's difference-quotient products J v;
@@ -10,7 +10,7 @@ the mass stays the exact solves' to round-off as on that path (the rates of phi 
 differences, so every product J v has zero mass up to round-off). A thin cell (hx > THIN_CELL hz),
 where the py-pde path preconditions along z, is not taken here (:func:`icidr_pde.engines.choose.choose`).
 
-The case is py-pde-free (:class:`~icidr_pde.discretizations.cartesian2d_core.CartesianCells`):
+The case is the run path's on the py-pde-free core :class:`.core.PlaneCells` (:func:`plane2d_problem`):
 a run imports neither py-pde, numba nor scipy.
 """
 
@@ -19,17 +19,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
-from .build import NativeUnavailable
-from . import NativeProblem, _pointer
+from ...cvode_settings import KRYLOV_DIM, KRYLOV_EPS_LIN
+from ...native.build import NativeUnavailable
+from ...native import NativeProblem, _pointer
 
-__all__ = ["Fv2dProblem", "LINEAR_SOLVER"]
+__all__ = ["Plane2DProblem", "plane2d_problem", "LINEAR_SOLVER"]
 
 #: what the engine reports as its linear solver (:data:`icidr_pde.engines.choose.NATIVE_SCHEMES`)
 LINEAR_SOLVER = "GMRES"
 
 
-class Fv2dProblem(NativeProblem):
+class Plane2DProblem(NativeProblem):
     """The compiled 2-D problem of `rheology` on the Nx x Nz cells of widths hx, hz: rates of the
     state vector (the data (3, Nx, Nz) flattened), M(phi) and CVODE with GMRES; valid while
     lo < phi < hi, `bounds` (default: the law's range of phi). ``N`` is the number of cells."""
@@ -43,19 +43,15 @@ class Fv2dProblem(NativeProblem):
 
     def __init__(self, rheology, Nx: int, Nz: int, hx: float, hz: float, *, advection: str = "central",
                  V0: float = 1.0, bounds=None, eps_lin: float | None = None, krylov_dim: int = KRYLOV_DIM):
-        from ..discretizations.fd_core import ghost_coefficients
-        from ..rheology import PLANE_FLOW
-        from .build import library
+        from ...discretizations.core import ghost_coefficients
+        from ...rheology import PLANE_FLOW
 
-        self.lib = library(rheology, PLANE_FLOW)
-        self._params = params = np.array(rheology.material.params, dtype=float)
-        lo, hi = (float(b) for b in (rheology.material.phi_range if bounds is None else bounds))
-        self.bounds = (lo, hi)
+        params, lo, hi = self._open(rheology, bounds, PLANE_FLOW)
         self.Nx, self.Nz, self.N = int(Nx), int(Nz), int(Nx) * int(Nz)
         self.hx, self.hz = float(hx), float(hz)
         self.eps_lin = KRYLOV_EPS_LIN if eps_lin is None else float(eps_lin)
         self.ghost = np.ascontiguousarray(ghost_coefficients(V0))
-        handle = self.lib.icidr_fv2d_problem(self.Nx, self.Nz, self.hx, self.hz, int(advection == "upwind"),
+        handle = self.lib.icidr_plane2d_problem(self.Nx, self.Nz, self.hx, self.hz, int(advection == "upwind"),
                                              _pointer(self.ghost), _pointer(params), params.size, lo, hi,
                                              int(krylov_dim), self.eps_lin)
         if not handle:
@@ -76,3 +72,9 @@ class Fv2dProblem(NativeProblem):
         self.lib.icidr_krylov_counts(self.handle, out)
         return dict(zip(("iterations", "convergence_failures", "prec_setups", "prec_solves", "jv",
                          "jv_rhs"), map(int, out)))
+
+
+def plane2d_problem(case, **options) -> Plane2DProblem:
+    """The compiled problem of the run path's 2-D case `case` (its core :class:`.core.PlaneCells`)."""
+    c = case.scheme
+    return Plane2DProblem(case.rheology, c.Nx, c.Nz, c.hx, c.hz, advection=c.advection, V0=c.V0, **options)

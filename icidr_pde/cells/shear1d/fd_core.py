@@ -34,21 +34,12 @@ from typing import Callable
 
 import numpy as np
 
-from .core import Scheme1D
+from ...discretizations.core import Scheme1D, ghost_coefficients
 
-__all__ = ["FiniteVolumes", "ghost_coefficients", "BAND"]
+__all__ = ["FiniteVolumes", "BAND"]
 
 #: lower and upper bandwidths of the Jacobian in the interleaved ordering: cell i couples to i - 1 .. i + 1
 BAND = (5, 5)
-
-
-def ghost_coefficients(V0: float = 1.0) -> np.ndarray:
-    """(3, 2, 2) ghost-cell maps of the walls (3.9): the ghost value of field k at side s
-    (0: z = 0, 1: z = H) is ``c[k, s, 0] * edge + c[k, s, 1]``. phi zero gradient (ghost =
-    edge), u = 0 and V0 and w = 0 as Dirichlet values on the wall (ghost = 2 value - edge)."""
-    return np.array([[[1.0, 0.0], [1.0, 0.0]],
-                     [[-1.0, 0.0], [-1.0, 2.0 * V0]],
-                     [[-1.0, 0.0], [-1.0, 0.0]]])
 
 
 class FiniteVolumes(Scheme1D):
@@ -99,7 +90,7 @@ class FiniteVolumes(Scheme1D):
         """rhs(data, t) -> (3, N) rates of (3, N) data, the compiled kernel (cached on disk);
         compiled or loaded now, on `probe` data (default: a uniform state); with
         `contiguous` False, a wrapper that py-pde's numba backend can compile (it copies nothing)."""
-        from ..rheology.codegen import first_call
+        from ...rheology.codegen import first_call
 
         loops = self.loops()
         kernel, ghost, h, upwind, params = loops.rates, self.ghost, self.h, self.upwind, self.material.params

@@ -12,10 +12,11 @@ from typing import Callable
 
 import numpy as np
 
-from ..rheology import Material, Rheology
-from .base import ShearCell1DBase
+from ...rheology import Material, Rheology
+from ...discretizations.base import ShearCell1DBase
+from .cell import Shear1D
 from .cheb_core import interpolate
-from .chebyshev import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
+from ...discretizations.chebyshev import cc_weights, cgl_nodes, cheb, clencurt, diff_matrix
 
 __all__ = ["ChebyshevShearCellPDE", "cheb", "clencurt", "cgl_nodes", "diff_matrix", "cc_weights",
            "interpolate"]
@@ -32,6 +33,8 @@ class ChebyshevShearCellPDE(ShearCell1DBase):
     """
 
     name = "cheb"
+    #: the cell it discretizes (the names of its grid, its Jacobian structure: :mod:`icidr_pde.cells`)
+    cell = Shear1D.registered()
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, **options):

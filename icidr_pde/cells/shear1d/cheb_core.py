@@ -31,8 +31,8 @@ from typing import Callable
 
 import numpy as np
 
-from .chebyshev import cc_weights, cgl_nodes, diff_matrix
-from .core import Scheme1D
+from ...discretizations.chebyshev import cc_weights, cgl_nodes, diff_matrix
+from ...discretizations.core import Scheme1D
 
 __all__ = ["Collocation", "interpolate"]
 
@@ -90,7 +90,7 @@ class Collocation(Scheme1D):
         """rhs(data, t) -> (3, N) rates of (3, N) data, the compiled kernel (cached on disk);
         compiled or loaded now, on `probe` data (default: a uniform state); with
         `contiguous` False, a wrapper that py-pde's numba backend can compile (it copies nothing)."""
-        from ..rheology.codegen import first_call
+        from ...rheology.codegen import first_call
 
         loops = self.loops()
         kernel, D, params = loops.rates, self.D, self.material.params

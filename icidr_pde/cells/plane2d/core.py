@@ -1,11 +1,11 @@
 """The 2-D cell's grid and state without py-pde (``fv2d``): what the native engine needs.
 
 The cells are those of py-pde's ``CartesianGrid([[0, L], [0, H]], [Nx, Nz], periodic=[True,
-False])`` (:meth:`.cartesian2d.ShearCell2DPDE.make_grid`, which takes its sizes from
+False])`` (:meth:`.pde.ShearCell2DPDE.make_grid`, which takes its sizes from
 :func:`grid_shape`): centres ((i + 1/2) hx, (j + 1/2) hz), data (3, Nx, Nz) of (phi, u, w),
 the engines' state vector the data flattened. The walls (3.9) are the 1-D cell's ghost maps
-(:func:`.fd_core.ghost_coefficients`; a test compares them with py-pde's setters on the 2-D
-grid). The scheme itself is ``templates/cartesian2d.py`` (:mod:`.cartesian2d`).
+(:func:`icidr_pde.discretizations.core.ghost_coefficients`; a test compares them with py-pde's setters on the 2-D
+grid). The scheme itself is ``templates/plane2d.py`` (:mod:`.pde`).
 """
 
 from __future__ import annotations
@@ -14,13 +14,12 @@ import math
 
 import numpy as np
 
-from ..rheology import Material, Rheology, get_rheology
-from .core import PhiRange
-from .fd_core import ghost_coefficients
-from .grid_size import FV2D, check_cells
-from .registry import check_options
+from ...rheology import Material, Rheology, get_rheology
+from ...discretizations.core import PhiRange, ghost_coefficients
+from ...discretizations.grid_size import PLANE2D, check_size
+from ...discretizations.registry import check_options
 
-__all__ = ["grid_shape", "CartesianCells", "measures", "DEFAULT_N"]
+__all__ = ["grid_shape", "PlaneCells", "measures", "DEFAULT_N"]
 
 #: Nz (and Nx) of a 2-D grid when none is given
 DEFAULT_N = 64
@@ -47,11 +46,13 @@ def grid_shape(N=None, H: float = 30.0, *, L: float | None = None, Nx: int | Non
     for name, value in (("H", H), ("L", L)):
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"`{name}` must be > 0; got {value}")
-    check_cells("fv2d", int(Nx), int(Nz), FV2D)
+    Nx, Nz = int(Nx), int(Nz)
+    check_size(f"`Nx` x `Nz` = {Nx} x {Nz} = {Nx * Nz} cells is too large for discretization 'fv2d'", Nx * Nz,
+               PLANE2D, " cells")
     return int(Nx), int(Nz), float(L)
 
 
-class CartesianCells(PhiRange):
+class PlaneCells(PhiRange):
     """The Nx x Nz cells of the 2-D cell 0 <= x < L (periodic), 0 < z < H, closed by `rheology`
     (with `material`): centres, widths, walls, data of a scene, mass and validity.
 
@@ -114,7 +115,7 @@ class CartesianCells(PhiRange):
         return thin_cell(self.Nx, self.Nz, self.L, self.H)
 
 
-#: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`.cartesian2d.ShearCell2DPDE.line_pattern`)
+#: hx / hz beyond which the Krylov solves are preconditioned along z (:meth:`.pde.ShearCell2DPDE.line_pattern`)
 THIN_CELL = 10.0
 
 
@@ -125,8 +126,8 @@ def thin_cell(Nx: int, Nz: int, L: float, H: float) -> bool:
 
 def measures(pde, grid, scene, data) -> dict:
     """max|w|, max|phi - phi0| and sqrt(int (u - z/H)^2 + w^2 dx dz) of one state (3, ...):
-    `pde` gives ``nodes(grid)`` and ``integral(values, grid)`` (the py-pde class or :class:`CartesianCells`)."""
-    z = pde.nodes(grid)[..., -1] if getattr(pde, "dim", 1) == 2 else pde.nodes(grid)
+    `pde` gives ``nodes(grid)`` and ``integral(values, grid)`` (the py-pde class or :class:`PlaneCells`)."""
+    z = pde.nodes(grid)[..., -1]
     phi, u, w = data
     return {"max_w": float(np.max(np.abs(w))),
             "max_phi_dev": float(np.max(np.abs(phi - scene.phi0))),

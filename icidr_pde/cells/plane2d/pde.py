@@ -52,18 +52,19 @@ from pde import CartesianGrid, FieldCollection
 from pde.backends import get_backend
 from scipy import sparse
 
-from . import cartesian2d_core
-from .cartesian2d_core import THIN_CELL, grid_shape, measures
-from .grid_size import FV2D
-from .registry import ADVECTION_SCHEMES_2D
-from ..rheology import PLANE_FLOW, Material, Rheology
-from ..rheology.codegen import compose
-from .base import ShearCellBase
+from . import core
+from .core import THIN_CELL, grid_shape, measures
+from ...discretizations.grid_size import PLANE2D
+from ...discretizations.registry import ADVECTION_SCHEMES_2D
+from ...rheology import PLANE_FLOW, Material, Rheology
+from ...rheology.codegen import compose
+from ...discretizations.base import ShearCellBase
+from .cell import Plane2D
 
 
 __all__ = ["ShearCell2DPDE", "Patches", "measures", "THIN_CELL"]
 
-_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "cartesian2d.py").read_text()
+_TEMPLATE = importlib.resources.files(__package__).joinpath("templates", "plane2d.py").read_text()
 
 
 @dataclass(frozen=True)
@@ -124,6 +125,8 @@ class ShearCell2DPDE(ShearCellBase):
     """
 
     name = "fv2d"
+    #: the cell it discretizes (the names of its grid, its Jacobian structure: :mod:`icidr_pde.cells`)
+    cell = Plane2D.registered()
     label = "finite volumes, 2-D"
     default_N = 64
     options = {"advection": ADVECTION_SCHEMES_2D}
@@ -131,10 +134,10 @@ class ShearCell2DPDE(ShearCellBase):
     dim = 2
     #: waves advected along the periodic x: eigenvalues near the imaginary axis (engines.choose.time_order)
     advected_waves = True
-    grid_limit = FV2D
-    max_N = FV2D.max_N
-    memory_note = FV2D.memory_note
-    memory_estimate = staticmethod(FV2D.memory_estimate)
+    grid_limit = PLANE2D
+    max_N = PLANE2D.max_N
+    memory_note = PLANE2D.memory_note
+    memory_estimate = staticmethod(PLANE2D.memory_estimate)
 
     def __init__(self, rheology: str | Rheology = "icidr", material: Material | None = None,
                  *, V0: float = 1.0, advection: str = "central", **options):
@@ -157,7 +160,7 @@ class ShearCell2DPDE(ShearCellBase):
         """CartesianGrid([[0, L], [0, H]], [Nx, Nz], periodic=[True, False]).
 
         `N` is Nz (an int) or (Nx, Nz); explicit `Nx`, `Nz` win; Nx defaults to Nz and L to H
-        (:func:`.cartesian2d_core.grid_shape`).
+        (:func:`.core.grid_shape`).
         """
         Nx, Nz, L = grid_shape(N, H, L=L, Nx=Nx, Nz=Nz, default_N=cls.default_N)
         return CartesianGrid([[0.0, float(L)], [0.0, float(H)]], [int(Nx), int(Nz)],
@@ -241,7 +244,7 @@ class ShearCell2DPDE(ShearCellBase):
         return self.rheology.kernels(self.kinematics)
 
     def _loops(self):
-        return compose(_TEMPLATE, self._law(), name="cartesian2d")
+        return compose(_TEMPLATE, self._law(), name="plane2d")
 
     def make_rates(self, state: FieldCollection) -> Callable:
         """rhs(data, t) from the compiled finite-volume kernel (cached on disk)."""
@@ -317,7 +320,7 @@ class ShearCell2DPDE(ShearCellBase):
         self.check_grid(grid)
         nx, nz = grid.shape
         L, H = (float(np.diff(b)[0]) for b in grid.axes_bounds)
-        return cartesian2d_core.thin_cell(nx, nz, L, H)
+        return core.thin_cell(nx, nz, L, H)
 
     def line_pattern(self, state) -> sparse.csc_matrix | None:
         """The part of :meth:`jacobian_sparsity` along z in a thin cell (hx > THIN_CELL hz), else
@@ -440,7 +443,7 @@ class _Operators:
 
 
 def _extension(nx, nz, coeffs) -> sparse.csr_matrix:
-    """The linear part of the whole grid's patch (:func:`templates.cartesian2d.halo`) as a
+    """The linear part of the whole grid's patch (:func:`templates.plane2d.halo`) as a
     matrix: padded values (3 (nx + 2) (nz + 2)) = E @ data (3 nx nz) + constants; the x ghosts
     the periodic columns, the z ghosts alpha * (edge value) of the walls."""
     cols = np.concatenate(([nx - 1], np.arange(nx), [0]))

@@ -4,7 +4,7 @@ The one source of the scheme's kernels: combined with a law module by
 :func:`icidr_pde.rheology.codegen.compose` (which replaces the ``__law__`` import below) for
 numba, and printed as C for the native engine by :func:`icidr_pde.native.translate.translate`
 (hence the typed parameters and the plain loops: the subset that module accepts); see
-:mod:`icidr_pde.discretizations.cheb` for the scheme. The products with D are ``numpy.dot``
+:mod:`icidr_pde.cells.shear1d.cheb` for the scheme. The products with D are ``numpy.dot``
 (BLAS in both forms).
 """
 import numpy

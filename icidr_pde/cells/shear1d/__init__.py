@@ -1,0 +1,1 @@
+"""The 1-D shear cell 0 < z < H."""
