@@ -53,11 +53,13 @@ def test_each_descriptor_is_consistent(name):
     assert set(cell.jacobian) == set(cell.schemes) and all(set(flags) <= fields for flags in cell.jacobian.values())
     for scheme in cell.schemes:
         assert structures is None or JacobianStructure(**cell.jacobian[scheme]) == structures[scheme]
-    assert set(cell.native) <= set(cell.schemes) and set(cell.native_cases) == set(cell.native)
+    assert set(cell.native) <= set(cell.schemes) and set(cell.native_problems) == set(cell.native)
+    assert set(cell.native_cores) <= set(cell.native)
     for scheme, (mode, solver) in cell.native.items():
-        assert (native_solvers is None or native_solvers[scheme] == solver) and mode in ("analytic", "krylov")
-        case = cell.native_case(scheme)
-        assert case.discretization == scheme and hasattr(case, "problem")
+        assert (native_solvers is None or native_solvers[scheme].name == solver) and mode in ("analytic", "krylov")
+        assert callable(cell.native_problem(scheme))
+        core = cell.native_core(scheme)
+        assert core is None or (core.name == scheme and core.dim == cell.dim)
     # what its Result adds are the Result's fields
     from icidr_pde.result import Result
 
@@ -124,7 +126,7 @@ def test_result_extras_and_summary_of_the_2d_cell():
     same numbers, and the summary is that of the measures."""
     from icidr_pde.case import build_case
     from icidr_pde.cells.plane2d.core import measures
-    from icidr_pde.cells.plane2d.native import Plane2DCase
+    from icidr_pde.native_case import Plane2DCase
 
     plane = get_cell("plane2d")
     case = build_case("icidr", "bump2d", "fv2d", (6, 5))
@@ -274,42 +276,6 @@ def test_each_library_has_its_cells_functions_only():
         others = {f for cell in cells().values() if cell is not cell_of(name) for f in cell.c_functions}
         assert all(hasattr(lib, f) for f in list(mine) + list(build.DRIVER_FUNCTIONS))
         assert not any(hasattr(lib, f) for f in others)
-
-
-def _api(name):
-    """A function of icidr_pde.api that a descriptor's method replaces (skipped once the run path asks the cell)."""
-    from icidr_pde import api
-
-    if not hasattr(api, name):
-        pytest.skip(f"icidr_pde.api.{name} is gone: the run path asks the cell")
-    return getattr(api, name)
-
-
-@pytest.mark.parametrize("scene, N, params", [("bump2d", 64, None), ("bump2d", (8, 12), None),
-                                              ("bump2d", 8, {"H": 0.3}), ("shear", (8, 8), None),
-                                              ("mode2d", 3, None), ("shear", 201, None), ("sine", 65, None)])
-def test_cell_for_and_choice_grid_are_the_run_paths(scene, N, params):
-    """cell_for(...).dim and choice_grid(...) give what api.run's `two_d` and `_plane_grid` give."""
-    plane_grid = _api("_plane_grid")
-    from icidr_pde.scenes import SCENES
-
-    two_d = isinstance(N, (tuple, list)) or getattr(SCENES.get(scene), "dim", 1) != 1  # api.run's test
-    cell = cell_for(scene, N)
-    assert cell.dim == (2 if two_d else 1)
-    assert cell.choice_grid(scene, N, params) == (plane_grid(scene, N, params) if two_d else {})
-
-
-def test_native_case_and_result_extras_are_the_run_paths():
-    native_case, plane_kwargs = _api("_native_case"), _api("_plane_kwargs")
-    from icidr_pde.case import build_case
-
-    for scheme, scene, N in (("fd", "shear", 9), ("cheb", "shear", 9), ("fv2d", "bump2d", (6, 5))):
-        settings = {"discretization": scheme, "N": N}
-        case = native_case("icidr", scene, settings, material=None, advection=None, scene_params=None)
-        assert type(case) is cell_of(scheme).native_case(scheme)
-        py_case = build_case("icidr", scene, scheme, N)
-        data = np.stack([py_case.state.data])
-        assert cell_of(py_case.pde).result_extras(py_case, data) == plane_kwargs(py_case, data)
 
 
 def test_the_registry_keeps_its_order_whatever_was_imported_first():
