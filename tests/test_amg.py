@@ -174,9 +174,10 @@ def test_amg_needs_the_2d_cell():
     assert (choice.engine, choice.jacobian, choice.linear_solver) == ("sundae", "amg", AMG_SOLVER)
 
 
-def test_x_independent_run_reproduces_the_1d_run():
-    """x-independent data on 8 x 16 cells, CVODE + GMRES + AMG, equal the 1-D finite-volume run
-    (scipy BDF, analytic Jacobian: an independent solver) to the integrators' tolerance."""
+def x_independent_runs(jacobian: str):
+    """(solver, 1-D run, 2-D run) to t = 2: x-independent data on 8 x 16 cells on CVODE with the
+    2-D Jacobian mode `jacobian`, and the same data on the 1-D finite volumes (scipy BDF, analytic
+    Jacobian: an independent solver)."""
     from pde.solvers import Controller
 
     from icidr_pde.cells.shear1d.fd import ShearCellPDE
@@ -191,8 +192,15 @@ def test_x_independent_run_reproduces_the_1d_run():
     s2 = pde.make_state(pde.make_grid((8, 16), H), *np.broadcast_to(s1.data[:, None, :], (3, 8, 16)).copy())
     one_d = Controller(StiffSolver(fd, method="BDF", rtol=1e-9, atol=1e-12, jacobian="analytic"),
                        t_range=(0.0, 2.0), tracker=None).run(s1).data
-    solver = StiffSolver(pde, method="CVODE", rtol=1e-9, atol=1e-12, jacobian="amg")
+    solver = StiffSolver(pde, method="CVODE", rtol=1e-9, atol=1e-12, jacobian=jacobian)
     two_d = Controller(solver, t_range=(0.0, 2.0), tracker=None).run(s2).data
+    return solver, one_d, two_d
+
+
+def test_x_independent_run_reproduces_the_1d_run():
+    """x-independent data on 8 x 16 cells, CVODE + GMRES + AMG, equal the 1-D finite-volume run
+    (scipy BDF, analytic Jacobian: an independent solver) to the integrators' tolerance."""
+    solver, one_d, two_d = x_independent_runs("amg")
     assert solver.info["linear_solver"] == AMG_SOLVER
     assert np.max(np.abs(two_d - one_d[:, None, :])) < 1e-7
     assert np.max(np.abs(one_d[2])) > 1e-4

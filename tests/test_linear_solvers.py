@@ -544,23 +544,9 @@ def test_the_memory_check_counts_a_preconditioner(toy, monkeypatch):
 def test_the_engine_sets_a_preconditioner_up(toy):
     """CVODE's GMRES with the identity as preconditioner solves what it solves without one: the
     x-independent 2-D state follows the 1-D cell (as tests/test_amg.py checks the AMG path)."""
-    from pde.solvers import Controller
+    from .test_amg import x_independent_runs
 
-    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
-    from icidr_pde.cells.shear1d.fd import ShearCellPDE
-    from icidr_pde.engines.stiff import StiffSolver
-
-    H = 30.0
-    fd = ShearCellPDE("icidr", advection="central")
-    g1 = fd.make_grid(16, H)
-    z = fd.nodes(g1)
-    s1 = fd.make_state(g1, 0.78, z / H, 0.05 * (z - H / 2) * np.exp(-(z - H / 2) ** 2 / 9))
-    pde = ShearCell2DPDE("icidr")
-    s2 = pde.make_state(pde.make_grid((8, 16), H), *np.broadcast_to(s1.data[:, None, :], (3, 8, 16)).copy())
-    one_d = Controller(StiffSolver(fd, method="BDF", rtol=1e-9, atol=1e-12, jacobian="analytic"),
-                       t_range=(0.0, 2.0), tracker=None).run(s1).data
-    solver = StiffSolver(pde, method="CVODE", rtol=1e-9, atol=1e-12, jacobian="toy")
-    two_d = Controller(solver, t_range=(0.0, 2.0), tracker=None).run(s2).data
+    solver, one_d, two_d = x_independent_runs("toy")
     assert solver.info["linear_solver"] == toy.name and toy.solves > 0
     assert np.max(np.abs(two_d - one_d[:, None, :])) < 1e-7
     assert np.max(np.abs(one_d[2])) > 1e-4
