@@ -25,7 +25,7 @@ from .validation import nonfinite_rates
 __all__ = ["View", "Outputs", "Recording", "Outcome", "Recorded", "drive", "outcome", "recorded", "LAST_STATES"]
 
 #: output times per call into C, adapted to take 0.02-0.1 s a call: Ctrl-C and the progress bar
-#: act between calls, and a call costs ~1 us of Python
+#: act between calls, and a call's Python is small beside that
 CHUNK = (8, 1, 1024)  # first, smallest, largest
 
 #: states kept at the last max|w| series times before the end of a run (Result.last_states)

@@ -177,8 +177,8 @@ class ShearCellBase(PhiRange, PDEBase):
     def solve(self, state, t_range, dt=None, tracker="auto", *, solver="stiff", **kwargs):
         """py-pde's ``solve`` with the stiff solver as the default (``solver="stiff"``).
 
-        py-pde's own default, explicit Euler, is stable here only for steps ~h^2/p: 158 s
-        for t = 1 at N = 101. Any py-pde solver can still be named; "stiff" is registered with
+        py-pde's own default, explicit Euler, is stable here only for steps ~h^2/p (how long
+        that takes: docs/engines.md, "Integrators"). Any py-pde solver can still be named; "stiff" is registered with
         py-pde here, on first use (:func:`~.registry.pypde_solver`).
         """
         return super().solve(state, t_range, dt, tracker, solver=pypde_solver(solver), **kwargs)

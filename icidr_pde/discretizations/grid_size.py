@@ -12,22 +12,14 @@ D and vectors).
 A run whose estimate exceeds half the memory available (:func:`~icidr_pde.validation.memory_bytes`)
 is refused before any allocation.
 
-Measured peak RSS (``/usr/bin/time -v``, ``run --t-end 1e-3``, a Python process with py-pde and
-numba loaded is ~250 MB):
-
-* 1-D fd, py-pde path, CVODE with the analytic band Jacobian: 538 MB at N = 2000, 1384 MB at
-  N = 4000 -- one dense 3N x 3N array (288 MB, 1152 MB): scikit-sundae hands a band Jacobian
-  over in a dense NEQ x NEQ array; the native engine: 53 MB at N = 2000;
-* 1-D cheb, native engine, mu(I) shear to t* (``benchmarks/cheb_krylov.py large``, child's
-  ru_maxrss, Python and numpy included): dense LU 77, 172 MiB at N = 401, 801; GMRES with the
-  band preconditioner (the default) 45, 53 MiB -- D, not a dense Jacobian, is what grows;
-* 2-D fv2d, bump2d, CVODE + GMRES (the default): 289, 412, 904 MB at 128^2, 256^2, 512^2 cells
-  -- 2.5 kB a cell (the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each); with
-  SuperLU_MT ('sparse'): 359, 672 MB at 64^2, 128^2 -- 26 kB a cell (the LU's fill-in); with
-  GMRES + AMG ('amg', whole run to t = 10, benchmarks/amg2d.py): 854 MB at 256^2 against 383 MB
-  without -- 7.2 kB a cell more (the Jacobian, the hierarchy and pyamg's set-up); a thin cell's
-  GMRES with the line preconditioner: 4.2 kB a cell more
-  (:data:`icidr_pde.engines.linear.line.LINE_BYTES`).
+What the estimates count: the 1-D finite volumes on the py-pde path with CVODE's band Jacobian,
+one dense 3N x 3N array (scikit-sundae hands a band Jacobian over in a dense NEQ x NEQ array);
+Chebyshev, the dense Jacobian and its LU, or on the Krylov path D, not a dense Jacobian; the 2-D
+cell, the state, CVODE's history and 20 Krylov vectors of 3 Nx Nz each, plus what its linear
+solver adds (the LU's fill-in, the AMG hierarchy, the x-Fourier factors, the line
+preconditioner: :data:`icidr_pde.engines.linear.line.LINE_BYTES` and the like). The per-cell
+constants were taken from measured peaks; the measurements and their commands are in
+docs/scaling.md ("Memory: the measurements behind the grid-size estimates").
 """
 
 from __future__ import annotations
@@ -85,7 +77,7 @@ def _cheb_krylov_bytes(N: int) -> float:
 
 
 def _plane2d_bytes(cells: int) -> float:
-    return 2500.0 * cells  # measured, see the module docstring
+    return 2500.0 * cells  # measured (docs/scaling.md, the memory section)
 
 
 #: finite volumes: the run time, not the memory, grows like N^2

@@ -8,7 +8,8 @@ command line's output schedule the step size collapsed from 2.1e-3 to 8.6e-5 at 
 Newton convergence failures (with GMRES(20) or GMRES(50) alike), where this product, whose
 perturbation is :data:`INCREMENT` times the state's largest component, took the same run to
 t = 0.07 in 44 steps without a failure, and the whole run to t = 10 in 132 steps (as 64^2-512^2
-take) and 290 s, where with CVODE's it had not finished in 1200 s (docs/scaling.md).
+take), where with CVODE's it had not finished (the times: docs/scaling.md, "The banded solves on
+both cores; 1024²").
 """
 
 from __future__ import annotations

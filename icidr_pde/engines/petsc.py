@@ -14,9 +14,8 @@ reduction over the ranks, which also carries an interrupt (SIGINT, SIGTERM) to e
 the same step; max|w| at an output is a reduction too; the state is gathered only where the
 run keeps it (snapshots, the last output) or where it is invalid. A problem without patches
 (any other sparse problem) is evaluated replicated: the state gathered to every rank for each
-right-hand side and Jacobian, each rank keeping its own rows. Measured (docs/distributed.md,
-benchmarks/petsc_ranks.py): iCIDR bump2d 128^2 to t = 2, the right-hand side per rank 1.07 s
-on 1 rank, 0.66 s on 2, the whole process 63 s and 57 s on a shared 2-core machine.
+right-hand side and Jacobian, each rank keeping its own rows. What the ranks gain
+(benchmarks/petsc_ranks.py) is in docs/distributed.md.
 
 Options pass through: ``options={"ksp_type": "bcgs", ...}`` or the environment variable
 ``PETSC_OPTIONS="-ts_type rosw -pc_type asm"``; PETSc's ``-ts_*``, ``-snes_*``, ``-ksp_*`` and
@@ -42,10 +41,10 @@ from ..time_scale import MIN_STEP_FRACTION
 __all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
 #: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
-#: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)). Measured on iCIDR
-#: bump2d 64^2 to t = 2 (docs/distributed.md): KSPSolve 5.1 s with bjacobi/ILU, 5.1 s ASM,
-#: 16.2 s GAMG (its setup at each Newton matrix and its Chebyshev smoothing cost more than the
-#: ILU's extra iterations at this size); -pc_type gamg selects it
+#: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)): on iCIDR bump2d
+#: 64^2 as fast as ASM and faster than GAMG, whose setup at each Newton matrix and Chebyshev
+#: smoothing cost more than the ILU's extra iterations at this size (the times:
+#: docs/distributed.md, the table of -pc_type); -pc_type gamg selects it
 DEFAULTS = {"ts_type": "bdf", "snes_type": "newtonls", "snes_linesearch_type": "basic", "ksp_type": "gmres",
             "pc_type": "bjacobi", "sub_pc_type": "ilu", "ksp_rtol": 1e-8, "snes_mf_operator": True}
 #: snes_mf_operator: GMRES solves with the Jacobian of the current state (its product by difference

@@ -56,8 +56,8 @@ class CvodeEngine(Engine):
     per Jacobian) computed here with exact mass-row column sums, so that the Newton updates
     conserve mass to round-off (SUNDIALS' own quotients drift it by 2.6e-11 at N = 7; kept
     above 256 MiB of Jacobian, where scikit-sundae's dense hand-over array would not fit). On 2-D grids ('krylov') GMRES solves
-    the Newton systems matrix-free; measured on iCIDR bump2d it beats SuperLU_MT with the
-    analytic Jacobian ('sparse'): 2.3 s against 72 s at 64^2 (see docs/sim2d.md); 'amg'
+    the Newton systems matrix-free, far faster on iCIDR bump2d than SuperLU_MT with the
+    analytic Jacobian ('sparse'; the times: docs/sim2d.md); 'amg'
     preconditions that GMRES by one algebraic-multigrid V-cycle (:mod:`.linear.amg`), 'fourier' by the
     exact inverse of the x-averaged Jacobian's Newton matrix (:mod:`.linear.xfourier`).
     SUNDIALS' messages are captured into the failure reason. The minimum step is relative

@@ -3,15 +3,15 @@
    of the driver's Jacobians (the macros the translation addresses J with).
 
    With ICIDR_BLAS (the build found the OpenBLAS that scikit-sundae ships with its LAPACK
-   solver) the products are BLAS dgemv/dgemm, as numpy.dot computes them for numba (4.7x and
-   4.4x faster than the plain loops below, measured at n = 201 for the Chebyshev kernels). */
+   solver) the products are BLAS dgemv/dgemm, as numpy.dot computes them for numba (faster than
+   the plain loops below for the Chebyshev kernels: docs/engines.md). */
 
 #include <stdlib.h>
 
 /* numpy.empty of the printed kernels and its release at the kernel's end: malloc and free, or
    (KERNEL_SCRATCH, the 2-D cell's library) a stack of scratch memory kept between calls, one a
    thread: the 2-D rates allocate the same face arrays at every call, and glibc gave blocks that
-   large back to the system at every free (page faults: 0.92 against 1.28 ms a call at 128^2).
+   large back to the system at every free (page faults at every call: docs/engines.md).
    A kernel releases all its blocks at its end: the stack is empty again when no block is live; a
    request beyond the stack is malloc'ed, and the stack grown, once empty, to the most used. */
 #ifdef KERNEL_SCRATCH

@@ -26,9 +26,8 @@ memory_estimate = CHEB.memory_estimate  # the dense LU's; a problem checks its o
 #: CVODE's dense linear solvers: LAPACK's LU (OpenBLAS, as the py-pde path's 'lapackdense'), SUNDIALS' own
 DENSE_SOLVERS = ("lapack", "sundials")
 #: OpenBLAS threads of a run where neither OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set: one.
-#: Measured on this 2-core machine at a load of 3, iCIDR sine N = 201, t = 15: 2.2 s with one
-#: thread, 8.4 s with OpenBLAS's default two (a 603 x 603 LU gains little from a second core
-#: and loses much when that core is busy). It is OpenBLAS's setting for the whole process.
+#: A 603 x 603 LU gains little from a second core and loses much when that core is busy (the
+#: measurement: docs/chebyshev.md). It is OpenBLAS's setting for the whole process.
 BLAS_THREADS = 1
 #: the one a run takes (the build falls back to SUNDIALS' own where scikit-sundae ships no LAPACK solver)
 DENSE_SOLVER = "lapack"

@@ -7,8 +7,8 @@ from .gmres import Preconditioned
 __all__ = ["AmgGmres", "AMG_BYTES"]
 
 #: the algebraic-multigrid path ('amg'), per unknown beyond the scheme's estimate: the analytic
-#: Jacobian, its node-major copy, the level operators and pyamg's set-up temporaries; peak RSS
-#: 854 MB against 383 MB without it at 256^2 (benchmarks/amg2d.py): 7.2 kB a 2-D cell
+#: Jacobian, its node-major copy, the level operators and pyamg's set-up temporaries: 7.2 kB a 2-D
+#: cell, from the peak memory with and without it (docs/scaling.md, the memory section)
 AMG_BYTES = 7_200.0 / 3
 
 

@@ -13,8 +13,8 @@ The coarsest level is solved by its dense inverse. Work vectors ``x``, ``b`` hol
 for every level.
 
 Why one call: the per-level work of the V-cycle through scipy and pyamg (two Gauss-Seidel and
-three matrix-vector calls a level, array allocations) cost ~2.5 s of Python overhead in the
-32 s of a 128^2 run (docs/scaling.md). The split into L and U lets each pass read only the
+three matrix-vector calls a level, array allocations) cost seconds of Python overhead in a
+128^2 run (docs/scaling.md, "Where the time of `--jacobian amg` goes"). The split into L and U lets each pass read only the
 blocks it needs, without a test per block (storing the blocks in float32 to read half the
 bytes did not change a run's time: not kept).
 """

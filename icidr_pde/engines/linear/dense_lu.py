@@ -23,7 +23,7 @@ class CvodeDenseLU(LinearSolver):
     modes = ("analytic",)
     methods = ("CVODE",)
     preference = 20
-    # a dense LU (Chebyshev: 603 x 603, ~30 ms) costs tens of RHS calls: keep the factored
+    # a dense LU (Chebyshev: 603 x 603) costs many RHS calls (docs/chebyshev.md): keep the factored
     # I - gamma J until gamma has doubled (modified Newton), not only changed by 30 %
     delta_gamma = DENSE_LU_DELTA_GAMMA
 

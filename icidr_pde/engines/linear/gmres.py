@@ -11,8 +11,8 @@ __all__ = ["Gmres", "Preconditioned", "CompiledGmres", "PetscGmres"]
 
 class Gmres(LinearSolver):
     """GMRES without a preconditioner, Jacobian-vector products by CVODE's difference quotients.
-    Measured on iCIDR bump2d it beats SuperLU_MT with the analytic Jacobian ('sparse'): 2.3 s
-    against 72 s at 64^2 (docs/sim2d.md)."""
+    On iCIDR bump2d it is far faster than SuperLU_MT with the analytic Jacobian ('sparse'; the
+    times: docs/sim2d.md)."""
 
     name = "GMRES"
     modes = ("krylov",)

@@ -9,11 +9,10 @@ __all__ = ["LineGmres", "line_preconditioner", "LINE_BYTES"]
 
 #: the line preconditioner of a thin 2-D cell's GMRES (mode 'krylov' where hx > THIN_CELL hz), per
 #: unknown beyond the scheme's estimate: at its set-up the analytic sparse Jacobian, its restriction
-#: to the couplings along z and I - gamma J_line (1.05 kB at the peak, tracemalloc), SuperLU's factors
-#: (0.11 kB, from their entries: C memory tracemalloc does not see) and the line pattern (0.11 kB),
-#: 1.27 kB in all, the same per unknown at 256 x 32, 512 x 64 and 1024 x 64 (benchmarks/line_memory.py),
-#: taken with 10 % to spare; without it a thin 4096 x 256 cell was estimated at 2.44 GiB and peaked at
-#: 4.78 GB (RSS)
+#: to the couplings along z and I - gamma J_line, SuperLU's factors (C memory tracemalloc does not
+#: see, counted from their entries) and the line pattern, measured by benchmarks/line_memory.py and
+#: taken with 10 % to spare; without it a thin cell's estimate fell far below its peak
+#: (docs/scaling.md, the memory section)
 LINE_BYTES = 1_400.0
 
 

@@ -6,8 +6,8 @@ from .base import JacobianForm, LinearSolver, Memory
 
 __all__ = ["SuperLUMT", "ScipySuperLU", "SPARSE_LU_BYTES"]
 
-#: SuperLU_MT's factors ('sparse'), per unknown beyond the scheme's estimate: 26 kB a 2-D cell
-#: measured (:mod:`icidr_pde.discretizations.grid_size`)
+#: SuperLU_MT's factors ('sparse'), per unknown beyond the scheme's estimate: their fill-in, taken
+#: from the peak memory of 2-D runs (docs/scaling.md, the memory section)
 SPARSE_LU_BYTES = 23_500.0 / 3
 
 

@@ -8,8 +8,8 @@ from .gmres import Preconditioned
 __all__ = ["XFourierGmres", "FOURIER_BYTES"]
 
 #: the x-Fourier preconditioner ('fourier'), per unknown beyond the scheme's estimate: the analytic
-#: Jacobian while it is averaged, the banded LU factors of the Nx / 2 + 1 wave numbers; peak RSS
-#: 627 MB against 405 MB without it at 256^2 (benchmarks/amg2d.py): 3.4 kB a 2-D cell
+#: Jacobian while it is averaged, the banded LU factors of the Nx / 2 + 1 wave numbers: 3.4 kB a
+#: 2-D cell, from the peak memory with and without it (docs/scaling.md, the memory section)
 FOURIER_BYTES = 3_400.0 / 3
 
 
