@@ -174,6 +174,16 @@ def test_result_extras_and_summary_of_the_2d_cell():
     assert get_cell("shear1d").result_summary(R) == {} and get_cell("shear1d").result_extras(case, data) == {}
 
 
+def test_the_recorders_ask_the_cell_whether_it_draws_profiles():
+    from icidr_pde.case import build_case
+    from icidr_pde.recorders import make_recorders
+
+    case = build_case("icidr", "bump2d", "fv2d", (6, 5))
+    assert case.cell is get_cell("plane2d") and not case.cell.profiles and build_case("icidr", "shear").cell.profiles
+    with pytest.raises(ValueError, match="`live_plot` and `movie` draw 1-D scenes"):
+        make_recorders(case, 1.0, snap_times=[], live_plot=True)
+
+
 def _cell(module):
     """The cell a module belongs to ('shear1d' for icidr_pde.cells.shear1d.fd), else None."""
     parts = module.split(".")
