@@ -459,7 +459,8 @@ def _cases():
 def _outcome(scheme, size, thin, method, request, jacobian) -> str:
     grid = dict(cells=size, thin_cell=thin) if scheme == "fv2d" else {}
     try:
-        choice = choose(method=method, jacobian=jacobian, request=request, **choice_asks(scheme, request=request, **grid))
+        choice = choose(method=method, jacobian=jacobian, request=request,
+                        **choice_asks(scheme, request=request, **grid))
     except ParameterError as error:
         return "! " + str(error)[:60]
     return " / ".join(map(str, (choice.engine, choice.jacobian, choice.linear_solver, choice.max_order)))
@@ -481,7 +482,8 @@ def test_each_choice_carries_its_solver_and_the_name_is_the_solvers():
         if OUTCOMES[code].startswith("!"):
             continue
         grid = dict(cells=size, thin_cell=thin) if scheme == "fv2d" else {}
-        choice = choose(method=method, jacobian=jacobian, request=request, **choice_asks(scheme, request=request, **grid))
+        choice = choose(method=method, jacobian=jacobian, request=request,
+                        **choice_asks(scheme, request=request, **grid))
         assert choice.solver is not None and choice.solver.name == choice.linear_solver, (key, jacobian)
 
 
