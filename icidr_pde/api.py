@@ -22,7 +22,7 @@ import numpy as np
 
 from .drive import Outcome, Recorded, View, drive, outcome as _outcome, recorded as _recorded
 from .engines.base import check_tolerances
-from .engines.choose import SCHEME_STRUCTURES, Choice, JacobianStructure, choose
+from .engines.choose import Choice, choose
 from .presets import resolve
 from .recorders import StopRun, WallClock, make_recorders
 from .result import Fields, Result
@@ -120,8 +120,8 @@ def run(
             with the pressure (4.12))
         scene: a registered scene: 'shear' (IC (3.16)) or 'sine' (IC (5.7)); scene
             parameters (phi0, eps, a, b, H) are keyword arguments
-        N: number of grid cells ('fd') or collocation points with walls ('cheb'); for
-            'fv2d' Nz or the pair (Nx, Nz)
+        N: number of grid cells ('fd') or collocation points with walls ('cheb'); on the 2-D
+            cell (plane2d) Nz or the pair (Nx, Nz)
         t_end: final time
         times: snapshot times (strings keep their spelling as labels)
         accuracy: preset 'draft', 'standard' or 'publication' (see :mod:`icidr_pde.presets`);
@@ -150,7 +150,8 @@ def run(
         max_wall: abandon the run after this many seconds (reason 'timeout ...')
         engine: 'auto' (default, as the CLI's --engine), 'native' or 'pde': 'auto' and 'native'
             take the native engine (:mod:`icidr_pde.engines.native`: C kernels and CVODE, no Python
-            in the loop) where it applies (fd or cheb, CVODE, analytic Jacobian; fv2d, CVODE, GMRES),
+            in the loop) where it applies (CVODE with the Jacobian its cell states: analytic on the
+            1-D cell, matrix-free GMRES on the 2-D one; :attr:`~icidr_pde.cells.base.Cell.native`),
             with every output and recorder, else a Python engine on the py-pde scheme (scipy or scikit-sundae);
             'native' says on stderr why it fell back; 'pde' is always the Python engines (the ones
             the regression anchors are pinned on). All return the same Result fields, and the
@@ -177,9 +178,8 @@ def run(
     settings = resolve(accuracy, discretization=discretization, N=N, method=method, rtol=rtol, atol=atol)
     settings["rtol"], settings["atol"] = check_tolerances(settings["rtol"], settings["atol"])
     settings["atol_asked"] = atol is not None
-    ask = dict(method=settings["method"], jacobian=jacobian, discretization=settings["discretization"],
-               structure=SCHEME_STRUCTURES.get(settings["discretization"], JacobianStructure()), request=engine,
-               backend=backend, max_order=max_order, **_cell_ask(scene, scene_cls, settings["N"], scene_params))
+    ask = dict(method=settings["method"], jacobian=jacobian, request=engine, backend=backend, max_order=max_order,
+               **_cell_ask(settings["discretization"], scene, scene_cls, settings["N"], scene_params, engine))
     choice = choose(**ask)
     if choice.warning:
         sys.stderr.write(f"icidr-pde: warning: {choice.warning}\n")
@@ -369,13 +369,14 @@ def _compile_jacobian(problem) -> None:
         spec.band_jac(y0, np.zeros((y0.size, y0.size)))
 
 
-def _cell_ask(scene, scene_cls, N, scene_params) -> dict:
-    """What :func:`choose` asks of the cell of the run: its dimension and its grid (the 2-D cell:
-    cells and whether it is thin; :meth:`~icidr_pde.cells.base.Cell.choice_grid`)."""
-    from .cells import cell_for
+def _cell_ask(discretization, scene, scene_cls, N, scene_params, request) -> dict:
+    """What :func:`choose` asks of the cells of the run (:func:`~icidr_pde.cells.choice_asks`): its
+    scheme's Jacobian structure and native engine, and its grid (the 2-D cell: cells and whether it
+    is thin; :meth:`~icidr_pde.cells.base.Cell.choice_grid`)."""
+    from .cells import cell_for, choice_asks
 
     cell = cell_for(scene_cls, N)
-    return dict(dim=cell.dim, **cell.choice_grid(scene, N, scene_params))
+    return choice_asks(discretization, cell, request, **cell.choice_grid(scene, N, scene_params))
 
 
 def _not_written(result: Result, name: str, path, why: str) -> None:

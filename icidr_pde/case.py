@@ -39,20 +39,13 @@ class Case:
     @property
     def grid(self):
         if self._grid is None:
-            s = self.scheme
-            if self.dim == 2:
-                self._grid = self.pde.make_grid((s.Nx, s.Nz), s.H, L=s.L)
-            else:
-                self._grid = self.pde.make_grid(s.N, s.H)
+            self._grid = self.cell.make_grid(self.pde, self.scheme)
         return self._grid
 
     @property
     def state(self):
         if self._state is None:
-            if self.dim == 2:
-                self._state = self.pde.make_state(self.grid, *self.data)
-            else:
-                self._state = self.pde.state_of(self.grid, self.data)
+            self._state = self.cell.make_state(self.pde, self.grid, self.data)
         return self._state
 
     @property
@@ -127,18 +120,23 @@ class Case:
         """Points along z (the 1-D N; Nz of a 2-D grid)."""
         if self.scheme is None:
             return int(self.grid.shape[-1])
-        return int(self.scheme.Nz if self.dim == 2 else self.scheme.N)
+        return self.cell.points_along_z(self.scheme)
 
     @property
     def dim(self) -> int:
-        return int(getattr(self.scheme if self.scheme is not None else self.pde, "dim", 1))
+        return self.cell.dim
+
+    @property
+    def cell(self):
+        """The descriptor of the case's cell (:mod:`icidr_pde.cells`), of its scheme."""
+        from .cells import cell_of
+
+        return cell_of(self.scheme if self.scheme is not None else self.pde)
 
     def plane(self, data) -> dict:
         """What the cell's Result adds for the snapshots `data` (the 2-D cell: its grid along x and
         per-snapshot measures; the 1-D cell: nothing): the cell's :meth:`~icidr_pde.cells.base.Cell.result_extras`."""
-        from .cells import cell_of
-
-        return cell_of(self.scheme if self.scheme is not None else self.pde).result_extras(self, data)
+        return self.cell.result_extras(self, data)
 
 
 def _law(rheology, material):

@@ -73,7 +73,7 @@ def make_recorders(case, t_end: float, *, snap_times, save=None, live_plot=False
     others recorded stays)."""
     recorders = []
     title = f"{case.rheology.name} {case.scene.name} {case.discretization} N={case.N}"
-    if (live_plot or movie) and case.dim != 1:
+    if (live_plot or movie) and not case.cell.profiles:
         raise ValueError("`live_plot` and `movie` draw 1-D scenes (fields against z); "
                          f"got the 2-D scene {case.scene.name!r}")
     if live_plot:

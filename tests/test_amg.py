@@ -14,7 +14,8 @@ from scipy.sparse import linalg
 
 from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 from icidr_pde.engines.linear.amg_hierarchy import AmgHierarchy, amg_preconditioner
-from icidr_pde.engines.choose import AMG_SOLVER, SCHEME_STRUCTURES, choose
+from icidr_pde.cells import choice_asks
+from icidr_pde.engines.choose import AMG_SOLVER, choose
 from icidr_pde.cells.plane2d.scenes import Bump2DScene
 from icidr_pde.validation import ParameterError
 
@@ -167,10 +168,10 @@ def test_preconditioner_keeps_the_mass_of_its_input():
 
 def test_amg_needs_the_2d_cell():
     with pytest.raises(ParameterError, match="`jacobian`='amg'.*fv2d"):
-        choose(method="CVODE", jacobian="amg", structure=SCHEME_STRUCTURES["cheb"], request="pde")
+        choose(method="CVODE", jacobian="amg", request="pde", **choice_asks("cheb", request="pde"))
     with pytest.raises(ParameterError, match="`jacobian` must be one of"):
-        choose(method="BDF", jacobian="amg", structure=SCHEME_STRUCTURES["fv2d"])
-    choice = choose(method="CVODE", jacobian="amg", structure=SCHEME_STRUCTURES["fv2d"], request="pde")
+        choose(method="BDF", jacobian="amg", **choice_asks("fv2d"))
+    choice = choose(method="CVODE", jacobian="amg", request="pde", **choice_asks("fv2d", request="pde"))
     assert (choice.engine, choice.jacobian, choice.linear_solver) == ("sundae", "amg", AMG_SOLVER)
 
 

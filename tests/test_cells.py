@@ -26,11 +26,7 @@ def test_the_registry_holds_both_cells():
 @pytest.mark.parametrize("name", PACKAGES)
 def test_each_descriptor_is_consistent(name):
     from icidr_pde import rheology
-    from icidr_pde.engines import choose
-    from icidr_pde.engines.choose import JacobianStructure
-
-    # the tables choose keeps today (None once choose asks the cell)
-    structures, native_solvers = getattr(choose, "SCHEME_STRUCTURES", None), getattr(choose, "NATIVE_SCHEMES", None)
+    from icidr_pde.engines.choose import JacobianStructure, native_solver
 
     cell = get_cell(name)
     assert cell.name == name and cell.package == f"icidr_pde.cells.{name}" and cell.folder.is_dir()
@@ -48,15 +44,13 @@ def test_each_descriptor_is_consistent(name):
     # its compiled templates exist, and the schemes' cores and adapters read the same files
     assert cell.templates and all(isinstance(t, Template) and (cell.folder / t.path).is_file() for t in cell.templates)
     assert all(text.lstrip().startswith('"""') for text in cell.template_texts())
-    # its Jacobian structures are the engines' flags, the table choose keeps, and its native engine's modes
+    # its Jacobian structures are the engines' flags, and its native engine's modes and linear solvers theirs
     fields = {f.name for f in dataclasses.fields(JacobianStructure)}
     assert set(cell.jacobian) == set(cell.schemes) and all(set(flags) <= fields for flags in cell.jacobian.values())
-    for scheme in cell.schemes:
-        assert structures is None or JacobianStructure(**cell.jacobian[scheme]) == structures[scheme]
     assert set(cell.native) <= set(cell.schemes) and set(cell.native_problems) == set(cell.native)
     assert set(cell.native_cores) <= set(cell.native)
     for scheme, (mode, solver) in cell.native.items():
-        assert (native_solvers is None or native_solvers[scheme].name == solver) and mode in ("analytic", "krylov")
+        assert native_solver(solver).name == solver and mode in ("analytic", "krylov")
         assert callable(cell.native_problem(scheme))
         core = cell.native_core(scheme)
         assert core is None or (core.name == scheme and core.dim == cell.dim)
@@ -107,18 +101,43 @@ def test_grid_words_and_choice_grid():
     assert plane.choice_grid("bump2d", 3) == {}  # invalid N: the case builder says why
 
 
-def test_native_refusal_is_chooses():
-    """Plane2D.native_refusal says what choose's 2-D test says (skipped once choose asks the cell)."""
-    from icidr_pde.engines import choose
+def test_native_refusal():
+    """Plane2D.native_refusal says what choose's 2-D test said before the cells (its texts, written
+    here), and choice_asks counts the grid's size on 'auto' only."""
+    from icidr_pde.cells import choice_asks
 
-    if not hasattr(choose, "_not_native_2d"):
-        pytest.skip("engines.choose._not_native_2d is gone: choose asks the cell")
-    _not_native_2d = choose._not_native_2d
     plane = get_cell("plane2d")
-    assert plane.native_auto_cells == choose.NATIVE_FV2D_AUTO_CELLS
-    for thin, n in ((True, None), (False, None), (False, 64 * 64), (False, 64 * 64 + 1), (True, 10**6)):
-        assert plane.native_refusal(thin, n) == _not_native_2d(thin, n)
+    thin = "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES)"
+    large = "a 2-D grid of 4097 cells (> 4096: the py-pde path measured faster; --engine native takes it)"
+    assert plane.native_auto_cells == 64 * 64
+    for thin_cell, n, said in ((True, None, thin), (False, None, ""), (False, 64 * 64, ""), (False, 64 * 64 + 1, large),
+                               (True, 10**6, thin)):
+        assert plane.native_refusal(thin_cell, n) == said
     assert get_cell("shear1d").native_refusal(True, 10**9) == ""
+    assert choice_asks("fv2d", cells=64 * 64 + 1)["native_refusal"] == large
+    assert choice_asks("fv2d", request="native", cells=64 * 64 + 1)["native_refusal"] == ""
+    assert choice_asks("fd", plane, cells=64)["native_refusal"] == "a 2-D grid for discretization 'fd'"
+    assert choice_asks("fd")["native"] == get_cell("shear1d").native["fd"] and choice_asks("upwind3")["native"] is None
+
+
+@pytest.mark.parametrize("scheme, scene, N, z_points", [("fd", "shear", 9, 9), ("cheb", "sine", 9, 9),
+                                                          ("fv2d", "bump2d", (6, 5), 5)])
+def test_a_case_asks_its_cell_for_grid_state_and_points(scheme, scene, N, z_points):
+    """The py-pde grid and state a core's case makes through its cell (make_grid, make_state) are
+    those the py-pde path builds itself; points_along_z is the Result's N."""
+    from icidr_pde.case import Case, build_case, make_pde
+    from icidr_pde.native_case import core_class
+
+    on_core = build_case("icidr", scene, scheme, N, core=core_class(scheme))
+    assert on_core.scheme is not None and on_core.cell is cell_of(scheme)
+    # the py-pde path's grid and state, as build_case writes them
+    pde = make_pde("icidr", scheme)
+    grid = pde.make_grid(N, on_core.scene.H, **getattr(on_core.scene, "grid_options", dict)())
+    state = pde.make_state(grid, *on_core.scene.initial_condition(pde.nodes(grid)))
+    on_pde = Case(on_core.scene, pde=pde, grid=grid, state=state)
+    assert on_core.N == on_pde.N == z_points
+    assert on_core.grid.shape == on_pde.grid.shape and on_core.grid.axes_bounds == on_pde.grid.axes_bounds
+    np.testing.assert_allclose(on_core.state.data, on_pde.state.data, rtol=1e-13, atol=1e-15)
 
 
 def test_result_extras_and_summary_of_the_2d_cell():
@@ -155,6 +174,16 @@ def test_result_extras_and_summary_of_the_2d_cell():
     assert get_cell("shear1d").result_summary(R) == {} and get_cell("shear1d").result_extras(case, data) == {}
 
 
+def test_the_recorders_ask_the_cell_whether_it_draws_profiles():
+    from icidr_pde.case import build_case
+    from icidr_pde.recorders import make_recorders
+
+    case = build_case("icidr", "bump2d", "fv2d", (6, 5))
+    assert case.cell is get_cell("plane2d") and not case.cell.profiles and build_case("icidr", "shear").cell.profiles
+    with pytest.raises(ValueError, match="`live_plot` and `movie` draw 1-D scenes"):
+        make_recorders(case, 1.0, snap_times=[], live_plot=True)
+
+
 def _cell(module):
     """The cell a module belongs to ('shear1d' for icidr_pde.cells.shear1d.fd), else None."""
     parts = module.split(".")
@@ -182,7 +211,8 @@ def test_the_rule_finds_a_crossing():
 
 #: the modules that ask the cell instead of testing a dimension
 ASK_THE_CELL = ("icidr_pde/result.py", "icidr_pde/snapshots.py", "icidr_pde/engines/stiff.py",
-                "icidr_pde/discretizations/grid_size.py", "icidr_pde/native/build.py")
+                "icidr_pde/discretizations/grid_size.py", "icidr_pde/native/build.py", "icidr_pde/engines/choose.py",
+                "icidr_pde/api.py", "icidr_pde/recorders.py")
 
 
 def _dimension_tests(source: str) -> list[str]:

@@ -1,12 +1,17 @@
 """engines.choose: the one choice of engine, Jacobian and linear solver.
 
-Against the schemes themselves: the light table of their Jacobian structures is what each
-registered py-pde scheme offers on a state; the choice names what the engine then builds.
+Against the schemes themselves: the Jacobian structure the cells state (what the run path
+passes in, :func:`icidr_pde.cells.choice_asks`) is what each registered py-pde scheme offers on a
+state; the choice names what the engine then builds.
 """
+
+import subprocess
+import sys
 
 import pytest
 
-from icidr_pde.engines.choose import SCHEME_STRUCTURES, JacobianStructure, choose
+from icidr_pde.cells import cells, choice_asks, get_cell
+from icidr_pde.engines.choose import JacobianStructure, choose, native_solver
 from icidr_pde.validation import ParameterError
 
 
@@ -15,7 +20,7 @@ def test_scheme_structures_are_what_the_schemes_offer():
 
     for name, scene, N in (("fd", "shear", 9), ("cheb", "shear", 9), ("fv2d", "bump2d", (6, 5))):
         case = build_case("icidr", scene, name, N)
-        assert JacobianStructure.of(case.pde, case.state) == SCHEME_STRUCTURES[name], name
+        assert JacobianStructure.of(case.pde, case.state) == JacobianStructure(**choice_asks(name)["structure"]), name
 
 
 @pytest.mark.parametrize("method, jacobian, scheme, expected", [
@@ -31,23 +36,52 @@ def test_scheme_structures_are_what_the_schemes_offer():
     ("LSODA", None, "cheb", ("scipy", "analytic", "dense LU (LSODA)")),
 ])
 def test_python_engines(method, jacobian, scheme, expected):
-    choice = choose(method=method, jacobian=jacobian, structure=SCHEME_STRUCTURES[scheme], discretization=scheme,
-                    request="pde")
+    choice = choose(method=method, jacobian=jacobian, request="pde", **choice_asks(scheme, request="pde"))
     assert (choice.engine, choice.jacobian, choice.linear_solver) == expected and choice.reason == ""
 
 
 def test_native_where_it_applies_else_the_reason():
-    fd = SCHEME_STRUCTURES["fd"]
-    assert choose(method="CVODE", structure=fd, discretization="fd").engine == "native"
+    fd = choice_asks("fd", request="native")
+    assert choose(method="CVODE", **choice_asks("fd")).engine == "native"
     for kwargs, why in ((dict(method="BDF"), "method 'BDF'"), (dict(method="CVODE", jacobian="banded-fd"), "jacobian"),
-                        (dict(method="CVODE", outputs=["--save"]), "--save"), (dict(method="CVODE", dim=2), "2-D"),
+                        (dict(method="CVODE", backend="numpy"), "backend 'numpy'"),
                         (dict(method="CVODE", native_unavailable="no C compiler"), "no C compiler")):
-        choice = choose(structure=fd, discretization="fd", request="native", **kwargs)
+        choice = choose(request="native", **fd, **kwargs)
         assert choice.engine != "native" and why in choice.reason
+    # a grid of another cell: the cell of the grid says its dimension
+    on_plane = choose(method="CVODE", request="native", **choice_asks("fd", get_cell("plane2d"), "native"))
+    assert on_plane.engine != "native" and on_plane.reason == "a 2-D grid for discretization 'fd'"
+
+
+def test_the_native_engine_is_what_the_cells_state():
+    """Each scheme's native mode and linear solver are its cell's; a scheme no cell has a compiled
+    problem of is refused with the schemes that have one, named from the registry."""
+    native = {scheme: how for cell in cells().values() for scheme, how in cell.native.items()}
+    assert native and set(choice_asks("fd")["native_schemes"]) == set(native)
+    for scheme, (mode, solver) in native.items():
+        choice = choose(method="CVODE", **choice_asks(scheme))
+        assert (choice.engine, choice.jacobian, choice.linear_solver, choice.solver.name) == ("native", mode, solver,
+                                                                                                solver)
+        assert native_solver(solver).name == solver
+    with pytest.raises(ValueError, match="no linear solver"):
+        native_solver("GMRES + nothing")
+    names = choice_asks("fd")["native_schemes"]
+    other = choose(method="CVODE", request="native", **choice_asks("upwind3"))
+    assert other.reason == ("discretization 'upwind3' (the native engine has " + ", ".join(names[:-1])
+                            + f" and {names[-1]})")
+    assert "sparse Jacobian" in str(pytest.raises(ParameterError, choose, method="CVODE", request="petsc",
+                                                  **choice_asks("cheb", request="petsc")).value)
+
+
+def test_choose_imports_no_cell():
+    """An engine imports no cell (tests/test_import_graph.py): choose is asked with plain values."""
+    code = "import sys, icidr_pde.engines.choose; print(any(m.startswith('icidr_pde.cells') for m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
 
 
 def test_bad_requests_are_named():
-    fd, cheb = SCHEME_STRUCTURES["fd"], SCHEME_STRUCTURES["cheb"]
+    fd, cheb = choice_asks("fd")["structure"], choice_asks("cheb")["structure"]
     with pytest.raises(ParameterError, match="`engine`"):
         choose(method="CVODE", structure=fd, request="gpu")
     with pytest.raises(ParameterError, match="`jacobian` must be one of"):

@@ -208,8 +208,10 @@ def test_preset_tolerances_and_their_tstar_error():
 def test_quoted_constants_are_the_code_s():
     """The 2-D native engine's reach and the Krylov tolerance, where the pages state them without
     naming the constant (tests/test_researcher.py checks the sentences that name it)."""
+    from icidr_pde.cells import get_cell
     from icidr_pde.cvode_settings import KRYLOV_EPS_LIN
-    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS
+
+    NATIVE_FV2D_AUTO_CELLS = get_cell("plane2d").native_auto_cells
 
     side = math.isqrt(NATIVE_FV2D_AUTO_CELLS)
     assert side * side == NATIVE_FV2D_AUTO_CELLS
@@ -245,11 +247,12 @@ def check_native_against_pypde(rows, runs):
 
 
 def test_native2d_tables_and_the_reach_of_auto():
-    """engines.md's two tables of benchmarks/native2d_speed.py, and NATIVE_FV2D_AUTO_CELLS: `auto`
+    """engines.md's two tables of benchmarks/native2d_speed.py, and Plane2D.native_auto_cells: `auto`
     takes the native engine on the grids where it measured faster whole-process than the py-pde
     default (the x-Fourier run), and not beyond."""
-    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS
+    from icidr_pde.cells import get_cell
 
+    NATIVE_FV2D_AUTO_CELLS = get_cell("plane2d").native_auto_cells
     text = page("engines.md")
     check_native_against_pypde(table_after(text, "2 December 2026 on the shared 2-core machine at load 2.8-3.7"),
                                native2d_runs("native2d_speed", "native2d_speed_96"))

@@ -12,7 +12,8 @@
 import numpy as np
 import pytest
 
-from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+from icidr_pde.cells import choice_asks
+from icidr_pde.engines.choose import choose
 from icidr_pde.engines.linear import SOLVERS, jacobian_modes, unregister
 from icidr_pde.engines.linear.gmres import Preconditioned
 from icidr_pde.validation import ParameterError
@@ -456,12 +457,10 @@ def _cases():
 
 
 def _outcome(scheme, size, thin, method, request, jacobian) -> str:
-    kwargs = dict(method=method, jacobian=jacobian, structure=SCHEME_STRUCTURES[scheme], discretization=scheme,
-                  request=request, dim=2 if scheme == "fv2d" else 1)
-    if scheme == "fv2d":
-        kwargs.update(cells=size, thin_cell=thin)
+    grid = dict(cells=size, thin_cell=thin) if scheme == "fv2d" else {}
     try:
-        choice = choose(**kwargs)
+        choice = choose(method=method, jacobian=jacobian, request=request,
+                        **choice_asks(scheme, request=request, **grid))
     except ParameterError as error:
         return "! " + str(error)[:60]
     return " / ".join(map(str, (choice.engine, choice.jacobian, choice.linear_solver, choice.max_order)))
@@ -482,9 +481,9 @@ def test_each_choice_carries_its_solver_and_the_name_is_the_solvers():
     for key, scheme, size, thin, method, request, jacobian, code in _cases():
         if OUTCOMES[code].startswith("!"):
             continue
-        kwargs = dict(cells=size, thin_cell=thin) if scheme == "fv2d" else {}
-        choice = choose(method=method, jacobian=jacobian, structure=SCHEME_STRUCTURES[scheme], discretization=scheme,
-                        request=request, dim=2 if scheme == "fv2d" else 1, **kwargs)
+        grid = dict(cells=size, thin_cell=thin) if scheme == "fv2d" else {}
+        choice = choose(method=method, jacobian=jacobian, request=request,
+                        **choice_asks(scheme, request=request, **grid))
         assert choice.solver is not None and choice.solver.name == choice.linear_solver, (key, jacobian)
 
 
@@ -519,14 +518,13 @@ def toy():
 
 def test_a_preconditioner_is_chosen_where_its_mode_is_asked_for(toy):
     assert jacobian_modes("CVODE") == ("analytic", "banded-fd", "krylov", "amg", "fourier", "toy", "sparse", "none")
-    choice = choose(method="CVODE", jacobian="toy", structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d",
-                    dim=2, cells=128 * 128)
+    choice = choose(method="CVODE", jacobian="toy", **choice_asks("fv2d", cells=128 * 128))
     assert (choice.engine, choice.jacobian, choice.linear_solver) == ("sundae", "toy", toy.name)
     assert isinstance(choice.solver, toy)
     with pytest.raises(ParameterError, match="`jacobian`='toy' \\(GMRES preconditioned by the identity\\) needs"):
-        choose(method="CVODE", jacobian="toy", structure=SCHEME_STRUCTURES["fd"], discretization="fd", request="pde")
-    assert choose(method="CVODE", structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d", request="pde", dim=2,
-                  cells=128 * 128).jacobian == "fourier"  # the default is not the newcomer's
+        choose(method="CVODE", jacobian="toy", request="pde", **choice_asks("fd", request="pde"))
+    assert choose(method="CVODE", request="pde", **choice_asks("fv2d", request="pde", cells=128 * 128)
+                  ).jacobian == "fourier"  # the default is not the newcomer's
 
 
 def test_the_memory_check_counts_a_preconditioner(toy, monkeypatch):

@@ -212,9 +212,10 @@ def test_bad_input_is_named_before_any_work():
         run_native("icidr", "shear", 11, 1.0, advection="sideways")
     with pytest.raises(ValueError, match="`t_end`"):
         run_native("icidr", "shear", 11, -1.0)
-    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+    from icidr_pde.cells import choice_asks
+    from icidr_pde.engines.choose import choose
 
-    choice = choose(method="BDF", discretization="fd", structure=SCHEME_STRUCTURES["fd"], request="native")
+    choice = choose(method="BDF", request="native", **choice_asks("fd", request="native"))
     assert choice.engine == "scipy" and "method 'BDF'" in choice.reason
 
 

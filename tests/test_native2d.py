@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from icidr_pde import run
-from icidr_pde.engines.choose import FOURIER_SOLVER, NATIVE_FV2D_AUTO_CELLS, SCHEME_STRUCTURES, choose
+from icidr_pde.cells import choice_asks, get_cell
+from icidr_pde.engines.choose import FOURIER_SOLVER, choose
 from icidr_pde.cells.plane2d.scenes import Bump2DScene, Scene2D
 from icidr_pde.native_case import Plane2DCase
 
@@ -121,24 +122,29 @@ def test_mui_t_star_is_the_pde_paths():
     assert native.t_star == pytest.approx(pde.t_star, rel=1e-3)
 
 
+def _choose_fv2d(method="CVODE", request="auto", thin_cell=False, cells=None, **kw):
+    """choose on the 2-D cell, asked as the run path asks it (:func:`icidr_pde.cells.choice_asks`)."""
+    return choose(method=method, request=request, **choice_asks("fv2d", request=request, thin_cell=thin_cell,
+                                                                cells=cells), **kw)
+
+
 def test_choose_takes_native_for_thick_cells_up_to_its_measured_size():
-    fv2d = dict(method="CVODE", discretization="fv2d", structure=SCHEME_STRUCTURES["fv2d"], dim=2)
-    assert choose(**fv2d).engine == "native" and choose(**fv2d).linear_solver == "GMRES"
-    assert choose(**fv2d, jacobian="krylov").engine == "native"
-    thin = choose(**fv2d, thin_cell=True)
+    assert _choose_fv2d().engine == "native" and _choose_fv2d().linear_solver == "GMRES"
+    assert _choose_fv2d(jacobian="krylov").engine == "native"
+    thin = _choose_fv2d(thin_cell=True)
     assert thin.engine == "sundae" and "thin" in thin.reason
-    assert choose(**fv2d, request="pde").engine == "sundae"
-    limit = NATIVE_FV2D_AUTO_CELLS
-    assert choose(**fv2d, cells=limit).engine == "native"
-    large = choose(**fv2d, cells=limit + 1)
+    assert _choose_fv2d(request="pde").engine == "sundae"
+    limit = get_cell("plane2d").native_auto_cells
+    assert _choose_fv2d(cells=limit).engine == "native"
+    large = _choose_fv2d(cells=limit + 1)
     assert large.engine == "sundae" and "py-pde path measured faster" in large.reason
-    assert choose(**fv2d, cells=limit + 1, request="native").engine == "native"
-    assert choose(**fv2d, cells=limit + 1, request="native", thin_cell=True).engine == "sundae"
-    assert choose(**fv2d, jacobian="sparse").engine == "sundae"
-    assert choose(**dict(fv2d, method="BDF")).engine == "scipy"
+    assert _choose_fv2d(cells=limit + 1, request="native").engine == "native"
+    assert _choose_fv2d(cells=limit + 1, request="native", thin_cell=True).engine == "sundae"
+    assert _choose_fv2d(jacobian="sparse").engine == "sundae"
+    assert _choose_fv2d(method="BDF").engine == "scipy"
     # beyond it, the py-pde path's default: GMRES preconditioned by the x-averaged Jacobian
     assert (large.jacobian, large.linear_solver) == ("fourier", FOURIER_SOLVER)
-    assert choose(**fv2d, cells=limit + 1, jacobian="krylov").jacobian == "krylov"
+    assert _choose_fv2d(cells=limit + 1, jacobian="krylov").jacobian == "krylov"
 
 
 def test_thin_cell_runs_on_the_pde_path():

@@ -46,17 +46,18 @@ def perturbed(case, seed, amplitude=0.05):
 
 def test_settings_are_the_py_pde_paths():
     from icidr_pde.cells.shear1d.cheb import ChebyshevShearCellPDE
-    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+    from icidr_pde.cells import choice_asks
+    from icidr_pde.engines.choose import choose
     from icidr_pde.engines.sundae import DENSE_LU_DELTA_GAMMA as pde_delta_gamma
     from icidr_pde.cells.shear1d import native_cheb as cheb
 
     assert DENSE_LU_DELTA_GAMMA == pde_delta_gamma
     assert cheb.MAX_N == ChebyshevShearCellPDE.max_N
     assert cheb.memory_estimate(201) == ChebyshevShearCellPDE.memory_estimate(201)
-    choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"])
+    choice = choose(method="CVODE", **choice_asks("cheb"))
     assert (choice.engine, choice.linear_solver) == ("native", f"GMRES + {cheb.KRYLOV['preconditioner']} preconditioner")
     assert cheb.LINEAR_SOLVER == "krylov"
-    pde_choice = choose(method="CVODE", discretization="cheb", structure=SCHEME_STRUCTURES["cheb"], request="pde")
+    pde_choice = choose(method="CVODE", request="pde", **choice_asks("cheb", request="pde"))
     assert (pde_choice.jacobian, pde_choice.linear_solver) == ("analytic", "dense LU (LAPACK)")
 
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+from icidr_pde.cells import choice_asks
+from icidr_pde.engines.choose import choose
 from icidr_pde.engines.petsc import mpiexec
 from icidr_pde.validation import ParameterError
 
@@ -56,17 +57,16 @@ def _no_lammps_mpi_here(request):
 
 
 def test_choose_takes_petsc_on_request_or_method():
-    fv2d = SCHEME_STRUCTURES["fv2d"]
     for method, request in (("CVODE", "petsc"), ("PETSC-BDF", "auto"), ("PETSC-BDF", "pde")):
-        choice = choose(method=method, structure=fv2d, discretization="fv2d", request=request, dim=2)
+        choice = choose(method=method, request=request, **choice_asks("fv2d", request=request))
         assert (choice.engine, choice.jacobian) == ("petsc", "sparse") and "gmres" in choice.linear_solver
 
 
 def test_choose_refuses_petsc_without_a_sparse_jacobian():
     with pytest.raises(ParameterError, match="sparse Jacobian"):
-        choose(method="CVODE", structure=SCHEME_STRUCTURES["cheb"], discretization="cheb", request="petsc")
+        choose(method="CVODE", request="petsc", **choice_asks("cheb", request="petsc"))
     with pytest.raises(ParameterError, match="`jacobian` must be 'sparse'"):
-        choose(method="CVODE", jacobian="krylov", structure=SCHEME_STRUCTURES["fv2d"], request="petsc")
+        choose(method="CVODE", jacobian="krylov", request="petsc", **choice_asks("fv2d", request="petsc"))
 
 
 def test_without_petsc4py_one_line_naming_the_extra(monkeypatch, capsys):

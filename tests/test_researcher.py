@@ -136,9 +136,10 @@ def test_symbol_of_a_fresh_law_file_does_not_hang(tmp_path):
 # --- item 3: no silent dense Newton matrix on the 2-D cell ----------------------------------
 
 def _choose_2d(cells=64 * 64, **kw):
-    from icidr_pde.engines.choose import SCHEME_STRUCTURES, choose
+    from icidr_pde.cells import choice_asks
+    from icidr_pde.engines.choose import choose
 
-    return choose(structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d", dim=2, cells=cells, request="pde", **kw)
+    return choose(request="pde", **choice_asks("fv2d", request="pde", cells=cells), **kw)
 
 
 def _suggested(message):
@@ -287,9 +288,10 @@ def test_quoted_constants_name_code_that_exists():
 def test_the_native_fv2d_threshold_quoted_is_the_code_s():
     import re
 
-    from icidr_pde.engines.choose import NATIVE_FV2D_AUTO_CELLS
+    from icidr_pde.cells import get_cell
 
-    quoted = [(name, m) for name, text in _paragraphs() if "NATIVE_FV2D_AUTO_CELLS" in text
+    NATIVE_FV2D_AUTO_CELLS = get_cell("plane2d").native_auto_cells
+    quoted = [(name, m) for name, text in _paragraphs() if "Plane2D.native_auto_cells" in text
               for m in re.findall(r"up to (\d+)²(?: = (\d+) cells)?", text)]
     assert quoted
     for name, (n, cells) in quoted:

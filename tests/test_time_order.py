@@ -13,7 +13,8 @@ import pytest
 from scipy import sparse
 
 from icidr_pde.engines.base import JacobianSpec, Problem
-from icidr_pde.engines.choose import (A_STABLE_ORDER, BDF_MAX_ORDER, SCHEME_STRUCTURES, JacobianStructure, choose,
+from icidr_pde.cells import choice_asks
+from icidr_pde.engines.choose import (A_STABLE_ORDER, BDF_MAX_ORDER, JacobianStructure, choose,
                                       time_order)
 from icidr_pde.validation import ParameterError
 
@@ -78,12 +79,12 @@ def test_2d_spectrum_leaves_bdf5_sector():
 
 
 def test_default_orders_and_warnings():
-    fv2d, fd = SCHEME_STRUCTURES["fv2d"], SCHEME_STRUCTURES["fd"]
+    fv2d, fd = (JacobianStructure(**choice_asks(name)["structure"]) for name in ("fv2d", "fd"))
     assert fv2d.advected and not fd.advected
     for request in ("auto", "native", "pde", "petsc"):
-        choice = choose(method="CVODE", structure=fv2d, discretization="fv2d", request=request, dim=2, cells=32 * 32)
+        choice = choose(method="CVODE", request=request, **choice_asks("fv2d", request=request, cells=32 * 32))
         assert (choice.max_order, choice.warning) == (A_STABLE_ORDER, ""), request
-    assert choose(method="CVODE", structure=fd, discretization="fd").max_order == BDF_MAX_ORDER
+    assert choose(method="CVODE", **choice_asks("fd")).max_order == BDF_MAX_ORDER
     order, warning = time_order("CVODE", fv2d, 5)
     assert order == 5 and "max_order 2" in warning
     for method in ("BDF", "LSODA"):  # scipy's BDF orders cannot be capped
@@ -132,8 +133,7 @@ def short_wave_growth(engine_cls, nx, rtol, max_order, t_end=40.0) -> float:
 
 
 def _default_order() -> int:
-    return choose(method="CVODE", structure=SCHEME_STRUCTURES["fv2d"], discretization="fv2d", request="pde",
-                  dim=2).max_order
+    return choose(method="CVODE", request="pde", **choice_asks("fv2d", request="pde")).max_order
 
 
 @pytest.mark.parametrize("nx, rtol", [(64, 1e-5), (256, 1e-5), (256, 1e-8)])

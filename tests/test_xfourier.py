@@ -16,7 +16,8 @@ from scipy import sparse
 from scipy.sparse import linalg
 
 from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
-from icidr_pde.engines.choose import FOURIER_SOLVER, SCHEME_STRUCTURES, choose
+from icidr_pde.cells import choice_asks
+from icidr_pde.engines.choose import FOURIER_SOLVER, choose
 from icidr_pde.engines.linear.xfourier_inverse import XFourierPreconditioner
 from icidr_pde.cells.plane2d.scenes import Bump2DScene
 from icidr_pde.validation import ParameterError
@@ -126,12 +127,12 @@ def test_mui_failure_time_does_not_depend_on_the_preconditioner():
 
 def test_choice_and_refusals():
     """'fourier' is CVODE's on the 2-D cell's analytic sparse Jacobian only, and needs x periodic."""
-    choice = choose(method="CVODE", jacobian="fourier", structure=SCHEME_STRUCTURES["fv2d"], request="pde")
+    choice = choose(method="CVODE", jacobian="fourier", request="pde", **choice_asks("fv2d", request="pde"))
     assert (choice.engine, choice.jacobian, choice.linear_solver) == ("sundae", "fourier", FOURIER_SOLVER)
     with pytest.raises(ParameterError, match="fourier"):
-        choose(method="CVODE", jacobian="fourier", structure=SCHEME_STRUCTURES["cheb"], request="pde")
+        choose(method="CVODE", jacobian="fourier", request="pde", **choice_asks("cheb", request="pde"))
     with pytest.raises(ParameterError, match="jacobian"):
-        choose(method="BDF", jacobian="fourier", structure=SCHEME_STRUCTURES["fv2d"])
+        choose(method="BDF", jacobian="fourier", **choice_asks("fv2d"))
     pde, state = _state("icidr", 8, 6, x_dependent=False)
     with pytest.raises(ParameterError, match="`J` must be"):
         XFourierPreconditioner(_jacobian(pde, state), (3, 8, 5), 0.1)

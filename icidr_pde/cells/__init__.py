@@ -15,7 +15,7 @@ import importlib
 from .base import CELLS, Cell, Template
 
 __all__ = ["Cell", "CELLS", "Template", "PACKAGES", "cells", "get_cell", "cell_of", "cell_for", "cell_of_result",
-           "load_scenes"]
+           "load_scenes", "choice_asks"]
 
 #: the cells' packages, one row a cell (the descriptor is the package's ``cell.py``)
 PACKAGES = ("shear1d", "plane2d")
@@ -67,6 +67,29 @@ def cell_for(scene=None, N=None) -> Cell:
         load_scenes()
         scene = SCENES.get(scene)
     return cell_of(scene) if scene is not None else _of_dim(1)
+
+
+def choice_asks(scheme: str, grid_cell: Cell | None = None, request: str = "auto", **grid) -> dict:
+    """What :func:`icidr_pde.engines.choose.choose` is told by the cells of a run of `scheme` (its
+    registry name) on a grid of `grid_cell` (default: the scheme's cell) described by `grid` (the
+    keywords of :meth:`~.base.Cell.choice_grid`), with the engine `request`: the scheme's Jacobian
+    structure and native engine (:attr:`~.base.Cell.jacobian`, :attr:`~.base.Cell.native`), the
+    schemes the native engine has and every scheme's structure (what refusals name), and why
+    the native engine does not take the grid (a grid of another cell, or
+    :meth:`~.base.Cell.native_refusal`; on 'auto' the grid's size counts), as plain values (an
+    engine imports no cell)."""
+    own = cell_of(scheme, default=None) if isinstance(scheme, str) else None
+    on = grid_cell or own
+    refusal = ""
+    if own is not None and on is not own:
+        refusal = f"a {on.dim}-D grid for discretization {scheme!r}"
+    elif own is not None:
+        refusal = own.native_refusal(grid.get("thin_cell", False), grid.get("cells") if request == "auto" else None)
+    registered = cells().values()
+    return dict(discretization=scheme, structure=dict(own.jacobian.get(scheme, {})) if own else {},
+                native=own.native.get(scheme) if own else None, native_refusal=refusal,
+                native_schemes=tuple(s for cell in registered for s in cell.native),
+                schemes={s: dict(flags) for cell in registered for s, flags in cell.jacobian.items()}, **grid)
 
 
 def load_scenes() -> None:

@@ -126,6 +126,18 @@ class Cell:
 
     # --- what depends on the grid ---------------------------------------------------------------
 
+    def make_grid(self, pde, core):
+        """The py-pde grid of the scheme core `core` (its py-pde class: `pde`)."""
+        return pde.make_grid(core.N, core.H)
+
+    def make_state(self, pde, grid, data):
+        """The py-pde state of the fields `data` (3, ...) on `grid`."""
+        return pde.state_of(grid, data)
+
+    def points_along_z(self, core) -> int:
+        """The points along z of the scheme core `core` (the Result's ``N``)."""
+        return int(core.N)
+
     def owns_grid(self, N) -> bool:
         """Whether a grid size `N` as given can only be this cell's (a pair (Nx, Nz): the 2-D cell's)."""
         return False

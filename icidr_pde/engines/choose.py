@@ -1,12 +1,14 @@
 """One choice of engine, Jacobian and linear solver for a run.
 
 :func:`choose` is the only place that decides, from the resolved settings (method, the
-Jacobian asked for, what the scheme's Jacobian offers, the outputs asked, the engine asked
-for), which engine integrates, with which Jacobian and linear solver, and, where 'native' was
-asked for and not taken, why (one line). The linear solver is the first of the registry
-(:data:`icidr_pde.engines.linear.SOLVERS`, most preferred first) that takes the method with that
-Jacobian on the scheme's structure; the method's Jacobian modes are its solvers'. Light: numpy is
-not even needed.
+Jacobian asked for, the engine asked for) and what the cell of the run says of its scheme (the
+structure of its Jacobian, what the native engine runs it with, why the native engine does not
+take its grid), which engine integrates, with which Jacobian and linear solver, and, where
+'native' was asked for and not taken, why (one line). An engine imports no cell: the run path
+asks the cell (:func:`icidr_pde.cells.choice_asks`) and passes its answers in as plain values.
+The linear solver is the first of the registry (:data:`icidr_pde.engines.linear.SOLVERS`, most
+preferred first) that takes the method with that Jacobian on the scheme's structure; the method's
+Jacobian modes are its solvers'. Light: numpy is not even needed.
 """
 
 from __future__ import annotations
@@ -22,9 +24,8 @@ from .linear.band_lu import CvodeBandLU
 from .linear.gmres import CompiledGmres, PetscGmres, Preconditioned
 from .linear.xfourier import XFourierGmres
 
-__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "NATIVE_SCHEMES", "PETSC_METHOD",
-           "NATIVE_FV2D_AUTO_CELLS", "DENSE_2D_CELLS", "CHOICES_2D", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order",
-           "AMG_SOLVER", "FOURIER_SOLVER"]
+__all__ = ["Choice", "JacobianStructure", "choose", "native_solver", "REQUESTS", "PETSC_METHOD", "DENSE_2D_CELLS",
+           "CHOICES_2D", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order", "AMG_SOLVER", "FOURIER_SOLVER"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
 #: did not, 'pde' is always the Python engines (scipy, scikit-sundae) on the py-pde scheme,
@@ -45,11 +46,11 @@ DENSE_HANDOVER_BYTES = 2**28
 class JacobianStructure:
     """What a scheme's Jacobian offers: a banded ordering (`banded`) and the analytic Jacobian
     in it (`band_jac`), a sparse pattern (`sparse`; else dense), a line preconditioner pattern
-    where the cell is thin (`line`, 2-D cells), an analytic sparse Jacobian of fields on a 2-D grid
-    for the algebraic multigrid and the x-Fourier preconditioners (`amg`; modes 'amg', 'fourier'),
-    waves advected along a periodic direction (`advected`: the 2-D cell), whose eigenvalues lie
-    near the imaginary axis, outside the A(alpha) sectors of BDF orders 3-5, so that only an
-    A-stable order (<= :data:`A_STABLE_ORDER`) is stable at every step size."""
+    where the cell is thin (`line`, 2-D cells), an analytic sparse Jacobian with no banded ordering
+    (fields on a 2-D grid) for the algebraic multigrid and the x-Fourier preconditioners (`amg`;
+    modes 'amg', 'fourier'), waves advected along a periodic direction (`advected`: the 2-D cell),
+    whose eigenvalues lie near the imaginary axis, outside the A(alpha) sectors of BDF orders 3-5,
+    so that only an A-stable order (<= :data:`A_STABLE_ORDER`) is stable at every step size."""
 
     banded: bool = False
     band_jac: bool = False
@@ -65,18 +66,10 @@ class JacobianStructure:
         sparsity = getattr(pde, "jacobian_sparsity", lambda state: None)(state)
         return cls(banded=ordering is not None, band_jac=ordering is not None and hasattr(pde, "make_band_jacobian"),
                    sparse=sparsity is not None, line=hasattr(pde, "line_pattern"),
-                   amg=sparsity is not None and getattr(pde, "dim", 1) == 2 and hasattr(pde, "make_jacobian"),
+                   amg=sparsity is not None and ordering is None and hasattr(pde, "make_jacobian"),
                    advected=getattr(pde, "advected_waves", False))
 
 
-#: schemes the native engine integrates (their C problem in icidr_pde.native) and its default linear
-#: solver there (the engine names the one its problem set up: icidr_pde.cells.shear1d.native_cheb.LINEAR_SOLVER)
-NATIVE_SCHEMES = {"fd": CvodeBandLU(), "cheb": CompiledGmres("band"), "fv2d": CompiledGmres()}
-#: the largest grid (cells) on which 'auto' takes the native engine for fv2d (unpreconditioned GMRES
-#: in C, no py-pde or numba to import) rather than the py-pde path's default, GMRES with the
-#: x-Fourier preconditioner: where the native engine measured faster whole-process
-#: (benchmarks/native2d_speed.py, docs/engines.md); 'native' takes it on any grid
-NATIVE_FV2D_AUTO_CELLS = 64 * 64
 #: the largest 2-D grid (cells) on which a dense Newton matrix is allowed: 3 Nx Nz = 3072 unknowns,
 #: 75 MB and ~1e10 flops per LU; 64^2 is 1.2 GB and ~6e11 flops per LU, where the default GMRES
 #: takes seconds to t = 10
@@ -84,10 +77,6 @@ DENSE_2D_CELLS = 32 * 32
 #: the Jacobian choices of the 2-D cell that are not dense, per method (the first: the default)
 CHOICES_2D = {"CVODE": ("fourier", "krylov", "amg", "sparse"), "BDF": ("analytic", "sparse-fd", "colored-fd"),
               "Radau": ("analytic", "sparse-fd", "colored-fd")}
-#: the Jacobian structure of the registered schemes, known without importing them
-SCHEME_STRUCTURES = {"fd": JacobianStructure(banded=True, band_jac=True, sparse=True),
-                     "cheb": JacobianStructure(),
-                     "fv2d": JacobianStructure(sparse=True, line=True, amg=True, advected=True)}
 
 
 @dataclass(frozen=True)
@@ -118,21 +107,26 @@ class Choice:
         return "analytic-band" if self.jacobian == "analytic" and banded else self.jacobian
 
 
-def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure,
-           discretization: str | None = None, request: str = "auto", outputs=(), backend: str = "numba",
-           dim: int = 1, native_unavailable: str | None = None, thin_cell: bool = False,
+def choose(*, method: str, jacobian: str | None = None, structure: JacobianStructure | dict,
+           discretization: str | None = None, request: str = "auto", backend: str = "numba",
+           native: tuple[str, str] | None = None, native_schemes: tuple[str, ...] = (), native_refusal: str = "",
+           schemes: dict | None = None, native_unavailable: str | None = None, thin_cell: bool = False,
            cells: int | None = None, max_order: int | None = None) -> Choice:
     """The engine, Jacobian and linear solver of a run.
 
     Args:
         method: 'BDF', 'Radau', 'LSODA' or 'CVODE'
         jacobian: the mode asked for, None: the method's best on this structure
-        structure: what the scheme's Jacobian offers (:class:`JacobianStructure`)
-        discretization: the scheme's registry name (the native engine has 'fd' and 'cheb')
+        structure: what the scheme's Jacobian offers (:class:`JacobianStructure`, or its flags)
+        discretization: the scheme's registry name
         request: one of :data:`REQUESTS`
-        outputs: names of the outputs asked that only the py-pde run path writes (--save, ...)
         backend: 'numba' or 'numpy' (the native engine is compiled)
-        dim: 1 or 2
+        native: (Jacobian mode, linear solver name) of the native engine on the scheme, None: it has
+            no compiled problem of it (:attr:`icidr_pde.cells.base.Cell.native`)
+        native_schemes: every scheme the native engine has (what a refusal names)
+        native_refusal: why the native engine does not take the run's grid (one line), or ''
+            (:meth:`icidr_pde.cells.base.Cell.native_refusal`)
+        schemes: every registered scheme's Jacobian structure (or its flags): which of them a refusal names
         native_unavailable: why the native engine cannot be built here (no compiler, ...), if known
         thin_cell: a 2-D cell with hx > THIN_CELL hz (the py-pde path preconditions its GMRES along z)
         cells: the cells of a 2-D grid (Nx Nz), if known: beyond :data:`DENSE_2D_CELLS` a dense
@@ -140,33 +134,45 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         max_order: the highest BDF order asked for (1-5), None: the scheme's stable one
             (:func:`time_order`)
 
-    The native engine is taken ('auto', 'native') for fd and cheb with CVODE and the analytic
-    Jacobian, and for fv2d with CVODE on a thick cell (matrix-free GMRES, 'krylov' or no Jacobian
-    asked), by 'auto' up to :data:`NATIVE_FV2D_AUTO_CELLS` cells (beyond, the py-pde path's
-    preconditioned default measured faster), by 'native' on any grid; never with the outputs only
-    the py-pde run path writes.
+    (:func:`icidr_pde.cells.choice_asks` gives the keywords from `structure` to `cells` as the
+    cell of a run states them.) The native engine is taken ('auto', 'native') with CVODE, the
+    Jacobian mode of `native` (or none asked) and the numba backend, where the cell does not
+    refuse the grid; never on the py-pde path ('pde', 'petsc').
     """
     checked_choice("engine", request, REQUESTS)
     checked_choice("method", method, METHODS)
+    structure = _structure(structure)
+    schemes = {name: _structure(flags) for name, flags in (schemes or {}).items()}
     order, warning = time_order(method, structure, max_order, request)
     reason = ""
     if request == "petsc" or method == PETSC_METHOD:
-        return _petsc_choice(jacobian, structure, order, warning)
+        return _petsc_choice(jacobian, structure, order, warning, schemes)
     if request != "pde":
-        reason = native_unavailable or _not_native(method, jacobian, discretization, backend, dim, outputs)
-        if not reason and discretization == "fv2d":
-            reason = _not_native_2d(thin_cell, cells if request == "auto" else None)
+        reason = native_unavailable or _not_native(method, jacobian, discretization, backend, native,
+                                                   native_schemes) or native_refusal
         if not reason:
-            mode = "krylov" if discretization == "fv2d" else "analytic"
-            solver = NATIVE_SCHEMES[discretization]
-            return Choice("native", mode, solver.name, max_order=order, warning=warning, solver=solver)
-    mode = _jacobian_mode(jacobian_modes(method), method, jacobian, structure, thin_cell)
+            solver = native_solver(native[1])
+            return Choice("native", native[0], solver.name, max_order=order, warning=warning, solver=solver)
+    mode = _jacobian_mode(jacobian_modes(method), method, jacobian, structure, thin_cell, schemes)
     solver = solver_for(method, mode, structure)
     if structure.amg and solver.form.kind == "dense" and cells is not None and cells > DENSE_2D_CELLS:
         raise ParameterError(_dense_2d(method, mode if jacobian is not None else None, solver.name, cells))
     engine = solver.engine if solver.engine in ENGINES else next(
         name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     return Choice(engine, mode, solver.name, reason, order, warning, solver)
+
+
+def native_solver(name: str) -> LinearSolver:
+    """The linear solver of the native engine that a cell names (:attr:`icidr_pde.cells.base.Cell.native`):
+    CVODE's band LU, or GMRES in C, unpreconditioned or with the preconditioner its name says."""
+    if name == CvodeBandLU.name:
+        return CvodeBandLU()
+    preconditioner = name.removeprefix("GMRES + ").removesuffix(" preconditioner") if name != "GMRES" else ""
+    solver = CompiledGmres(preconditioner)
+    if solver.name != name:
+        raise ValueError(f"the native engine has no linear solver {name!r} (band LU, GMRES, GMRES + ... "
+                         "preconditioner)")
+    return solver
 
 
 def _dense_2d(method, mode, solver, cells) -> str:
@@ -212,48 +218,42 @@ def time_order(method: str, structure: JacobianStructure, asked: int | None = No
     return order, ""
 
 
-def _petsc_choice(jacobian, structure, max_order, warning) -> Choice:
+def _structure(flags) -> JacobianStructure:
+    return flags if isinstance(flags, JacobianStructure) else JacobianStructure(**flags)
+
+
+def _petsc_choice(jacobian, structure, max_order, warning, schemes) -> Choice:
     """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + block Jacobi/ILU by default)."""
     if not structure.sparse:
-        raise ParameterError("`engine`='petsc' needs a discretization with a sparse Jacobian (fv2d, the "
-                             "2-D cell); got a dense one")
+        sparse = [name for name, offered in schemes.items() if offered.sparse]
+        which = f" ({', '.join(sparse)})" if sparse else ""
+        raise ParameterError(f"`engine`='petsc' needs a discretization with a sparse Jacobian{which}; got a dense one")
     if jacobian not in (None, "sparse"):
         raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
     solver = PetscGmres()
     return Choice("petsc", "sparse", solver.name, max_order=max_order, warning=warning, solver=solver)
 
 
-def _not_native(method, jacobian, discretization, backend, dim, outputs) -> str:
+#: why a Jacobian asked for is not the native engine's, by the native engine's mode
+_NATIVE_MODE = {"analytic": "the native engine uses the analytic Jacobian",
+                "krylov": "the native engine is matrix-free there: 'krylov'"}
+
+
+def _not_native(method, jacobian, discretization, backend, native, native_schemes) -> str:
     """Why these settings cannot take the native engine (one line), or ''."""
-    if discretization not in NATIVE_SCHEMES:
-        return f"discretization {discretization!r} (the native engine has fd, cheb and fv2d)"
+    if native is None:
+        has = " and ".join(filter(None, (", ".join(native_schemes[:-1]), "".join(native_schemes[-1:]))))
+        return f"discretization {discretization!r} (the native engine has {has or 'none'})"
     if method != "CVODE":
         return f"method {method!r} (the native engine is CVODE)"
-    if discretization == "fv2d":
-        if jacobian not in (None, "krylov"):
-            return f"jacobian {jacobian!r} (the native 2-D cell is matrix-free: 'krylov')"
-    elif jacobian not in (None, "analytic"):
-        return f"jacobian {jacobian!r} (the native engine uses the analytic Jacobian)"
+    if jacobian not in (None, native[0]):
+        return f"jacobian {jacobian!r} ({_NATIVE_MODE.get(native[0], repr(native[0]))})"
     if backend != "numba":
         return f"backend {backend!r}"
-    if dim != (2 if discretization == "fv2d" else 1):
-        return f"a {dim}-D grid for discretization {discretization!r}"
-    if outputs:
-        return f"{outputs[0]} (written by the py-pde run path)"
     return ""
 
 
-def _not_native_2d(thin_cell, cells) -> str:
-    """Why fv2d on CVODE does not take the native engine (one line), or ''; `cells` None: any grid."""
-    if thin_cell:
-        return "a thin 2-D cell (hx > THIN_CELL hz: the py-pde path preconditions GMRES)"
-    if cells is not None and cells > NATIVE_FV2D_AUTO_CELLS:
-        return (f"a 2-D grid of {cells} cells (> {NATIVE_FV2D_AUTO_CELLS}: the py-pde path measured faster; "
-                "--engine native takes it)")
-    return ""
-
-
-def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
+def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False, schemes=None) -> str:
     """The Jacobian mode: the one asked for (checked against the method's and the scheme's),
     else the method's best on this structure (on a thin 2-D cell, whose x-coupling is weak, GMRES
     with the line preconditioner rather than the x-Fourier one)."""
@@ -276,7 +276,8 @@ def _jacobian_mode(valid, method, jacobian, structure, thin_cell=False) -> str:
                          for m in s.modes if m in valid and s.offered(m, structure)), mode)
     for solver in SOLVERS:  # a preconditioner asked for on a scheme that lacks what it is built from
         if isinstance(solver, Preconditioned) and mode in solver.modes and not solver.offered(mode, structure):
-            raise ParameterError(solver.refusal(mode, valid))
+            raise ParameterError(solver.refusal(mode, valid, [name for name, offered in (schemes or {}).items()
+                                                              if solver.offered(mode, offered)]))
     if mode in ("sparse-fd", "colored-fd") and not structure.sparse:  # dense differences labelled colored
         raise ParameterError(f"`jacobian`={mode!r} needs a sparse Jacobian; this "
                              "discretization's is dense: use 'analytic' or 'none'")

@@ -126,7 +126,7 @@ def linear_solver_name(options=None) -> str:
 
 
 class PetscEngine(Engine):
-    """PETSc's TS on a :class:`Problem` with a 'sparse' Jacobian (the 2-D cell, fv2d).
+    """PETSc's TS on a :class:`Problem` with a 'sparse' Jacobian (the 2-D cell, plane2d).
 
     The AIJ matrix is preallocated once from the Jacobian's pattern (COO), and each Jacobian
     evaluation sets only its values. Each accepted step is checked by ``problem.check``; a step

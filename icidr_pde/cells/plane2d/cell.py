@@ -36,6 +36,15 @@ class Plane2D(Cell):
     #: 'native' takes it on any grid
     native_auto_cells = 64 * 64
 
+    def make_grid(self, pde, core):
+        return pde.make_grid((core.Nx, core.Nz), core.H, L=core.L)
+
+    def make_state(self, pde, grid, data):
+        return pde.make_state(grid, *data)
+
+    def points_along_z(self, core) -> int:
+        return int(core.Nz)
+
     def owns_grid(self, N) -> bool:
         return isinstance(N, (tuple, list))
 

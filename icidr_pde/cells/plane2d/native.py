@@ -25,7 +25,7 @@ from ...native import NativeProblem, _pointer
 
 __all__ = ["Plane2DProblem", "plane2d_problem", "LINEAR_SOLVER"]
 
-#: what the engine reports as its linear solver (:data:`icidr_pde.engines.choose.NATIVE_SCHEMES`)
+#: what the engine reports as its linear solver (the descriptor's ``native``, :mod:`.cell`)
 LINEAR_SOLVER = "GMRES"
 
 

@@ -58,11 +58,12 @@ class Preconditioned(Gmres):
     def offered(self, mode, structure):
         return structure.amg
 
-    def refusal(self, mode: str, valid) -> str:
-        """Why `mode` is refused on a scheme without what this preconditioner is built from."""
+    def refusal(self, mode: str, valid, schemes=()) -> str:
+        """Why `mode` is refused on a scheme without what this preconditioner is built from
+        (`schemes`: the registered schemes that offer it, if known)."""
+        which = f" (discretization {' or '.join(schemes)})" if schemes else ""
         return (f"`jacobian`={mode!r} (GMRES preconditioned by {self.what}) needs the analytic sparse Jacobian of "
-                "a 2-D grid (discretization fv2d); use " + ("'krylov' or 'analytic'" if "krylov" in valid
-                                                             else "'analytic'"))
+                f"a 2-D grid{which}; use " + ("'krylov' or 'analytic'" if "krylov" in valid else "'analytic'"))
 
     def memory(self, n, method, mode, thin=False):
         return Memory(self.bytes_per_unknown * n, self.memory_note, repr(mode))
