@@ -18,7 +18,7 @@ from pathlib import Path
 # a float is shown with this many significant digits (the test checks the rounding shown)
 DIGITS = 4
 # the keys whose values a table holds one entry per element or member of
-TABLE_KEYS = ("rows", "data", "cases")
+TABLE_KEYS = ("rows", "data", "cases", "runs")
 # the entry column's name for the file's top-level values
 TOP_LEVEL = "(top level)"
 PROVENANCE_KEYS = ("command", "commands", "measured", "date", "note", "load")
