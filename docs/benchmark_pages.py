@@ -13,6 +13,7 @@ Used by docs/conf.py (``write_pages``); ``render`` returns one file's page.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 # a float is shown with this many significant digits (the test checks the rounding shown)
@@ -69,6 +70,14 @@ def _is_number_key(name: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def _member(path: str) -> str:
+    """The part of an entry's path below its row or case (``fast`` of ``rows[0].fast``): entries
+    with the same member share a table, so that a column holds one quantity (a count in
+    ``counts``, a time in ``parts``)."""
+    steps = re.findall(r"\.?([^.\[\]]+)|\[(\d+)\]", path)[2:]
+    return ".".join(key or f"[{index}]" for key, index in steps)
 
 
 def tables(data) -> list[tuple[str, list[tuple[str, dict]]]]:
@@ -132,7 +141,11 @@ def render(path: Path) -> str | None:
     if settings:
         lines += ["## settings", ""] + _table([("", settings)]) + [""]
     for title, records in found:
-        lines += [f"## {title}", ""] + _table(records) + [""]
+        groups: dict[str, list] = {}
+        for record in records:
+            groups.setdefault(_member(record[0]), []).append(record)
+        for member, group in groups.items():
+            lines += [f"## {title}: {member}" if member else f"## {title}", ""] + _table(group) + [""]
     return "\n".join(lines)
 
 
@@ -157,8 +170,9 @@ def write_pages(data_dir: Path, out_dir: Path) -> dict[str, str | None]:
              "```{toctree}", ":maxdepth: 1", ""] + [placed[name] for name in rendered] + ["```", ""]
     if raw:
         index += ["## Raw data, not rendered", "",
-                  "The renderer does not know these files' shape; they are shown by the pages "
-                  "that quote them, or read as JSON.", ""]
+                  "The renderer does not place these files: a shape it does not know, or no "
+                  "command, date or load recorded. Read them as JSON; a guide that quotes one "
+                  "names it.", ""]
         index += [f"- `data/benchmarks/{name}`: raw data, not rendered" for name in raw] + [""]
     (out_dir / "index.md").write_text("\n".join(index))
     return placed
