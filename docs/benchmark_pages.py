@@ -112,11 +112,16 @@ def _provenance(data: dict) -> list[str]:
     load = data.get("load")
     note = data.get("note")
     lines = [f"- **Command:** `{command}`" if command else "- **Command:** not recorded",
-             f"- **Date:** {date}" if date else "- **Date:** not recorded"]
+             f"- **Date:** {date}" if date
+             else "- **Date:** as recorded in the note" if note and re.search(r"\b(19|20)\d\d\b", note)
+             else "- **Date:** not recorded"]
     if isinstance(load, list):
         lines.append("- **Load (as recorded):** " + ", ".join(_shown(x) for x in load))
     elif load is not None:
         lines.append(f"- **Load (as recorded):** {_shown(load)}")
+    elif "load" in f"{date} {note}":
+        # recorded in words, beside the date ("uptime load 0.5-1.0")
+        lines.append("- **Load:** as recorded in the date or note")
     else:
         lines.append("- **Load:** not recorded")
     if note:
