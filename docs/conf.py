@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -49,6 +50,7 @@ html_title = "icidr-pde"
 # the pages link to each other's sections by their GitHub anchors (#section-title)
 myst_heading_anchors = 4
 myst_enable_extensions = ["dollarmath"]
+
 # -- Notebooks ----------------------------------------------------------------------------------
 # the notebooks are stored with their outputs cleared (tests/test_notebooks.py runs them); the
 # site shows their text and code as stored, and a build never runs a kernel
@@ -172,8 +174,6 @@ def _readme_is_the_index(app, docname, source):
 def _write_generated_pages(app, config):
     """The notebooks copied into tutorials/ (their links to docs/ made relative to it) and the
     measurement pages written from data/benchmarks into measurements/."""
-    import shutil
-
     from benchmark_pages import write_pages
 
     shutil.rmtree(TUTORIALS, ignore_errors=True)
