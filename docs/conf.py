@@ -1,9 +1,11 @@
 """Sphinx configuration of the icidr-pde documentation site.
 
 Build: ``sphinx-build -W --keep-going -b html docs docs/_build/html`` (``pip install -e ".[docs]"``).
-The Markdown pages are read by MyST; the API reference is written at build time by
-sphinx.ext.apidoc from the packages found on disk, so a module that is added, moved or
-removed changes the reference with no edit here.
+The Markdown pages and the notebooks are read by MyST-NB; the API reference is written at build
+time by sphinx.ext.apidoc from the packages found on disk, so a module that is added, moved or
+removed changes the reference with no edit here. Two folders are written at each build and
+gitignored: tutorials/ (the notebooks, shown as stored, never executed) and measurements/ (one
+page per data/benchmarks file, docs/benchmark_pages.py).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import io
 import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -27,7 +30,9 @@ author = "the icidr-pde authors"
 copyright = "2026, " + author
 
 extensions = [
-    "myst_parser",
+    # myst-parser's Markdown plus .ipynb sources; it reads a notebook's stored cells without
+    # pandoc or a kernel (nbsphinx needs pandoc), so the pages and the notebooks share one parser
+    "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.apidoc",
     "sphinx.ext.napoleon",
@@ -36,7 +41,7 @@ extensions = [
 ]
 
 root_doc = "index"
-source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
 html_theme = "alabaster"
 html_title = "icidr-pde"
@@ -45,6 +50,16 @@ html_title = "icidr-pde"
 # the pages link to each other's sections by their GitHub anchors (#section-title)
 myst_heading_anchors = 4
 myst_enable_extensions = ["dollarmath"]
+
+# -- Notebooks ----------------------------------------------------------------------------------
+# the notebooks are stored with their outputs cleared (tests/test_notebooks.py runs them); the
+# site shows their text and code as stored, and a build never runs a kernel
+nb_execution_mode = "off"
+NOTEBOOKS = ROOT / "notebooks"
+TUTORIALS = DOCS / "tutorials"
+# the notebooks link to docs/ pages from notebooks/; their copies are one level inside docs/
+_NOTEBOOK_DOCS_LINK = re.compile(r"\]\(\.\./docs/")
+
 suppress_warnings = [
     # pages also read on GitHub, whose generated tables start at ####
     "myst.header",
@@ -149,12 +164,29 @@ def _readme_links(app, relative_path, parent_docname, content):
 
 
 def _readme_is_the_index(app, docname, source):
-    """A page's link to the repository's README goes to the index page, which includes it."""
+    """A page's link to the repository's README goes to the index page, which includes it; a
+    link to a notebook goes to its tutorial page."""
     depth = docname.count("/") + 1
     source[0] = source[0].replace("](" + "../" * depth + "README.md", "](" + "../" * (depth - 1) + "index.md")
+    source[0] = source[0].replace("](" + "../" * depth + "notebooks/", "](" + "../" * (depth - 1) + "tutorials/")
+
+
+def _write_generated_pages(app, config):
+    """The notebooks copied into tutorials/ (their links to docs/ made relative to it) and the
+    measurement pages written from data/benchmarks into measurements/."""
+    from benchmark_pages import write_pages
+
+    shutil.rmtree(TUTORIALS, ignore_errors=True)
+    TUTORIALS.mkdir()
+    for notebook in sorted(NOTEBOOKS.glob("*.ipynb")):
+        text = _NOTEBOOK_DOCS_LINK.sub("](../", notebook.read_text())
+        (TUTORIALS / notebook.name).write_text(text)
+    write_pages(ROOT / "data" / "benchmarks", DOCS / "measurements")
 
 
 def setup(app):
+    sys.path.insert(0, str(DOCS))
+    app.connect("config-inited", _write_generated_pages)
     app.connect("include-read", _readme_links)
     app.connect("source-read", _readme_is_the_index)
     # after napoleon (priority 500) has turned Args:/Returns: sections into fields

@@ -15,7 +15,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-MISSING = [name for name in ("sphinx", "myst_parser") if importlib.util.find_spec(name) is None]
+MISSING = [name for name in ("sphinx", "myst_parser", "myst_nb") if importlib.util.find_spec(name) is None]
 
 
 @pytest.mark.skipif(bool(MISSING), reason=f"the site needs the [docs] extra (pip install -e \".[docs]\"); "
@@ -32,6 +32,22 @@ def test_site_builds_without_a_warning(tmp_path):
     assert (out / "index.html").is_file() and (out / "results.html").is_file()
     assert (out / "api" / "icidr_pde" / "icidr_pde.html").is_file()
     assert "in module icidr_pde." in (out / "genindex.html").read_text()
+    assert (out / "getting_started.html").is_file()
+    # every notebook is a tutorial page showing its code as stored (cleared: the build runs no
+    # kernel, so no output appears)
+    for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        html = (out / "tutorials" / f"{notebook.stem}.html").read_text()
+        assert "cell_output" not in html, notebook.name
+    assert "plot_max_w" in (out / "tutorials" / "quickstart.html").read_text()
+    index = (out / "index.html").read_text()
+    first = index.index('href="tutorials/quickstart.html"')
+    assert all(first < index.index(f'href="tutorials/{n.stem}.html"')
+               for n in (ROOT / "notebooks").glob("*.ipynb") if n.stem != "quickstart"), "quickstart first"
+    # a page per benchmark file the renderer places, the others listed (tests/test_benchmark_pages.py)
+    measurements = (out / "measurements" / "index.html").read_text()
+    for data in sorted((ROOT / "data" / "benchmarks").glob("*.json*")):
+        assert (out / "measurements" / f"{data.stem}.html").is_file() or \
+            f"data/benchmarks/{data.name}" in measurements, data.name
 
 
 @pytest.mark.skipif(bool(MISSING), reason=f"the site needs the [docs] extra (pip install -e \".[docs]\"); "

@@ -1,0 +1,160 @@
+"""The measurement pages of the site show the data/benchmarks files as the files hold them.
+
+docs/benchmark_pages.py writes one page per file at each build. Truth used: the JSON file itself,
+read here with json and walked by the entry path each table row names (``rows[2].fast``); a number
+shown agrees when it is the file's value rounded to the digits shown (test_doc_numbers.agrees), a
+column a row's entry lacks is looked up in the entries that hold it (a size's N above its runs).
+A file the renderer cannot place is listed on the index as raw data, not rendered.
+"""
+
+import importlib.util
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from tests.test_doc_numbers import agrees
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARKS = ROOT / "data" / "benchmarks"
+FILES = sorted(p for p in BENCHMARKS.iterdir() if p.suffix in (".json", ".jsonl"))
+
+_spec = importlib.util.spec_from_file_location("benchmark_pages", ROOT / "docs" / "benchmark_pages.py")
+benchmark_pages = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(benchmark_pages)
+
+_CELL_BAR = re.compile(r"(?<!\\)\|")
+_STEP = re.compile(r"\.?([^.\[\]]+)|\[(\d+)\]")
+
+
+def _tables(page: str) -> list[list[list[str]]]:
+    """The cells of each Markdown table of `page` (header row first, the |---| row dropped)."""
+    tables, current = [], None
+    for line in page.splitlines():
+        if line.startswith("|"):
+            if current is None:
+                current = []
+                tables.append(current)
+            if not set(line) <= set("|-"):
+                current.append([c.strip().replace("\\|", "|") for c in _CELL_BAR.split(line)[1:-1]])
+        else:
+            current = None
+    return tables
+
+
+def _chain(data, entry: str) -> list:
+    """The JSON objects from the file's top down to the one `entry` names."""
+    chain = [data]
+    if entry != benchmark_pages.TOP_LEVEL:
+        for key, index in _STEP.findall(entry.strip("`")):
+            chain.append(chain[-1][int(index)] if index else chain[-1][key])
+    return chain
+
+
+def _value_of(chain: list, column: str):
+    for obj in reversed(chain):
+        if isinstance(obj, dict) and column in obj:
+            return obj[column]
+    raise KeyError(column)
+
+
+def mismatches(page: str, data) -> list[str]:
+    """The cells of `page`'s tables that are not the value the file holds at their entry."""
+    wrong = []
+    for table in _tables(page):
+        header, rows = table[0], table[1:]
+        assert header[0] == "entry", header
+        for row in rows:
+            chain = _chain(data, row[0])
+            for column, cell in zip(header[1:], row[1:]):
+                if cell == "":
+                    continue
+                value = _value_of(chain, column)
+                if cell == "—":
+                    ok = value is None
+                elif isinstance(value, bool):
+                    ok = cell == str(value).lower()
+                elif isinstance(value, (int, float)):
+                    ok = agrees(cell, value)
+                else:
+                    ok = cell == str(value).replace("\n", " ")
+                if not ok:
+                    wrong.append(f"{row[0]} {column}: shown {cell!r}, file {value!r}")
+    return wrong
+
+
+def _provenance(page: str) -> dict[str, str]:
+    return dict(re.findall(r"^- \*\*([\w ()]+):\*\* (.*)$", page, flags=re.MULTILINE))
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
+def test_each_number_shown_is_the_files(path):
+    page = benchmark_pages.render(path)
+    if page is None:
+        pytest.skip(f"{path.name} is listed as raw data (test_every_file_is_placed)")
+    data = json.loads(path.read_text())
+    assert not mismatches(page, data)
+    assert len(_tables(page)) >= 1 and all(len(t) >= 2 for t in _tables(page)), "a table with no row"
+    shown = _provenance(page)
+    command = data.get("command") or data.get("commands")
+    expected = " ; ".join(command) if isinstance(command, list) else command
+    assert shown["Command"] == (f"`{expected}`" if expected else "not recorded")
+    date = data.get("measured") or data.get("date")
+    note = data.get("note") or ""
+    assert shown["Date"] == (date or ("as recorded in the note" if re.search(r"\b(19|20)\d\d\b", note) else "not recorded"))
+    if "load" in data:
+        load = data["load"] if isinstance(data["load"], list) else [data["load"]]
+        cells = shown["Load (as recorded)"].split(", ")
+        assert len(cells) == len(load) and all(agrees(c, v) for c, v in zip(cells, load))
+    elif "load" in f"{date} {data.get('note')}":
+        assert shown["Load"] == "as recorded in the date or note"
+    else:
+        assert shown["Load"] == "not recorded"
+
+
+def test_every_file_is_placed(tmp_path):
+    """Each data file has its page or is listed as raw data on the index, none skipped."""
+    placed = benchmark_pages.write_pages(BENCHMARKS, tmp_path)
+    index = (tmp_path / "index.md").read_text()
+    assert set(placed) == {p.name for p in FILES}
+    for name, page in placed.items():
+        if page:
+            assert (tmp_path / f"{page}.md").is_file() and re.search(rf"^{re.escape(page)}$", index, re.MULTILINE)
+        else:
+            assert f"`data/benchmarks/{name}`: raw data, not rendered" in index
+    # the files that record their command, date or load and hold rows of runs are rendered
+    for name in ("startup.json", "end_to_end_fd.json", "end_to_end_cheb.json", "sim2d_speed.json",
+                 "shortwave2d.json", "amg2d.json", "scaling.json"):
+        assert placed[name] == Path(name).stem, name
+
+
+def test_a_file_the_renderer_cannot_place_is_listed_raw(tmp_path):
+    data_dir = tmp_path / "benchmarks"
+    data_dir.mkdir()
+    (data_dir / "series.json").write_text(json.dumps([1.0, 2.0]))  # no table the renderer knows
+    (data_dir / "unplaced.json").write_text(json.dumps({"rows": [{"N": 8, "wall_s": 0.5}]}))  # no command/date/load
+    (data_dir / "log.jsonl").write_text('{"N": 8}\n{"N": 16}\n')
+    (data_dir / "run.json").write_text(json.dumps({"command": "python b.py", "rows": [{"N": 8, "wall_s": 0.123456}]}))
+    placed = benchmark_pages.write_pages(data_dir, tmp_path / "out")
+    assert placed == {"series.json": None, "unplaced.json": None, "log.jsonl": None, "run.json": "run"}
+    index = (tmp_path / "out" / "index.md").read_text()
+    for name in ("series.json", "unplaced.json", "log.jsonl"):
+        assert f"`data/benchmarks/{name}`: raw data, not rendered" in index
+    page = (tmp_path / "out" / "run.md").read_text()
+    # what the file does not record is said so, not made up
+    assert _provenance(page) == {"Command": "`python b.py`", "Date": "not recorded", "Load": "not recorded"}
+    assert _tables(page)[-1] == [["entry", "N", "wall_s"], ["`rows[0]`", "8", "0.1235"]]
+
+
+def test_a_changed_number_is_found():
+    """The check can fail: a page whose cell or whose rounding differs from the file's."""
+    path = BENCHMARKS / "startup.json"
+    data = json.loads(path.read_text())
+    page = benchmark_pages.render(path)
+    assert not mismatches(page, data)
+    shown = benchmark_pages._shown(data["rows"][0]["wall_s"])
+    other = json.loads(path.read_text())
+    other["rows"][0]["wall_s"] *= 1.01
+    assert mismatches(page, other) == [f"`rows[0]` wall_s: shown {shown!r}, file {other['rows'][0]['wall_s']!r}"]
+    assert mismatches(page.replace(f"| {shown} |", f"| {shown}1 |", 1), data)
