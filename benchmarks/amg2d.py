@@ -14,13 +14,13 @@ memory after each run (the krylov run comes first: the amg figure is the larger 
 """
 
 import argparse
-import json
-import pathlib
 import resource
 import time
 
 from icidr_pde.api import run
 from icidr_pde.engines import sundae
+
+from provenance import write_json
 
 TIMES = ["0.5", "1", "2", "5", "10"]
 SOLVERS = ("krylov", "amg", "fourier")
@@ -76,12 +76,8 @@ def main():
                   f"{r['newton_iterations']} | {r['linear_iterations']} | {r['linear_per_newton']:.1f} | {r['n_rhs']} | "
                   f"{r['preconditioner_setups']} | {r['preconditioner_solves']} | {r['mass_drift']:.1e} | "
                   f"{r['max_w_difference']:.1e} | {r['peak_rss_mb']:.0f} | {base['solve_s'] / r['solve_s']:.2f} |", flush=True)
-    path = pathlib.Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"rows": rows, "command": "nice -n 10 python benchmarks/amg2d.py --sizes "
-                               + " ".join(map(str, args.sizes)) + " --solvers " + " ".join(args.solvers)}, indent=1))
-    tmp.replace(path)
+    write_json(args.json, {"rows": rows, "command": "nice -n 10 python benchmarks/amg2d.py --sizes "
+                           + " ".join(map(str, args.sizes)) + " --solvers " + " ".join(args.solvers)})
 
 
 if __name__ == "__main__":

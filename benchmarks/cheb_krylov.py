@@ -45,6 +45,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from end_to_end import CASES, ROOT, TIMES  # noqa: E402
+from provenance import write_json  # noqa: E402
 
 SWEEP_N = tuple(range(21, 202, 20))
 
@@ -311,7 +312,7 @@ def main(argv=None) -> int:
         parser.error("say what to measure")
     print(f"load {os.getloadavg()[0]:.1f}; reference t* (N = 201, BDF rtol 1e-10) {REFERENCE!r}")
     if args.json:
-        Path(args.json).write_text(json.dumps(dict(load=os.getloadavg(), data=data), indent=1, default=str))
+        write_json(args.json, dict(load=os.getloadavg(), data=data), default=str)
     return 0
 
 

@@ -54,6 +54,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from provenance import write_json
+
 ROOT = Path(__file__).resolve().parent.parent
 TIMES = (3.0, 5.0, 10.0, 15.0, 20.0)
 
@@ -543,14 +545,14 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.baseline:
         data = (baseline_tstar if args.baseline.startswith("tstar") else baseline_main)(args.baseline)
-        Path(args.json).write_text(json.dumps(data))
+        write_json(args.json, data, stamp=False, indent=None)  # to the parent, not a measurement
         return 0
     if args.blas_threads:  # this process measures the roofline: same BLAS threads as the runs
         os.environ.update(OPENBLAS_NUM_THREADS=str(args.blas_threads), OMP_NUM_THREADS=str(args.blas_threads))
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
     results = measure(args.cases, args.repeats, not args.no_cold, args.blas_threads, not args.no_pde_path)
     if args.json:
-        Path(args.json).write_text(json.dumps(dict(load=os.getloadavg(), cases=results), indent=1))
+        write_json(args.json, dict(load=os.getloadavg(), cases=results))
     return 0
 
 

@@ -18,13 +18,12 @@ template (timed from Python through its dispatcher), with the largest relative d
 """
 
 import argparse
-import json
 import os
-import pathlib
 import sys
 import timeit
 
 from sim2d_speed import TIMES, cli_run  # the same CLI process and output times as the 2-D speed benchmark
+from provenance import write_json
 
 QUANTITIES = ("max_w", "l2_velocity")
 
@@ -76,13 +75,8 @@ def main():
     print("| --- | --- | --- | --- | --- |")
     for n, r in rhs.items():
         print(f"| {n}² | {r['c_us']:.0f} | {r['numba_us']:.0f} | {r['c_us'] / r['numba_us']:.2f} | {r['max_rel_diff']:.1e} |")
-    path = pathlib.Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"runs": rows, "rhs": rhs, "load": os.getloadavg(),
-                               "command": "nice -n 10 python benchmarks/native2d_speed.py " + " ".join(sys.argv[1:])},
-                              indent=1))
-    os.replace(tmp, path)
+    write_json(args.json, {"runs": rows, "rhs": rhs, "load": os.getloadavg(),
+                           "command": "nice -n 10 python benchmarks/native2d_speed.py " + " ".join(sys.argv[1:])})
 
 
 def whole(sizes, rows):

@@ -31,6 +31,8 @@ import time
 
 import numpy as np
 
+from provenance import write_json
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply", "PCSetUp", "PCSetUpOnBlocks", "MatMult", "TSStep")
 
@@ -56,7 +58,7 @@ def child(N: int, t_end: float, out: str) -> None:
                       linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
                       l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
                       compile_s=r.compile_s, rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
-    pathlib.Path(f"{out}.{rank}").write_text(json.dumps(record))
+    write_json(f"{out}.{rank}", record, stamp=False, indent=None)  # to the parent, not a measurement
 
 
 def launcher() -> str:

@@ -56,6 +56,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from petsc_ranks import ROOT, one  # noqa: E402
+from provenance import write_json  # noqa: E402
 
 ALPHA = 2e-6  # s per message (ASSUMPTION)
 BANDWIDTH = 10e9  # bytes/s per rank (ASSUMPTION)
@@ -157,7 +158,7 @@ def main() -> None:
             one_rank, two = run_measurements(name, args.t_end)
             kept["pc"][name] = {"one_rank": one_rank, "two": two}
             if args.json:
-                pathlib.Path(args.json).write_text(json.dumps(kept, indent=1))
+                write_json(args.json, kept)
         model(name, one_rank, two, args.cells_per_rank, kept["t_end"])
     os.environ.pop("PETSC_OPTIONS", None)
 

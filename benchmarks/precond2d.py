@@ -27,8 +27,6 @@ AMG rows alone (SuperLU's factors at 256^2 would take ~2 GB).
 """
 
 import argparse
-import json
-import pathlib
 import time
 
 import numpy as np
@@ -38,6 +36,8 @@ from scipy.sparse import linalg
 import icidr_pde.cells.plane2d.core as plane2d_core
 from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
 from icidr_pde.cells.plane2d.scenes import Bump2DScene
+
+from provenance import write_json
 
 
 def newton_matrix(n: int, gamma: float, t: float = 0.0):
@@ -153,14 +153,9 @@ def main():
             iters = f"{r['iterations']}" + ("" if r["converged"] else " (not converged)")
             print(f"| {n}² | {r['preconditioner']} | {r['setup_s']:.3f} | {r['fill']:.1f} | {iters} | {r['solve_s']:.3f} |",
                   flush=True)
-    path = pathlib.Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"gamma": args.gamma, "time": args.time, "rows": rows,
-                               "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"
-                                          + (" --amg-only" if args.amg_only else "") + f" --time {args.time:g}"},
-                              indent=1))
-    tmp.replace(path)
+    write_json(args.json, {"gamma": args.gamma, "time": args.time, "rows": rows,
+                           "command": f"python benchmarks/precond2d.py --sizes {' '.join(map(str, args.sizes))}"
+                                      + (" --amg-only" if args.amg_only else "") + f" --time {args.time:g}"})
 
 
 if __name__ == "__main__":

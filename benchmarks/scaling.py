@@ -51,6 +51,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import end_to_end  # noqa: E402  (the reference cases and their accuracy)
 from end_to_end import CASES, ROOT, TIMES  # noqa: E402
+from provenance import write_json  # noqa: E402
 
 FD_N = (51, 101, 201, 401, 801, 1601, 3201)
 CHEB_N = (51, 101, 201, 401)
@@ -243,10 +244,7 @@ def main(argv=None) -> int:
     data["cases"] = summarise(rows, data["fit_from"])
     print(report(data))
     if args.json:
-        path = Path(args.json)
-        tmp = path.with_suffix(path.suffix + ".tmp")
-        tmp.write_text(json.dumps(data, indent=1))
-        tmp.replace(path)
+        write_json(args.json, data)
     return 0
 
 

@@ -19,14 +19,14 @@ iCIDR): 'icidr' (well-posed, bounded rates) and/or 'mui' (ill-posed, rates growi
 """
 
 import argparse
-import json
-import pathlib
 import sys
 import time
 
 import numpy as np
 
 from icidr_pde.studies.short_waves import SHORT, amplitudes, growth_rates, wall_rows
+
+from provenance import write_json
 
 WAVES = (4, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512)
 #: the continuum damps every x-wave of iCIDR; a measured rate above it by more than this is the scheme's
@@ -127,10 +127,8 @@ def main():
                 row["above_continuum"] = above
                 print(f"  measured rates above the iCIDR continuum + {MARGIN}: " + (", ".join(map(str, above)) or "none"))
     if args.json:
-        path = pathlib.Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
         command = "python benchmarks/shortwave2d.py " + " ".join(sys.argv[1:])
-        path.write_text(json.dumps({"rows": rows, "command": command}, indent=1))
+        write_json(args.json, {"rows": rows, "command": command})
 
 
 if __name__ == "__main__":

@@ -41,6 +41,8 @@ import tempfile
 import threading
 import time
 
+from provenance import write_json
+
 TIMES = ["0.5", "1", "2", "5", "10"]
 QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 #: the CVODE configurations on the py-pde path ('auto' takes the native engine on small grids:
@@ -185,13 +187,8 @@ def main():
             gerr = "–" if r["grid_error"] is None else f"{r['grid_error']:.1%}"
             print(f"| {row['N']}² | {label} | {r['n_steps']} | {r['process_s']:.1f} | {r['process_cpu_s']:.1f} | {r['solve_s']:.2f} | {r['max_rss_mb']:.0f} | "
                   f"{err} | {gerr} | {ratio} |")
-    path = pathlib.Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"rows": rows, "configs": CONFIGS, "times": TIMES,
-                               "command": "nice -n 10 python benchmarks/sim2d_speed.py " + " ".join(sys.argv[1:])},
-                              indent=1))
-    os.replace(tmp, path)
+    write_json(args.json, {"rows": rows, "configs": CONFIGS, "times": TIMES,
+                           "command": "nice -n 10 python benchmarks/sim2d_speed.py " + " ".join(sys.argv[1:])})
 
 
 if __name__ == "__main__":

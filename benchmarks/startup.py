@@ -46,6 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
+from provenance import write_json
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the reference data of this tree
 COMMAND = ["run", "--rheology", "icidr", "--scene", "sine", "--t-end", "20"]
@@ -243,7 +245,7 @@ def main(argv=None) -> int:
     data["commands"]["repeats"] = args.repeats
     print(report_commands(data["commands"]))
     if args.json:
-        Path(args.json).write_text(json.dumps(data, indent=1))
+        write_json(args.json, data)
     return 0
 
 

@@ -29,6 +29,8 @@ import icidr_pde.cells.plane2d.core as plane2d_core
 import icidr_pde.engines.sundae as integrator
 import sksundae.cvode
 
+from provenance import append_jsonl
+
 #: name: (run keywords, CVODE extras)
 CASES = {
     "gmres": (dict(method="CVODE", jacobian="krylov"), {}),
@@ -119,8 +121,7 @@ def main():
                 row = {"case": name, "N": n, "advection": args.advection, "error": f"{type(exc).__name__}: {exc}"}
             row["command"] = "python benchmarks/tstar2d_solvers.py " + " ".join(sys.argv[1:])
             print(json.dumps(row), flush=True)
-            with out.open("a") as f:
-                f.write(json.dumps(row) + "\n")
+            append_jsonl(out, row)
 
 
 if __name__ == "__main__":

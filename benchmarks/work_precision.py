@@ -31,6 +31,8 @@ from icidr_pde import build_case, run  # noqa: E402
 from icidr_pde.studies.references import (  # noqa: E402
     CASES, case_run, profile_error, reference, series_error, series_times)
 
+from provenance import write_json  # noqa: E402
+
 
 class _Outcome:
     """The parts of a Result the error measures read, for runs made outside run()."""
@@ -234,8 +236,7 @@ def main(argv=None):
         previous = json.loads(path.read_text())
         out["cases"] = {**previous.get("cases", {}), **out["cases"]}
         out["tstar"] = out["tstar"] or previous.get("tstar", {})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(out, indent=1, default=float))
+    write_json(path, out, default=float)
     table = markdown_table(out)
     print(table)
     doc = ROOT / "docs" / f"work_precision_tables{suffix}.md"
