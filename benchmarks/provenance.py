@@ -124,3 +124,7 @@ def append_jsonl(path, row: dict, *, argv=None, default=None) -> None:
         old += "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
     _write_atomically()(path, lambda fh: fh.write(old + line))
+
+
+if __name__ == "__main__":  # what a benchmark started with these arguments records
+    print(json.dumps(record(), indent=1))
