@@ -2,7 +2,9 @@
 
 A table shown here is the file a benchmark wrote, so that no table can outlive its data: each page
 is headed by the command that measured it and the date and load the file records (or says "not
-recorded"), and each table row names the JSON entry it shows (``rows[2].fast``), so that a reader
+recorded"): the record benchmarks/provenance.py writes under "provenance" (command, date, load at
+start and end, machine, commit) where the file has one, else the keys files measured before it
+hold ("command", "measured", "date", "load", "note"). Each table row names the JSON entry it shows (``rows[2].fast``), so that a reader
 and tests/test_benchmark_pages.py can find every number in the file. A file whose shape the
 renderer does not know, or that records neither command, date nor load, is listed on the index
 as raw data, not rendered, never skipped.
@@ -22,7 +24,7 @@ DIGITS = 4
 TABLE_KEYS = ("rows", "data", "cases", "runs")
 # the entry column's name for the file's top-level values
 TOP_LEVEL = "(top level)"
-PROVENANCE_KEYS = ("command", "commands", "measured", "date", "note", "load")
+PROVENANCE_KEYS = ("provenance", "command", "commands", "measured", "date", "note", "load")
 
 
 def _is_scalar(value) -> bool:
@@ -104,7 +106,31 @@ def _table(records: list[tuple[str, dict]]) -> list[str]:
     return lines
 
 
+def _recorded(record: dict, note) -> list[str]:
+    """The heading lines of a file stamped by benchmarks/provenance.py."""
+    lines = [f"- **Command:** `{record['command']}`" if record.get("command") else "- **Command:** not recorded",
+             f"- **Date:** {record['date']}" if record.get("date") else "- **Date:** not recorded"]
+    load = record.get("load") or {}
+    for moment in ("start", "end"):
+        if load.get(moment):
+            lines.append(f"- **Load at {moment}:** " + ", ".join(_shown(x) for x in load[moment]))
+    if not any(load.get(moment) for moment in ("start", "end")):
+        lines.append("- **Load:** not recorded")
+    machine = [f"{record['cores']} cores" if record.get("cores") else "",
+               f"{_shown(record['memory_gib'])} GiB" if record.get("memory_gib") else "",
+               f"Python {record['python']}" if record.get("python") else "", record.get("platform") or ""]
+    if any(machine):
+        lines.append("- **Machine:** " + ", ".join(m for m in machine if m))
+    if record.get("commit"):
+        lines.append(f"- **Commit:** `{record['commit']}`" + (" (tracked files modified)" if record.get("modified") else ""))
+    if note:
+        lines.append(f"- **Note:** {note}")
+    return lines
+
+
 def _provenance(data: dict) -> list[str]:
+    if isinstance(data.get("provenance"), dict):  # preferred to the keys of files measured before it
+        return _recorded(data["provenance"], data.get("note"))
     command = data.get("command") or data.get("commands")
     if isinstance(command, list):
         command = " ; ".join(command)

@@ -97,6 +97,9 @@ def test_each_number_shown_is_the_files(path):
     assert not mismatches(page, data)
     assert len(_tables(page)) >= 1 and all(len(t) >= 2 for t in _tables(page)), "a table with no row"
     shown = _provenance(page)
+    if isinstance(data.get("provenance"), dict):
+        assert_recorded(shown, data["provenance"])
+        return
     command = data.get("command") or data.get("commands")
     expected = " ; ".join(command) if isinstance(command, list) else command
     assert shown["Command"] == (f"`{expected}`" if expected else "not recorded")
@@ -111,6 +114,17 @@ def test_each_number_shown_is_the_files(path):
         assert shown["Load"] == "as recorded in the date or note"
     else:
         assert shown["Load"] == "not recorded"
+
+
+def assert_recorded(shown: dict[str, str], record: dict) -> None:
+    """The heading of a page whose file benchmarks/provenance.py stamped shows that record."""
+    assert shown["Command"] == f"`{record['command']}`"
+    assert shown["Date"] == record["date"]
+    for moment in ("start", "end"):
+        cells = shown[f"Load at {moment}"].split(", ")
+        assert len(cells) == 3 and all(agrees(c, v) for c, v in zip(cells, record["load"][moment]))
+    assert shown["Commit"].startswith(f"`{record['commit']}`")
+    assert shown["Machine"].startswith(f"{record['cores']} cores, ")
 
 
 def test_every_file_is_placed(tmp_path):
@@ -158,3 +172,43 @@ def test_a_changed_number_is_found():
     other["rows"][0]["wall_s"] *= 1.01
     assert mismatches(page, other) == [f"`rows[0]` wall_s: shown {shown!r}, file {other['rows'][0]['wall_s']!r}"]
     assert mismatches(page.replace(f"| {shown} |", f"| {shown}1 |", 1), data)
+
+
+def test_the_provenance_record_is_preferred(tmp_path):
+    """A file measured again after benchmarks/provenance.py: its page shows the record under
+    "provenance", not the older keys the benchmark still writes beside it."""
+    record = {"command": "nice -n 10 python benchmarks/amg2d.py --sizes 64", "argv": ["benchmarks/amg2d.py", "--sizes", "64"],
+              "date": "2026-12-07T18:00:00+00:00", "finished": "2026-12-07T18:20:00+00:00",
+              "load": {"start": [1.23456, 2.0, 3.5], "end": [0.5, 0.25, 0.125]}, "cores": 2, "memory_gib": 23.54,
+              "python": "3.11.7", "platform": "Linux-6.1-x86_64", "commit": "0123abcd" * 5, "modified": True}
+    data = {"provenance": record, "command": "python benchmarks/amg2d.py", "load": [9.0, 9.0, 9.0],
+            "measured": "2026-11-01", "gamma": 0.5, "rows": [{"N": 64, "solve_s": 1.23456}]}
+    path = tmp_path / "amg2d.json"
+    path.write_text(json.dumps(data))
+    page = benchmark_pages.render(path)
+    shown = _provenance(page)
+    assert shown == {"Command": "`nice -n 10 python benchmarks/amg2d.py --sizes 64`", "Date": "2026-12-07T18:00:00+00:00",
+                     "Load at start": "1.235, 2, 3.5", "Load at end": "0.5, 0.25, 0.125",
+                     "Machine": "2 cores, 23.54 GiB, Python 3.11.7, Linux-6.1-x86_64",
+                     "Commit": f"`{'0123abcd' * 5}` (tracked files modified)"}
+    assert_recorded(shown, record)
+    assert not mismatches(page, data)
+    # the record is no setting, and the settings and rows are the file's
+    assert _tables(page) == [[["entry", "gamma"], ["(top level)", "0.5"]],
+                             [["entry", "N", "solve_s"], ["`rows[0]`", "64", "1.235"]]]
+    # a record without loads says so; a file with only the record is rendered
+    del record["load"]
+    path.write_text(json.dumps({"provenance": record, "rows": [{"N": 8}]}))
+    assert _provenance(benchmark_pages.render(path))["Load"] == "not recorded"
+
+
+def test_a_file_the_helper_writes_is_rendered_with_its_record(tmp_path):
+    spec = importlib.util.spec_from_file_location("provenance", ROOT / "benchmarks" / "provenance.py")
+    provenance = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(provenance)
+    path = tmp_path / "run.json"
+    provenance.write_json(path, {"rows": [{"N": 8, "wall_s": 0.5}]}, argv=["benchmarks/amg2d.py", "--sizes", "8"])
+    data = json.loads(path.read_text())
+    page = benchmark_pages.render(path)
+    assert_recorded(_provenance(page), data["provenance"])
+    assert not mismatches(page, data)
