@@ -44,6 +44,7 @@ THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
 _START_DATE = datetime.now(timezone.utc)
 _START_LOAD = os.getloadavg()
 _START_ENV = {name: os.environ[name] for name in THREADS if name in os.environ}
+_START_DIR = os.getcwd()  # where argv[0] was typed from
 
 
 @functools.cache
@@ -64,8 +65,8 @@ def _utc(moment: datetime) -> str:
 def command(argv) -> str:
     """The command line that runs `argv` again from the checkout's root (shell-quoted)."""
     script = argv[0] if argv else ""
-    if script and Path(script).is_file():
-        path = Path(script).resolve()
+    if script and Path(_START_DIR, script).is_file():
+        path = Path(_START_DIR, script).resolve()
         script = str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
     words = [f"{name}={value}" for name, value in _START_ENV.items()]
     niceness = os.nice(0)
