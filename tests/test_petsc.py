@@ -299,7 +299,7 @@ DRIFT_SCRIPT = """
 import json, sys
 from icidr_pde import run
 from icidr_pde.engines.petsc import rank
-r = run("icidr", "bump2d", t_end=200.0, N=(32, 32), engine="petsc", progress=False, times=["200"], series_times=[])
+r = run("icidr", "bump2d", t_end=100.0, N=(48, 48), engine="petsc", progress=False, times=["100"], series_times=[])
 if rank() == 0:
     with open(sys.argv[1], "w") as f:
         json.dump({"drift": r.mass_drift, "t_final": r.t_final, "ranks": r.settings["ranks"]}, f)
@@ -310,15 +310,15 @@ if rank() == 0:
 @needs_mpiexec
 def test_mass_is_kept_to_round_off_on_one_and_two_ranks(tmp_path):
     """The scheme conserves the mass of phi (its rates sum to zero over the cells), so each step's
-    BDF system has a solution of the initial mass. bump2d 32^2 to t = 200 ends in a slow phase of
+    BDF system has a solution of the initial mass. bump2d 48^2 to t = 100 ends in a slow phase of
     long steps that Newton takes in one iteration each, so each GMRES correction's share of mass
-    (its residual, ksp_rtol) stayed in the state: the drift grew to 1.4e-11 on one rank. With each
-    correction's mass set, what is left is the round-off of the sums of phi, which does not grow
-    with the steps: within n eps for n cells of positive phi (a sum's round-off bound), on one
-    rank and on two, as the serial default's drift is."""
+    (its residual, ksp_rtol) stayed in the state: the drift grew to -1.4e-9 on one rank and
+    -1.0e-10 on two. With each correction's mass set, what is left is the round-off of the sums
+    of phi, which does not grow with the steps: within n eps for n cells of positive phi (a sum's
+    round-off bound), on one rank and on two, as the serial default's drift is."""
     from icidr_pde import run
 
-    n = 32 * 32
+    n = 48 * 48
     bound = n * np.finfo(float).eps
     script = tmp_path / "drift.py"
     script.write_text(DRIFT_SCRIPT)
@@ -327,9 +327,9 @@ def test_mass_is_kept_to_round_off_on_one_and_two_ranks(tmp_path):
         subprocess.run([MPIEXEC, "-n", str(ranks), sys.executable, str(script), str(out)], env=_mpi_env(),
                        check=True, timeout=600, capture_output=True)
         d = json.loads(out.read_text())
-        assert (d["ranks"], d["t_final"]) == (ranks, 200.0)
+        assert (d["ranks"], d["t_final"]) == (ranks, 100.0)
         assert abs(d["drift"]) < bound, (ranks, d["drift"])
-    default = run("icidr", "bump2d", t_end=200.0, N=(32, 32), progress=False, times=["200"], series_times=[])
+    default = run("icidr", "bump2d", t_end=100.0, N=(48, 48), progress=False, times=["100"], series_times=[])
     assert default.settings["engine"] != "petsc" and abs(default.mass_drift) < bound
 
 

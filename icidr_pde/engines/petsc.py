@@ -132,6 +132,7 @@ class PetscEngine(Engine):
     evaluation sets only its values. Each accepted step is checked by ``problem.check``; a step
     that PETSc cannot take (nonlinear solve diverged, step below the minimum) ends the run as a
     value (t_good, y_good, reason), as on the other engines. Dense output by ``TSInterpolate``.
+    Each Newton correction keeps the initial mass of phi (:meth:`_keep_mass`).
     """
 
     name = "petsc"
