@@ -312,7 +312,7 @@ class PetscEngine(Engine):
             c.dotBegin(y)
             mass_x, mass_y = c.dotEnd(x), c.dotEnd(y)
             y.axpy(mass_x - target - mass_y, q)
-            return True
+            return True  # y changed (the line search is told)
 
         snes.setLineSearchPreCheck(correct)
 
