@@ -132,6 +132,7 @@ class PetscEngine(Engine):
     evaluation sets only its values. Each accepted step is checked by ``problem.check``; a step
     that PETSc cannot take (nonlinear solve diverged, step below the minimum) ends the run as a
     value (t_good, y_good, reason), as on the other engines. Dense output by ``TSInterpolate``.
+    Each Newton correction keeps the initial mass of phi (:meth:`_keep_mass`).
     """
 
     name = "petsc"
@@ -262,7 +263,58 @@ class PetscEngine(Engine):
             db.setValue("ts_adapt_dt_max", max_step)
         ts.setFromOptions()
         ts.setUp()
+        self._keep_mass(ts.getSNES())
         return ts
+
+    def _mass_weights(self):
+        """The mass weights c (c J = 0: the scheme conserves c . y) as a vector of the state's
+        distribution, or None: the problem's `jacobian.weights`; where it has none but brings
+        patches, phi (field 0, the Patches' first) on the DMDA's equal cells (as
+        :func:`~.linear.base.cell_mass`)."""
+        weights = self.problem.jacobian.weights
+        if weights is None and self.grid is not None:
+            nx, nz = self.grid.shape
+            weights = np.zeros(self.problem.y0.size)
+            weights[:nx * nz] = 1.0
+        if weights is None or not np.any(weights):
+            return None
+        c = self.x.duplicate()
+        if self.grid is not None:
+            self.grid.scatter_in(weights, c)
+        else:
+            c.setArray(np.asarray(weights, float)[slice(*self.x.getOwnershipRange())])
+        return c
+
+    def _keep_mass(self, snes):
+        """Each Newton correction y (x -> x - y) is corrected by a multiple of q (c q = 1) so that
+        the new iterate has the initial mass: c . (x - y) = c . y0.
+
+        The exact solution of each step's nonlinear system has that mass to round-off (c J = 0,
+        and BDF's weights of the past states sum to 1), and so has the exact Newton correction;
+        GMRES's correction carries its residual's share of mass (ksp_rtol of the correction),
+        which the next Newton iteration removes but a step's last correction leaves in the state.
+        Where a step takes one Newton iteration (the long steps of a slow phase) that is each
+        step's drift. Set on the correction rather than in the preconditioner (as the serial
+        :func:`~.linear.precond.mass_keeping_precond` does): the operator's products by difference
+        quotients (snes_mf_operator) do not keep the Krylov vectors' mass exactly, and the
+        correction costs one reduction over the ranks per Newton iteration (the two sums in one,
+        PETSc's split reduction), not one per GMRES iteration. The target is the initial mass,
+        not the last state's, so round-off does not accumulate over the steps."""
+        c = self._mass_weights()
+        if c is None:
+            return
+        q = c.copy()
+        q.scale(1.0 / c.dot(c))
+        target = c.dot(self.x)
+
+        def correct(x, y):
+            c.dotBegin(x)
+            c.dotBegin(y)
+            mass_x, mass_y = c.dotEnd(x), c.dotEnd(y)
+            y.axpy(mass_x - target - mass_y, q)
+            return True  # y changed (the line search is told)
+
+        snes.setLineSearchPreCheck(correct)
 
     def _stale(self, ts) -> bool:
         """Whether the kept Jacobian values are too old: JAC_MAX_AGE steps, or a step rejected or
