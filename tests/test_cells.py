@@ -26,7 +26,8 @@ def test_the_registry_holds_both_cells():
 @pytest.mark.parametrize("name", PACKAGES)
 def test_each_descriptor_is_consistent(name):
     from icidr_pde import rheology
-    from icidr_pde.engines.choose import JacobianStructure, native_solver
+    from icidr_pde.engines.choose import JacobianStructure
+    from icidr_pde.engines.linear import LinearSolver, compiled_solver
 
     cell = get_cell(name)
     assert cell.name == name and cell.package == f"icidr_pde.cells.{name}" and cell.folder.is_dir()
@@ -49,8 +50,8 @@ def test_each_descriptor_is_consistent(name):
     assert set(cell.jacobian) == set(cell.schemes) and all(set(flags) <= fields for flags in cell.jacobian.values())
     assert set(cell.native) <= set(cell.schemes) and set(cell.native_problems) == set(cell.native)
     assert set(cell.native_cores) <= set(cell.native)
-    for scheme, (mode, solver) in cell.native.items():
-        assert native_solver(solver).name == solver and mode in ("analytic", "krylov")
+    for scheme, (mode, *kind) in cell.native.items():
+        assert isinstance(compiled_solver(*kind), LinearSolver) and mode in ("analytic", "krylov")
         assert callable(cell.native_problem(scheme))
         core = cell.native_core(scheme)
         assert core is None or (core.name == scheme and core.dim == cell.dim)

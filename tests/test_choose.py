@@ -11,7 +11,8 @@ import sys
 import pytest
 
 from icidr_pde.cells import cells, choice_asks, get_cell
-from icidr_pde.engines.choose import JacobianStructure, choose, native_solver
+from icidr_pde.engines.choose import JacobianStructure, choose
+from icidr_pde.engines.linear import compiled_solver
 from icidr_pde.validation import ParameterError
 
 
@@ -58,13 +59,15 @@ def test_the_native_engine_is_what_the_cells_state():
     problem of is refused with the schemes that have one, named from the registry."""
     native = {scheme: how for cell in cells().values() for scheme, how in cell.native.items()}
     assert native and set(choice_asks("fd")["native_schemes"]) == set(native)
-    for scheme, (mode, solver) in native.items():
+    solvers = {"fd": "band LU", "cheb": "GMRES + band preconditioner", "fv2d": "GMRES"}  # what the C problems set up
+    for scheme, (mode, *kind) in native.items():
         choice = choose(method="CVODE", **choice_asks(scheme))
+        solver = solvers[scheme]
         assert (choice.engine, choice.jacobian, choice.linear_solver, choice.solver.name) == ("native", mode, solver,
                                                                                                 solver)
-        assert native_solver(solver).name == solver
-    with pytest.raises(ValueError, match="no linear solver"):
-        native_solver("GMRES + nothing")
+        assert compiled_solver(*kind).name == solver
+    with pytest.raises(ValueError, match="linear solver is 'band', 'krylov', 'gmres' or 'dense'"):
+        compiled_solver("nothing")
     names = choice_asks("fd")["native_schemes"]
     other = choose(method="CVODE", request="native", **choice_asks("upwind3"))
     assert other.reason == ("discretization 'upwind3' (the native engine has " + ", ".join(names[:-1])

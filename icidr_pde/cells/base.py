@@ -63,7 +63,9 @@ class Cell:
     grid_axes: tuple[str, ...] = ("N",)
     #: scheme -> its Jacobian structure: the flags of :class:`icidr_pde.engines.choose.JacobianStructure`
     jacobian: dict = {}
-    #: scheme -> (Jacobian mode, linear solver) of the native engine on it (schemes it has no C problem of: absent)
+    #: scheme -> (Jacobian mode, linear solver kind[, preconditioner]) of the native engine on it, the kind and
+    #: preconditioner as :func:`icidr_pde.engines.linear.compiled_solver` takes them (schemes it has no C problem
+    #: of: absent)
     native: dict = {}
     #: scheme -> "module:function" building its compiled problem from the run path's case on the scheme's core
     native_problems: dict = {}

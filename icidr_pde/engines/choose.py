@@ -18,13 +18,12 @@ from dataclasses import dataclass, replace
 from ..cvode_settings import A_STABLE_ORDER, BDF_MAX_ORDER
 from ..validation import ParameterError, choice as checked_choice, integer
 from . import ENGINES, METHODS
-from .linear import SOLVERS, LinearSolver, jacobian_modes, solver_for
+from .linear import SOLVERS, LinearSolver, compiled_solver, jacobian_modes, solver_for
 from .linear.amg import AmgGmres
-from .linear.band_lu import CvodeBandLU
-from .linear.gmres import CompiledGmres, PetscGmres, Preconditioned
+from .linear.gmres import PetscGmres, Preconditioned
 from .linear.xfourier import XFourierGmres
 
-__all__ = ["Choice", "JacobianStructure", "choose", "native_solver", "REQUESTS", "PETSC_METHOD", "DENSE_2D_CELLS",
+__all__ = ["Choice", "JacobianStructure", "choose", "REQUESTS", "PETSC_METHOD", "DENSE_2D_CELLS",
            "CHOICES_2D", "BDF_MAX_ORDER", "A_STABLE_ORDER", "time_order", "AMG_SOLVER", "FOURIER_SOLVER"]
 
 #: what a run may ask for: 'auto' takes the native engine where it applies, 'native' says why it
@@ -151,7 +150,7 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
         reason = native_unavailable or _not_native(method, jacobian, discretization, backend, native,
                                                    native_schemes) or native_refusal
         if not reason:
-            solver = native_solver(native[1])
+            solver = compiled_solver(*native[1:])
             return Choice("native", native[0], solver.name, max_order=order, warning=warning, solver=solver)
     mode = _jacobian_mode(jacobian_modes(method), method, jacobian, structure, thin_cell, schemes)
     solver = solver_for(method, mode, structure)
@@ -160,19 +159,6 @@ def choose(*, method: str, jacobian: str | None = None, structure: JacobianStruc
     engine = solver.engine if solver.engine in ENGINES else next(
         name for name, entry in ENGINES.items() if method in entry.methods and name != "native")
     return Choice(engine, mode, solver.name, reason, order, warning, solver)
-
-
-def native_solver(name: str) -> LinearSolver:
-    """The linear solver of the native engine that a cell names (:attr:`icidr_pde.cells.base.Cell.native`):
-    CVODE's band LU, or GMRES in C, unpreconditioned or with the preconditioner its name says."""
-    if name == CvodeBandLU.name:
-        return CvodeBandLU()
-    preconditioner = name.removeprefix("GMRES + ").removesuffix(" preconditioner") if name != "GMRES" else ""
-    solver = CompiledGmres(preconditioner)
-    if solver.name != name:
-        raise ValueError(f"the native engine has no linear solver {name!r} (band LU, GMRES, GMRES + ... "
-                         "preconditioner)")
-    return solver
 
 
 def _dense_2d(method, mode, solver, cells) -> str:

@@ -22,7 +22,7 @@ class Plane2D(Cell):
     result_fields = ("Nx", "L", "measures")
     grid_axes = ("Nx", "Nz")
     jacobian = {"fv2d": dict(sparse=True, line=True, amg=True, advected=True)}
-    native = {"fv2d": ("krylov", "GMRES")}
+    native = {"fv2d": ("krylov", "gmres")}
     native_problems = {"fv2d": "icidr_pde.cells.plane2d.native:plane2d_problem"}
     native_cores = {"fv2d": "icidr_pde.cells.plane2d.core:PlaneCells"}
     templates = (Template("templates/plane2d.py", "plane2d_", names=("walls", "halo_into", "patch_rates")),)

@@ -20,7 +20,7 @@ class Shear1D(Cell):
     scenes_module = "icidr_pde.cells.shear1d.scenes"
     grid_axes = ("N",)
     jacobian = {"fd": dict(banded=True, band_jac=True, sparse=True), "cheb": {}}
-    native = {"fd": ("analytic", "band LU"), "cheb": ("analytic", "GMRES + band preconditioner")}
+    native = {"fd": ("analytic", "band"), "cheb": ("analytic", "krylov", "band")}
     native_problems = {"fd": "icidr_pde.cells.shear1d.native:fd_problem",
                        "cheb": "icidr_pde.cells.shear1d.native_cheb:cheb_problem"}
     templates = (Template("templates/fd.py", "fd_", {"J": "FD_BAND_AT"}),

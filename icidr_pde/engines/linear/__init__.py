@@ -22,12 +22,14 @@ __all__ = ["SOLVERS", "LinearSolver", "Memory", "jacobian_modes", "named", "solv
 
 def compiled_solver(kind: str, preconditioner: str = "", solver: str = "") -> LinearSolver:
     """The linear solver a compiled problem (:mod:`icidr_pde.native`) set up: `kind` 'krylov'
-    (GMRES + `preconditioner`), 'gmres' (GMRES, none) or 'dense' (its dense LU, LAPACK's where
-    `solver` is 'lapack')."""
+    (GMRES + `preconditioner`), 'gmres' (GMRES, none), 'dense' (its dense LU, LAPACK's where
+    `solver` is 'lapack') or 'band' (CVODE's band LU on its analytic band Jacobian)."""
+    if kind == "band":
+        return band_lu.CvodeBandLU()
     if kind == "krylov":
         return gmres.CompiledGmres(preconditioner)
     if kind == "gmres":
         return gmres.CompiledGmres()
     if kind == "dense":
         return dense_lu.CvodeDenseLU() if solver == "lapack" else dense_lu.CvodeDenseQuotients()
-    raise ValueError(f"a compiled problem's linear solver is 'krylov', 'gmres' or 'dense'; got {kind!r}")
+    raise ValueError(f"a compiled problem's linear solver is 'band', 'krylov', 'gmres' or 'dense'; got {kind!r}")
