@@ -6,14 +6,14 @@ S = D - (div u/3) I, ||T|| = sqrt(tr T^2/2), sigma = -p I + c S, differentiated 
 differences: no sympy, no generated kernel.
 """
 
-import argparse
 import json
 
 import numpy as np
 import pytest
 
-from icidr_pde.cli import stability as cli
 from stability import directional, spatial
+
+from .test_cli_directional import _run
 
 MU_S, MU_D, I0, PHI_C, A = 0.248, 0.588, 0.145, 0.817, 0.314      # Table 1
 
@@ -175,14 +175,6 @@ def test_bad_gradient_is_one_clear_error(bad, word):
 def test_bad_directions():
     with pytest.raises(ValueError, match="`directions` must be an integer in"):
         spatial.spatial_stability("icidr", 0.7, spatial.planar_gradient(0, 1, 0, 0), directions=3)
-
-
-def _run(argv):
-    parser = argparse.ArgumentParser(prog="icidr-pde")
-    sub = parser.add_subparsers(dest="command", required=True)
-    cli.add_parser(sub)
-    args = parser.parse_args(["stability", *argv])
-    return cli.cmd(args)
 
 
 def test_cli_dim3_json(tmp_path, capsys):
