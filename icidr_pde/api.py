@@ -28,7 +28,7 @@ from .recorders import StopRun, WallClock, make_recorders
 from .result import Fields, Result
 from .rheology import Material
 from .schedule import Schedule, schedule
-from .scenes import SCENES, Scene, get_scene
+from .scenes import SCENES, Scene
 from .times import check_t_end
 from .validation import check_atol, output_path, real
 
@@ -191,7 +191,6 @@ def run(
     options = {} if advection is None else {"advection": advection}
     core = None
     if choice.engine == "native":
-        from .discretizations.registry import get_scheme
         from .native import NativeUnavailable
         from .native_case import core_class
 
@@ -207,10 +206,10 @@ def run(
         except NativeUnavailable as err:
             sys.stderr.write(f"icidr-pde: native engine not available ({err}); running the py-pde path\n")
             choice = choose(**dict(ask, native_unavailable=str(err)))
-            if get_scheme(settings["discretization"]).core is None:  # the py-pde class builds its own grid
-                case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
-                                  options=options, scene_params=scene_params,
-                                  check_grid=lambda pde, grid: _check_memory(pde, grid, settings, choice))
+            # the case of the py-pde path: the native engine's is on the core its cell names
+            case = build_case(rheology, scene, settings["discretization"], settings["N"], material=material,
+                              options=options, scene_params=scene_params,
+                              check_grid=lambda pde, grid: _check_memory(pde, grid, settings, choice))
             result, recorders = _run(case, choice, settings, t_end, times, **run_case)
     else:
         result, recorders = _run(case, choice, settings, t_end, times, **run_case)

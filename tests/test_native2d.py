@@ -169,3 +169,16 @@ def test_native_2d_run_imports_no_py_pde_numba_or_scipy(tmp_path):
     assert not set(HEAVY) & set(modules), set(HEAVY) & set(modules)
     data = json.loads(target.read_text())
     assert data["settings"]["engine"] == "native" and data["Nx"] == 12 and data["t_final"] == 0.2
+
+
+def test_a_run_too_stiff_for_the_native_gmres_takes_the_pde_path(capsys):
+    """Asked for the native engine on a run whose t_end / fastest time scale exceeds what its
+    unpreconditioned GMRES follows (Plane2DProblem.max_stiffness), the run says so on stderr and
+    is the py-pde path's run: the same numbers as asking for that path."""
+    kwargs = dict(rheology="icidr", scene="bump2d", N=(8, 8), t_end=2e9, times=[0, 1e-3, 2e9], progress=False)
+    fell_back = run(engine="native", **kwargs)
+    said = capsys.readouterr().err
+    assert "native engine not available" in said and "too stiff" in said
+    direct = run(engine="pde", **kwargs)
+    assert fell_back.settings["engine"] == direct.settings["engine"] != "native"
+    assert np.array_equal(fell_back.final, direct.final) and not fell_back.blew_up
