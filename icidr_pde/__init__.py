@@ -32,6 +32,10 @@ __all__ = [
 ]
 __version__ = "0.1.0"
 
+# py-pde's movies (matplotlib's FFMpegWriter) run the ffmpeg of the imageio-ffmpeg wheel when they
+# find no other, from the moment matplotlib is loaded: why here, icidr_pde/ffmpeg.py
+importlib.import_module(".ffmpeg", __name__).when_matplotlib_loads()
+
 
 def __getattr__(name: str):
     module = _EXPORTS.get(name)

@@ -206,9 +206,9 @@ def is_cli(module):
 
 
 def is_interface(module):
-    """What faces a person: command lines, figures, movies, plots, the live figure."""
+    """What faces a person: command lines, figures, movies (and the ffmpeg they run), plots, the live figure."""
     return is_cli(module) or under(module, "icidr_pde.figures", "icidr_pde.movies", "icidr_pde.plotting",
-                                   "icidr_pde.live_plot")
+                                   "icidr_pde.live_plot", "icidr_pde.ffmpeg")
 
 
 def is_study(module):

@@ -170,3 +170,72 @@ def test_the_failure_frame_shows_the_state_at_t_star(tmp_path, monkeypatch):
     plot = plots[0]
     assert plot.axes[2].get_ylim()[1] >= np.max(frames[-1, 2])
     assert plot.suptitle.get_text().endswith("FAILED at t* (integrator failed)")
+
+
+# --- py-pde's own movies run the wheel's ffmpeg (icidr_pde/ffmpeg.py) -------------------------
+
+PYPDE_MOVIES = r"""
+import json, sys
+import numpy as np
+import pde
+from icidr_pde import ShearCellPDE
+
+out = sys.argv[1]
+eq = ShearCellPDE("icidr")
+grid = eq.make_grid(11, H=30)
+state = eq.make_state(grid, 0.78, lambda z: z / 30 + 0.1 * np.sin(2 * np.pi * z / 30), 0.0)
+storage = pde.MemoryStorage()
+tracker = pde.PlotTracker(0.5, movie=out + "/tracker.mp4", show=False)
+eq.solve(state, t_range=1, solver="stiff", tracker=[storage.tracker(0.25), tracker])
+pde.visualization.movie(storage, out + "/movie.mp4", progress=False, movie_args={"dpi": 40})
+fig = storage[0].plot(action="none")[0].ax.figure
+print(json.dumps({"frames": len(storage), "size": [round(v) for v in fig.get_size_inches() * 40]}))
+"""
+
+
+def test_pypde_movies_find_the_wheels_ffmpeg(tmp_path):
+    """With no ffmpeg on PATH (py-pde would say "FFMpegWriter is not available"), py-pde's
+    ``movie`` and ``PlotTracker(movie=...)`` of this package's PDE write complete MP4s, with a
+    frame per stored state (per tracker interval) at the figure's size in pixels."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import imageio_ffmpeg
+
+    from icidr_pde.movies.sink import check_mp4
+
+    empty = tmp_path / "bin"
+    empty.mkdir()
+    env = {**os.environ, "PATH": str(empty), "MPLBACKEND": "Agg"}
+    done = subprocess.run([sys.executable, "-c", PYPDE_MOVIES, str(tmp_path)], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    expected = json.loads(done.stdout.strip().splitlines()[-1])
+    assert expected["frames"] == 5  # t = 0, 0.25, ..., 1
+    for name, frames, size in (("movie.mp4", expected["frames"], expected["size"]), ("tracker.mp4", 3, None)):
+        path = tmp_path / name
+        check_mp4(path)
+        reader = imageio_ffmpeg.read_frames(str(path))
+        meta = next(reader)
+        assert sum(1 for _ in reader) == frames, name  # decoded, not the container's count
+        if size is not None:
+            assert list(meta["size"]) == size
+
+
+def test_matplotlib_keeps_an_ffmpeg_it_can_find():
+    """point_matplotlib fills in the wheel's ffmpeg only where matplotlib's setting names no
+    program: a path that exists is kept."""
+    import sys
+
+    import matplotlib
+
+    from icidr_pde.ffmpeg import point_matplotlib
+
+    with matplotlib.rc_context({"animation.ffmpeg_path": sys.executable}):
+        assert point_matplotlib() == sys.executable
+        assert matplotlib.rcParams["animation.ffmpeg_path"] == sys.executable
+    with matplotlib.rc_context({"animation.ffmpeg_path": "/nonexistent/ffmpeg"}):
+        assert point_matplotlib() == ffmpeg_exe()
+        assert matplotlib.rcParams["animation.ffmpeg_path"] == ffmpeg_exe()

@@ -21,19 +21,10 @@ import warnings
 
 import numpy as np
 
+from ..ffmpeg import ffmpeg_exe
 from ..outputs import replacing
 
 __all__ = ["check_mp4", "ffmpeg_exe", "movie_target", "write_frames"]
-
-
-def ffmpeg_exe() -> str | None:
-    """Path of the ffmpeg binary that imageio-ffmpeg runs (its wheel's, else one on PATH), or None."""
-    try:
-        import imageio_ffmpeg
-
-        return imageio_ffmpeg.get_ffmpeg_exe()
-    except (ImportError, RuntimeError):
-        return None
 
 
 #: imageio-ffmpeg's quality, 1-10 (6: H.264 crf 20, about the size of ffmpeg's default crf 23)
