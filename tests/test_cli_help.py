@@ -4,6 +4,7 @@ usage line that names it; and every registered subcommand is a module with ``add
 
 import argparse
 import importlib
+import re
 
 import pytest
 
@@ -36,6 +37,12 @@ def test_help_of_every_subcommand(path, capsys):
     assert stop.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith(f"usage: icidr-pde {' '.join(path)}"), out[:200]
+    # no default appended to a help that already gives one, and only a default that means something
+    for option in re.split(r"\n  (?=-)", out.split("options:", 1)[-1]):
+        option = " ".join(option.split())
+        said = option.rsplit("(default", 1)[0]
+        assert not ("default" in said and re.search(r"\(default: [^()]*\)$", option)), option
+        assert "(default: None)" not in option and "(default: False)" not in option, option
 
 
 @pytest.mark.parametrize("name", list(cli.SUBCOMMANDS))

@@ -16,6 +16,7 @@ from pathlib import Path
 from .argtypes import int_at_least, positive_int as _pos_int
 from ..outputs import check_outputs, writable_folder, write_json
 from .cluster import add_cluster_options, client_of
+from .common import DefaultsFormatter
 
 
 def _fraction(text):
@@ -65,22 +66,13 @@ def _common(p, what):
     p.add_argument("--no-progress", action="store_true", help="no progress output")
 
 
-class _Defaults(argparse.ArgumentDefaultsHelpFormatter):
-    """Adds '(default: ...)' to the help texts that do not already say their default."""
-
-    def _get_help_string(self, action):
-        if "default" in (action.help or ""):
-            return action.help
-        return super()._get_help_string(action)
-
-
 def add_parser(subparsers):
     """Add ``dem`` with ``steady``, ``transient`` and ``audit`` to an argparse subparsers object."""
     dem = subparsers.add_parser("dem", help="LAMMPS DEM validation (appendix C, figs 1 and 8)",
                                 description=__doc__,
-                                formatter_class=_Defaults)
+                                formatter_class=DefaultsFormatter)
     sub = dem.add_subparsers(dest="dem_command", required=True)
-    fmt = _Defaults
+    fmt = DefaultsFormatter
     st = sub.add_parser("steady", help="steady mu(I), Phi(I) sweep, fits of (2.10)-(2.11), fig 1",
                         description="Steady Lees-Edwards shear at each phi0; writes steady.json and fig1_dem.png.",
                         formatter_class=fmt)
