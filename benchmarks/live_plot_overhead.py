@@ -36,7 +36,7 @@ plain = [{call.format('')} for _ in range({repeats})]
 live = [{call.format(', live_plot=True')} for _ in range({repeats})]
 rows.append(dict(case={label!r}, plain=statistics.median(r.wall_s for r in plain),
                  live=statistics.median(r.wall_s for r in live),
-                 max_w_difference=abs(plain[0].max_w[-1] - live[0].max_w[-1])))""")
+                 max_w_difference=abs(plain[0].max_w_series[-1] - live[0].max_w_series[-1])))""")
     cells.append("print('ROWS', json.dumps(rows))")
     book = nbformat.v4.new_notebook()
     book.cells = [nbformat.v4.new_code_cell(c) for c in cells]

@@ -73,7 +73,7 @@ def assemble(*, rheology: str, scene, discretization: str, N: int, z, mass, mate
         t_star=outcome.t_star, reason=outcome.reason, t_final=float(outcome.t_final), z=z,
         times=np.asarray(recorded.times, float), time_labels=labels[:n_snap], requested_times=labels,
         phi=data[:, 0], u=data[:, 1], w=data[:, 2], final=Fields(*outcome.final),
-        max_w_t=np.array(max_w_t), max_w=np.array(max_w),
+        max_w_t=np.array(max_w_t), max_w_series=np.array(max_w),
         last_times=recorded.last_times,
         last_states=recorded.last_states if recorded.last_states is not None else data[:0],
         mass_drift=(mass(outcome.final) - mass0) / mass0,

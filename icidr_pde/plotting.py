@@ -60,7 +60,7 @@ def last_states_after(result: Result, t_after: float) -> list:
 
 def plot_max_w(ax, result: Result, label: str | None = None, **kwargs):
     """max|w|(t) on log-log axes; a failed run ends with an x at t*."""
-    t, v = result.max_w_t, result.max_w
+    t, v = result.max_w_t, result.max_w_series
     keep = t > 0
     label = label or f"{result.rheology} {result.discretization} N={result.N}"
     (line,) = ax.loglog(t[keep], v[keep], label=label, **kwargs)
@@ -134,7 +134,7 @@ def plot_fields(result: Result, path=None):
         for ax, k in zip(row[:2], ("w", "phi")):
             fig.colorbar(field_panel(ax, result, k, len(result.times) - 1, label, state, t), ax=ax, shrink=0.8)
     if len(result.max_w_t):
-        axes[0, 2].semilogy(result.max_w_t, result.max_w)
+        axes[0, 2].semilogy(result.max_w_t, result.max_w_series)
     axes[0, 2].set_xlabel("t")
     axes[0, 2].set_ylabel("max |w|")
     if failed:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -12,6 +13,9 @@ from .cells import cell_of_result
 from .outputs import write_atomically
 
 __all__ = ["Result", "Fields"]
+
+_MAX_W_RENAMED = ("Result.max_w is now Result.max_w_series (max|w| at the times max_w_t); the JSON's "
+                  "'max_w' is max|w| at the requested times (Result.max_w_at_times())")
 
 
 class Fields(NamedTuple):
@@ -36,7 +40,9 @@ class Result:
         z: positions of the unknowns
         times, phi, u, w: snapshots at the requested times that were reached
         final: :class:`Fields` (phi, u, w) at t_final (``res.final.w``)
-        max_w_t, max_w: time series of max|w| over the nodes
+        max_w_t, max_w_series: time series of max|w| over the nodes (``max_w`` is its old name,
+            read with a DeprecationWarning: the JSON's ``max_w`` is max|w| at the requested times,
+            :meth:`max_w_at_times`)
         last_times, last_states: the last states (up to 6, shape (n, 3, ...) as the snapshots)
             the run passed at its max|w| series times before t_final: what a failure grew from
         chi_t, chi_z, chi: chi (A18) at the stress points, if the scene asked for it
@@ -71,7 +77,7 @@ class Result:
     w: np.ndarray
     final: tuple[np.ndarray, np.ndarray, np.ndarray]
     max_w_t: np.ndarray
-    max_w: np.ndarray
+    max_w_series: np.ndarray
     mass_drift: float
     wall_s: float
     compile_s: float
@@ -93,6 +99,18 @@ class Result:
     not_written: dict = field(default_factory=dict)
     last_times: np.ndarray = field(default_factory=lambda: np.empty(0))
     last_states: np.ndarray | None = None
+
+    @property
+    def max_w(self) -> np.ndarray:
+        """The old name of :attr:`max_w_series`, kept with a DeprecationWarning: ``max_w`` of the
+        JSON (:meth:`to_dict`) is a different quantity, max|w| at the requested times."""
+        warnings.warn(_MAX_W_RENAMED, DeprecationWarning, stacklevel=2)
+        return self.max_w_series
+
+    @max_w.setter
+    def max_w(self, value) -> None:
+        warnings.warn(_MAX_W_RENAMED, DeprecationWarning, stacklevel=2)
+        self.max_w_series = value
 
     def max_w_at_times(self) -> dict[str, float]:
         """max|w| at each requested time reached (label as requested -> value)."""

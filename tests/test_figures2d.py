@@ -152,4 +152,4 @@ def test_the_plot_of_a_2d_run_shows_its_last_fields(tmp_path):
     images = [a for ax in fig.axes for a in ax.get_children() if isinstance(a, AxesImage)]
     np.testing.assert_array_equal(images[0].get_array(), result.w[-1].T)
     np.testing.assert_allclose(images[1].get_array(), (result.phi[-1] - result.scene_params["phi0"]).T)
-    np.testing.assert_array_equal(fig.axes[2].lines[0].get_ydata(), result.max_w)
+    np.testing.assert_array_equal(fig.axes[2].lines[0].get_ydata(), result.max_w_series)

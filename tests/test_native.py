@@ -93,7 +93,7 @@ def test_native_run_follows_the_py_pde_cvode_run():
     a, b = run_native("icidr", "shear", 101, 10.0), run("icidr", "shear", 101, 10.0, method="CVODE")
     assert a.n_steps == b.n_steps
     assert np.array_equal(a.max_w_t, b.max_w_t)
-    assert np.allclose(a.max_w, b.max_w, rtol=1e-5, atol=0)
+    assert np.allclose(a.max_w_series, b.max_w_series, rtol=1e-5, atol=0)
     assert a.time_labels == b.time_labels and np.allclose(a.w, b.w, rtol=0, atol=1e-7)
     assert np.array_equal(a.chi_t, b.chi_t)
     assert set(a.to_dict()) == set(b.to_dict())
@@ -110,7 +110,7 @@ def test_failed_run_returns_what_it_computed():
     assert result.t_star == pytest.approx(reference.t_star, rel=1e-3)
     assert result.t_final == result.t_star and result.max_w_t[-1] == result.t_star
     assert np.all(np.diff(result.max_w_t) > 0)
-    assert result.max_w[-1] == pytest.approx(np.max(np.abs(result.final[2])))
+    assert result.max_w_series[-1] == pytest.approx(np.max(np.abs(result.final[2])))
     assert result.time_labels == ["0", "0.01"]
     assert "integrator failed" in result.reason
     assert abs(result.mass_drift) < 1e-12

@@ -101,7 +101,7 @@ def test_tstar_is_the_converged_one_and_the_py_pde_paths(monkeypatch):
     assert result.t_final == result.t_star and result.max_w_t[-1] == result.t_star
     assert result.time_labels == ["0", "0.01"] and result.requested_times == pde_path.requested_times
     assert np.allclose(result.phi, pde_path.phi, rtol=0, atol=1e-6)
-    assert result.max_w[-1] == pytest.approx(np.max(np.abs(result.final[2])))
+    assert result.max_w_series[-1] == pytest.approx(np.max(np.abs(result.final[2])))
     assert np.all(np.diff(result.max_w_t) > 0)
     assert abs(result.mass_drift) < 1e-13
     assert np.array_equal(result.chi_t, pde_path.chi_t[:result.chi_t.size])

@@ -37,7 +37,7 @@ def test_failed_run_keeps_the_last_states_before_t_star(mui_failed):
                  for k in np.flatnonzero(res.max_w_t == time)]
     assert len(in_series) >= 3
     for k, state in in_series:
-        assert np.max(np.abs(state[2])) == pytest.approx(res.max_w[k], rel=1e-12)
+        assert np.max(np.abs(state[2])) == pytest.approx(res.max_w_series[k], rel=1e-12)
 
 
 def test_plot_of_a_failed_run_draws_the_state_at_t_star_and_before(mui_failed):

@@ -71,7 +71,7 @@ def tstar_label(result):
 
 def max_w_extrema(result, t_min=0.0):
     """Global maximum of max|w|(t) and the interior local maxima after t_min."""
-    t, m = result.max_w_t, result.max_w
+    t, m = result.max_w_t, result.max_w_series
     keep = t >= t_min
     t, m = t[keep], m[keep]
     inner = [k for k in range(1, len(m) - 1) if m[k] >= m[k - 1] and m[k] > m[k + 1]]
@@ -96,6 +96,6 @@ def grid_pair(ax, coarse, fine, field, times, ms):
 
 def max_w_pair(ax, coarse, fine, ms):
     """max|w|(t) of the coarse run (open circles) and the fine one (a red line) (figs 6, 7)."""
-    ax.plot(coarse.max_w_t, coarse.max_w, "o", color="tab:blue", mfc="none", ms=ms, markevery=6,
+    ax.plot(coarse.max_w_t, coarse.max_w_series, "o", color="tab:blue", mfc="none", ms=ms, markevery=6,
             label=f"N = {coarse.N}")
-    ax.plot(fine.max_w_t, fine.max_w, color="tab:red", label=f"N = {fine.N}")
+    ax.plot(fine.max_w_t, fine.max_w_series, color="tab:red", label=f"N = {fine.N}")

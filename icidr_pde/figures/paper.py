@@ -116,11 +116,11 @@ def fig4(runs):
                            ("mui-fd-coarse", "tab:blue", "--"), ("mui-cheb-coarse", "tab:blue", "-")):
         res = runs[key]
         keep = res.max_w_t > 0
-        ax.loglog(res.max_w_t[keep], res.max_w[keep], ls=ls, color=color, label=f"{scheme_label(res)}, N = {res.N}")
+        ax.loglog(res.max_w_t[keep], res.max_w_series[keep], ls=ls, color=color, label=f"{scheme_label(res)}, N = {res.N}")
         if res.blew_up:  # the value at t* (1e6-1e10) is off the axis: the cross sits at its top
-            ax.plot([res.t_star], [min(res.max_w[-1], 5.0)], "x", color=color, ms=8, clip_on=False)
+            ax.plot([res.t_star], [min(res.max_w_series[-1], 5.0)], "x", color=color, ms=8, clip_on=False)
         numbers[f"t_star_{key}"] = res.t_star
-        numbers[f"max_w_final_{key}"] = float(res.max_w[-1])
+        numbers[f"max_w_final_{key}"] = float(res.max_w_series[-1])
     cheb = runs["mui-cheb-fine"]
     if cheb.blew_up:
         ax.axvline(cheb.t_star, color="k", lw=0.7)

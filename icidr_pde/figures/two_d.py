@@ -210,7 +210,7 @@ def bump2d(runs):
         numbers[f"mass_drift_{res.rheology}"] = float(res.mass_drift)
     ax = axes[0, 3]
     for res, color, label in ((mui, "tab:red", r"$\mu(I),\Phi(I)$"), (icidr, "tab:blue", "iCIDR")):
-        ax.semilogy(res.max_w_t, res.max_w, color=color, label=label)
+        ax.semilogy(res.max_w_t, res.max_w_series, color=color, label=label)
     ax.axvline(t_shown, color="k", lw=0.6, ls=":")
     ax.set(xlabel="t", ylabel="max|w|", xlim=(0, mui.t_star), ylim=(1e-3, 2.0))
     ax.set_title(f"max|w|(t); dotted: t = {t_shown:.4g}; t* = {mui.t_star:.4g}", fontsize=8)

@@ -115,7 +115,7 @@ def movie_from_result(result, path, *, frame_dt=None, title=None, **kwargs) -> P
         reason = result.reason
     if title is None:
         title = f"{result.rheology}, scene {result.scene}, {result.discretization} N = {result.N}"
-    return write_movie(path, result.z, times, frames, max_w_t=result.max_w_t, max_w=result.max_w,
+    return write_movie(path, result.z, times, frames, max_w_t=result.max_w_t, max_w=result.max_w_series,
                        title=title, failed_reason=reason, **kwargs)
 
 
@@ -254,7 +254,7 @@ def movie_from_results_2d(results: dict, path, *, title: str = "", stride: int =
         phi_dev = np.max(np.abs(np.asarray(res.phi)[snap] - res.scene_params["phi0"]), axis=(1, 2))
         if res is first and first.blew_up:
             t_phi, phi_dev = np.append(t_phi, times[-1]), np.append(phi_dev, np.max(np.abs(frames[label][-1, 1])))
-        series[label] = ((np.asarray(res.max_w_t)[keep], np.asarray(res.max_w)[keep]), (t_phi, phi_dev))
+        series[label] = ((np.asarray(res.max_w_t)[keep], np.asarray(res.max_w_series)[keep]), (t_phi, phi_dev))
     L, H = first.scene_params["L"], first.scene_params["H"]
     return write_field_movie(path, (0.0, L, 0.0, H), times, frames, series=series, title=title, last_note=note,
                              **kwargs)
