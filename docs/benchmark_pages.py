@@ -4,10 +4,15 @@ A table shown here is the file a benchmark wrote, so that no table can outlive i
 is headed by the command that measured it and the date and load the file records (or says "not
 recorded"): the record benchmarks/provenance.py writes under "provenance" (command, date, load at
 start and end, machine, commit) where the file has one, else the keys files measured before it
-hold ("command", "measured", "date", "load", "note"). Each table row names the JSON entry it shows (``rows[2].fast``), so that a reader
+hold ("command", "measured", "date", "load", "note"). A file measured before provenance.py says
+so on its page: it records no machine and no commit, and what it does not record of its command,
+date and load is taken from where the guides say how it was made (:func:`guide_sources`): a
+"*Dated record*" line naming the file, else a command in a guide that writes it, else the
+benchmark whose default output it is, each quoted with the page it is on. Each table row names
+the JSON entry it shows (``rows[2].fast``), so that a reader
 and tests/test_benchmark_pages.py can find every number in the file. A file whose shape the
 renderer does not know, or that records neither command, date nor load, is listed on the index
-as raw data, not rendered, never skipped.
+as raw data, not rendered, never skipped (with what the guides say of it).
 
 Used by docs/conf.py (``write_pages``); ``render`` returns one file's page.
 """
@@ -25,6 +30,81 @@ TABLE_KEYS = ("rows", "data", "cases", "runs")
 # the entry column's name for the file's top-level values
 TOP_LEVEL = "(top level)"
 PROVENANCE_KEYS = ("provenance", "command", "commands", "measured", "date", "note", "load")
+ROOT = Path(__file__).resolve().parents[1]
+#: what a page says of a file measured before benchmarks/provenance.py
+UNSTAMPED = ("not stamped: measured before benchmarks/provenance.py, so the file records no machine "
+             "and no commit")
+_DATED_RECORD = re.compile(r"^\*Dated record\*: `(?P<command>[^`]+)`(?P<rest>.*)$")
+_INLINE_COMMAND = re.compile(r"`((?:[A-Z_]+=\S+ )*(?:nice -n \d+ )?python3? benchmarks/[^`]+)`")
+_FENCED = re.compile(r"^```.*?^```", re.MULTILINE | re.DOTALL)
+_DEFAULT_OUTPUT = re.compile(r"""add_argument\(\s*"--(?:json|out)",[^)]*default=["']data/benchmarks/([\w.]+)["']""")
+
+
+def _names_file(text: str, name: str) -> bool:
+    return re.search(rf"data/benchmarks/{re.escape(name)}(?![\w.])", text) is not None
+
+
+def _guide_commands(text: str):
+    """(command, its line) of each shell command of a page: the lines of its fenced blocks
+    (continuations after a backslash joined) and the commands in backticks in its prose."""
+    fence, pending = False, ""
+    for line in text.splitlines():
+        if line.lstrip().startswith("```"):
+            fence, pending = not fence, ""
+            continue
+        if fence:
+            pending += line.strip()
+            if pending.endswith("\\"):
+                pending = pending[:-1].rstrip() + " "
+                continue
+            yield pending.split("  #", 1)[0].strip(), pending
+            pending = ""
+        else:
+            for command in _INLINE_COMMAND.findall(line):
+                yield command, line
+
+
+def guide_sources(name: str, docs: Path | None = None, benchmarks: Path | None = None) -> list[str]:
+    """What the guides say of how the data file `name` was made, as heading lines of its page:
+    every "*Dated record*" line of docs/*.md that names it; if none, the commands of a guide
+    that write it (``--json data/benchmarks/NAME``, or a comment naming it beside the command);
+    if none, the benchmark whose default output it is."""
+    docs = docs or ROOT / "docs"
+    benchmarks = benchmarks or ROOT / "benchmarks"
+    pages = sorted(p for p in docs.glob("*.md"))
+    records, commands = [], []
+    for page in pages:
+        text = page.read_text()
+        for line in text.splitlines():
+            m = _DATED_RECORD.match(line)
+            if m and _names_file(line, name):
+                records.append(f"- **Dated record in a guide:** `{m['command']}`{m['rest'].rstrip()} "
+                               f"(docs/{page.name})")
+        for command, line in _guide_commands(text):
+            if "benchmarks/" in command and _names_file(line, name) and not _DATED_RECORD.match(line):
+                entry = f"- **Command in a guide:** `{command}` (docs/{page.name})"
+                if entry not in commands:
+                    commands.append(entry)
+    if records:
+        return records
+    if commands:
+        return commands
+    for script in sorted(benchmarks.glob("*.py")):
+        if name in _DEFAULT_OUTPUT.findall(script.read_text()):
+            return [f"- **Written by:** `python benchmarks/{script.name}` (its default output; "
+                    "the arguments are not recorded)"]
+    # the benchmark whose name the file's begins with (cheb_krylov_rtol.json: cheb_krylov.py),
+    # with the arguments a guide quotes beside the file's name, if any
+    stem = Path(name).stem
+    scripts = sorted((s for s in benchmarks.glob("*.py") if stem.startswith(s.stem)), key=lambda s: -len(s.stem))
+    if not scripts:
+        return []
+    quoted = sorted({f"`{' '.join(fragment.split())}` (docs/{page.name})" for page in pages
+                     for fragment in re.findall(r"`([^`]+)`", _FENCED.sub("", page.read_text()))
+                     if _names_file(fragment, name) and "\n\n" not in fragment})
+    return [f"- **Written by:** `python benchmarks/{scripts[0].name}` (the benchmark the file is named after; "
+            + (f"the arguments a guide quotes: {' ; '.join(quoted)})" if quoted
+               else "no guide quotes its arguments)")]
 
 
 def _is_scalar(value) -> bool:
@@ -128,19 +208,21 @@ def _recorded(record: dict, note) -> list[str]:
     return lines
 
 
-def _provenance(data: dict) -> list[str]:
+def _provenance(data: dict, name: str | None = None) -> list[str]:
     if isinstance(data.get("provenance"), dict):  # preferred to the keys of files measured before it
         return _recorded(data["provenance"], data.get("note"))
+    stamp = [f"- **Provenance:** {UNSTAMPED}"] + (guide_sources(name) if name else [])
     command = data.get("command") or data.get("commands")
     if isinstance(command, list):
         command = " ; ".join(command)
     date = data.get("measured") or data.get("date")
     load = data.get("load")
     note = data.get("note")
-    lines = [f"- **Command:** `{command}`" if command else "- **Command:** not recorded",
-             f"- **Date:** {date}" if date
-             else "- **Date:** as recorded in the note" if note and re.search(r"\b(19|20)\d\d\b", note)
-             else "- **Date:** not recorded"]
+    lines = stamp + [
+        f"- **Command:** `{command}`" if command else "- **Command:** not recorded in the file",
+        f"- **Date:** {date}" if date
+        else "- **Date:** as recorded in the note" if note and re.search(r"\b(19|20)\d\d\b", note)
+        else "- **Date:** not recorded in the file"]
     if isinstance(load, list):
         lines.append("- **Load (as recorded):** " + ", ".join(_shown(x) for x in load))
     elif load is not None:
@@ -149,7 +231,7 @@ def _provenance(data: dict) -> list[str]:
         # recorded in words, beside the date ("uptime load 0.5-1.0")
         lines.append("- **Load:** as recorded in the date or note")
     else:
-        lines.append("- **Load:** not recorded")
+        lines.append("- **Load:** not recorded in the file")
     if note:
         lines.append(f"- **Note:** {note}")
     return lines
@@ -167,7 +249,7 @@ def render(path: Path) -> str | None:
     if not found or not any(data.get(key) for key in PROVENANCE_KEYS if key != "note"):
         return None
     lines = [f"# {path.stem}", "", f"Generated from `data/benchmarks/{path.name}` at the build.", ""]
-    lines += _provenance(data) + [""]
+    lines += _provenance(data, path.name) + [""]
     settings = {k: v for k, v in data.items() if _is_scalar(v) and k not in PROVENANCE_KEYS}
     if settings:
         lines += ["## settings", ""] + _table([("", settings)]) + [""]
@@ -178,6 +260,25 @@ def render(path: Path) -> str | None:
         for member, group in groups.items():
             lines += [f"## {title}: {member}" if member else f"## {title}", ""] + _table(group) + [""]
     return "\n".join(lines)
+
+
+def _raw_provenance(path: Path) -> str:
+    """What the index says of how a raw file was made: its stamp, or that it has none and what
+    the guides say of it."""
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError):
+        data = None  # JSON lines: the first line tells
+        first = path.read_text().splitlines()[:1]
+        try:
+            data = json.loads(first[0]) if first else None
+        except ValueError:
+            pass
+    if isinstance(data, dict) and isinstance(data.get("provenance"), dict):
+        record = data["provenance"]
+        return f"; stamped: `{record.get('command')}`, {record.get('date')}, commit `{record.get('commit')}`"
+    sources = [line.split(":** ", 1)[1] for line in guide_sources(path.name)]
+    return f"; {UNSTAMPED}" + (f"; the guides: {' ; '.join(sources)}" if sources else "")
 
 
 def write_pages(data_dir: Path, out_dir: Path) -> dict[str, str | None]:
@@ -204,6 +305,8 @@ def write_pages(data_dir: Path, out_dir: Path) -> dict[str, str | None]:
                   "The renderer does not place these files: a shape it does not know, or no "
                   "command, date or load recorded. Read them as JSON; a guide that quotes one "
                   "names it.", ""]
-        index += [f"- `data/benchmarks/{name}`: raw data, not rendered" for name in raw] + [""]
+        for name in raw:
+            index.append(f"- `data/benchmarks/{name}`: raw data, not rendered" + _raw_provenance(data_dir / name))
+        index.append("")
     (out_dir / "index.md").write_text("\n".join(index))
     return placed

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_doc_numbers import agrees
+from tests.test_doc_numbers import agrees, command_exists
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "data" / "benchmarks"
@@ -100,12 +100,21 @@ def test_each_number_shown_is_the_files(path):
     if isinstance(data.get("provenance"), dict):
         assert_recorded(shown, data["provenance"])
         return
+    assert_unstamped(shown, data, path.name)
+
+
+def assert_unstamped(shown: dict[str, str], data: dict, name: str) -> None:
+    """The heading of a page whose file was measured before benchmarks/provenance.py: it says
+    so, shows what the file records and says "not recorded in the file" of the rest, and quotes
+    how the guides say it was made, each quote found in the guide it names."""
+    assert shown["Provenance"] == benchmark_pages.UNSTAMPED
     command = data.get("command") or data.get("commands")
     expected = " ; ".join(command) if isinstance(command, list) else command
-    assert shown["Command"] == (f"`{expected}`" if expected else "not recorded")
+    assert shown["Command"] == (f"`{expected}`" if expected else "not recorded in the file")
     date = data.get("measured") or data.get("date")
     note = data.get("note") or ""
-    assert shown["Date"] == (date or ("as recorded in the note" if re.search(r"\b(19|20)\d\d\b", note) else "not recorded"))
+    assert shown["Date"] == (date or ("as recorded in the note" if re.search(r"\b(19|20)\d\d\b", note)
+                                      else "not recorded in the file"))
     if "load" in data:
         load = data["load"] if isinstance(data["load"], list) else [data["load"]]
         cells = shown["Load (as recorded)"].split(", ")
@@ -113,7 +122,17 @@ def test_each_number_shown_is_the_files(path):
     elif "load" in f"{date} {data.get('note')}":
         assert shown["Load"] == "as recorded in the date or note"
     else:
-        assert shown["Load"] == "not recorded"
+        assert shown["Load"] == "not recorded in the file"
+    for label in ("Dated record in a guide", "Command in a guide"):
+        if label in shown:
+            quoted, guide = re.fullmatch(r"`([^`]+)`.* \((docs/[\w.]+)\)", shown[label]).groups()
+            lines = [line for line in (ROOT / guide).read_text().splitlines() if f"data/benchmarks/{name}" in line]
+            text = " ".join((ROOT / guide).read_text().replace("\\\n", " ").split())  # continuations joined
+            assert lines and quoted in text, (name, label, quoted)
+            assert command_exists(quoted), quoted
+    if "Written by" in shown:
+        script = re.match(r"`python (benchmarks/\w+\.py)`", shown["Written by"]).group(1)
+        assert (ROOT / script).is_file() and name.startswith(Path(script).stem), name
 
 
 def assert_recorded(shown: dict[str, str], record: dict) -> None:
@@ -157,7 +176,8 @@ def test_a_file_the_renderer_cannot_place_is_listed_raw(tmp_path):
         assert f"`data/benchmarks/{name}`: raw data, not rendered" in index
     page = (tmp_path / "out" / "run.md").read_text()
     # what the file does not record is said so, not made up
-    assert _provenance(page) == {"Command": "`python b.py`", "Date": "not recorded", "Load": "not recorded"}
+    assert _provenance(page) == {"Provenance": benchmark_pages.UNSTAMPED, "Command": "`python b.py`",
+                                 "Date": "not recorded in the file", "Load": "not recorded in the file"}
     assert _tables(page)[-1] == [["entry", "N", "wall_s"], ["`rows[0]`", "8", "0.1235"]]
 
 
@@ -212,3 +232,60 @@ def test_a_file_the_helper_writes_is_rendered_with_its_record(tmp_path):
     page = benchmark_pages.render(path)
     assert_recorded(_provenance(page), data["provenance"])
     assert not mismatches(page, data)
+
+
+def test_every_committed_file_says_whether_it_is_stamped(tmp_path):
+    """A file measured before benchmarks/provenance.py says so on its page or its line of the
+    index, with how a guide says it was made where one does; a stamped file shows its record."""
+    placed = benchmark_pages.write_pages(BENCHMARKS, tmp_path)
+    index = (tmp_path / "index.md").read_text()
+    stamped = []
+    for path in FILES:
+        first = path.read_text().splitlines()[0] if path.suffix == ".jsonl" else path.read_text()
+        data = json.loads(first)
+        record = isinstance(data, dict) and isinstance(data.get("provenance"), dict)
+        stamped += [path.name] if record else []
+        if placed[path.name]:
+            shown = _provenance((tmp_path / f"{placed[path.name]}.md").read_text())
+            if record:
+                assert_recorded(shown, data["provenance"])
+            else:
+                assert_unstamped(shown, data, path.name)
+        else:
+            line = next(line for line in index.splitlines() if f"`data/benchmarks/{path.name}`" in line)
+            assert ("stamped: `" in line) if record else (benchmark_pages.UNSTAMPED in line), line
+    # measured again with the stamp (docs/performance.md and docs/chebyshev.md quote their t*)
+    assert {"cheb_krylov_rtol.json", "cheb_krylov_tstar.json"} <= set(stamped)
+
+
+def test_where_the_guides_say_a_file_was_made(tmp_path):
+    """A dated record naming the file wins over a command in a code block, which wins over the
+    benchmark whose default output it is, which wins over the benchmark it is named after."""
+    docs, bench = tmp_path / "docs", tmp_path / "benchmarks"
+    docs.mkdir()
+    bench.mkdir()
+    (bench / "speed.py").write_text('parser.add_argument("--json", default="data/benchmarks/speed.json")\n')
+    (bench / "sweep.py").write_text("")
+    (docs / "a.md").write_text(
+        "```bash\nnice -n 10 python benchmarks/speed.py --sizes 8 \\\n    --json data/benchmarks/speed_8.json\n```\n\n"
+        "*Dated record*: `python benchmarks/speed.py --sizes 9 --json data/benchmarks/speed_9.json`, 2026-12-01, "
+        "the shared 2-core machine at load 3\n\n"
+        "```bash\npython benchmarks/speed.py --sizes 9 --json data/benchmarks/speed_9.json\n```\n"
+        "(the 16 run: `--sizes 16 --json data/benchmarks/speed_16.json`)\n")
+
+    def sources(name):
+        return benchmark_pages.guide_sources(name, docs, bench)
+
+    assert sources("speed_9.json") == [
+        "- **Dated record in a guide:** `python benchmarks/speed.py --sizes 9 --json data/benchmarks/speed_9.json`, "
+        "2026-12-01, the shared 2-core machine at load 3 (docs/a.md)"]
+    assert sources("speed_8.json") == [
+        "- **Command in a guide:** `nice -n 10 python benchmarks/speed.py --sizes 8 --json data/benchmarks/speed_8.json` "
+        "(docs/a.md)"]
+    assert sources("speed.json") == ["- **Written by:** `python benchmarks/speed.py` (its default output; "
+                                     "the arguments are not recorded)"]
+    assert sources("speed_16.json") == [
+        "- **Written by:** `python benchmarks/speed.py` (the benchmark the file is named after; the arguments a "
+        "guide quotes: `--sizes 16 --json data/benchmarks/speed_16.json` (docs/a.md))"]
+    assert sources("sweep_x.json")[0].endswith("(the benchmark the file is named after; no guide quotes its arguments)")
+    assert sources("other.json") == []
