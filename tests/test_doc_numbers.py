@@ -443,6 +443,14 @@ def test_commands_the_pages_name_exist():
     assert not gone, "commands named in docs/ that no longer exist:\n" + "\n".join(sorted(set(gone)))
 
 
+def test_source_files_the_pages_name_exist():
+    """Every source file a page names in backticks (`icidr_pde/cells/plane2d/native.py`) is there."""
+    named = re.compile(r"`((?:icidr_pde|stability|benchmarks|tests|examples)/[\w/.]+\.(?:py|c|h|toml))`")
+    gone = sorted({f"{path.relative_to(ROOT)}: {name}" for path in [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]
+                   for name in named.findall(path.read_text()) if not (ROOT / name).exists()})
+    assert not gone, "files named in the pages that do not exist:\n" + "\n".join(gone)
+
+
 def test_record_check_can_fail():
     text = "Intro (`python benchmarks/startup.py`):\n\n| a | b |\n|---|---|\n| 1 | 2 |\n"
     [(first, local, section)] = tables_and_introductions(text)
