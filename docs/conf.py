@@ -4,13 +4,15 @@ Build: ``sphinx-build -W --keep-going -b html docs docs/_build/html`` (``pip ins
 The Markdown pages and the notebooks are read by MyST-NB; the API reference is written at build
 time by sphinx.ext.apidoc from the packages found on disk, so a module that is added, moved or
 removed changes the reference with no edit here. Two folders are written at each build and
-gitignored: tutorials/ (the notebooks, shown as stored, never executed) and measurements/ (one
-page per data/benchmarks file, docs/benchmark_pages.py).
+gitignored: tutorials/ (the notebooks, run by the build to show their outputs, unless
+``ICIDR_PDE_DOCS_EXECUTE=off``) and measurements/ (one page per data/benchmarks file,
+docs/benchmark_pages.py).
 """
 
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 import shutil
@@ -19,11 +21,16 @@ from pathlib import Path
 
 import docutils.core
 import docutils.utils
+import matplotlib
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 sys.path.insert(0, str(ROOT))  # the checkout's code, not an older installed copy
-os.environ.setdefault("MPLBACKEND", "Agg")
+# the build's own imports (autodoc) draw on no screen; the kernels that run the notebooks are
+# started from this process and inherit its environment, and must draw inline as a reader's Jupyter
+# does (MPLBACKEND=Agg, as CI exports it, would leave every figure out of the pages)
+os.environ.pop("MPLBACKEND", None)
+matplotlib.use("Agg")
 
 project = "icidr-pde"
 author = "the icidr-pde authors"
@@ -52,9 +59,26 @@ myst_heading_anchors = 4
 myst_enable_extensions = ["dollarmath"]
 
 # -- Notebooks ----------------------------------------------------------------------------------
-# the notebooks are stored with their outputs cleared (tests/test_notebooks.py runs them); the
-# site shows their text and code as stored, and a build never runs a kernel
-nb_execution_mode = "off"
+# The notebooks are stored with their outputs cleared (tests/test_notebooks.py runs them). The
+# site runs them to show their outputs: MyST-NB executes each tutorial in a Jupyter kernel, as a
+# reader would run it (full size, no ICIDR_PDE_DRAFT), and keeps the outputs in a jupyter-cache
+# under docs/_build/, so that a later build re-runs only a notebook whose code changed.
+# ICIDR_PDE_DOCS_EXECUTE=off shows them as stored: tests/test_docs.py builds so, because running
+# them would add their run time to the test run's budget, where tests/test_notebooks.py runs them
+# already (the times: docs/index.md). A notebook of NOT_EXECUTED is never run by the build, and
+# its page says why.
+DOCS_EXECUTE = os.environ.get("ICIDR_PDE_DOCS_EXECUTE", "cache")
+if DOCS_EXECUTE not in ("cache", "off"):
+    raise ValueError(f"ICIDR_PDE_DOCS_EXECUTE must be 'cache' or 'off'; got {DOCS_EXECUTE!r}")
+NOT_EXECUTED = {"workbench.ipynb": "its symbolic checks of four laws and their runs take several minutes; "
+                                   "tests/test_notebooks.py runs it in the slow run (pytest -m slow)"}
+nb_execution_mode = DOCS_EXECUTE
+# (ICIDR_PDE_DOCS_CACHE: another folder, e.g. a test's own)
+nb_execution_cache_path = os.environ.get("ICIDR_PDE_DOCS_CACHE", str(DOCS / "_build" / ".jupyter_cache"))
+nb_execution_excludepatterns = [f"tutorials/{name}" for name in NOT_EXECUTED]
+nb_execution_timeout = 1800  # a cell; the longest runs a study of several minutes
+nb_execution_raise_on_error = True  # a failing cell fails the build, not a page with a traceback
+nb_execution_show_tb = True
 NOTEBOOKS = ROOT / "notebooks"
 TUTORIALS = DOCS / "tutorials"
 # the notebooks link to docs/ pages from notebooks/; their copies are one level inside docs/
@@ -171,6 +195,18 @@ def _readme_is_the_index(app, docname, source):
     source[0] = source[0].replace("](" + "../" * depth + "notebooks/", "](" + "../" * (depth - 1) + "tutorials/")
 
 
+def _not_run_note(why: str | None) -> dict:
+    """The Markdown cell that tells a tutorial's reader it is shown without its outputs, and why."""
+    if why:
+        text = (f"This tutorial is shown as stored, without its outputs: the site's build does not run it "
+                f"({why}). Run it yourself: `jupyter lab notebooks/`.")
+    else:
+        text = ("This build of the site did not run the notebooks (`ICIDR_PDE_DOCS_EXECUTE=off`, as the test "
+                "suite builds it): the tutorials are shown without their outputs.")
+    return {"cell_type": "markdown", "id": "not-run-note", "metadata": {},
+            "source": ["```{note}\n", text + "\n", "```"]}
+
+
 def _write_generated_pages(app, config):
     """The notebooks copied into tutorials/ (their links to docs/ made relative to it) and the
     measurement pages written from data/benchmarks into measurements/."""
@@ -179,8 +215,11 @@ def _write_generated_pages(app, config):
     shutil.rmtree(TUTORIALS, ignore_errors=True)
     TUTORIALS.mkdir()
     for notebook in sorted(NOTEBOOKS.glob("*.ipynb")):
-        text = _NOTEBOOK_DOCS_LINK.sub("](../", notebook.read_text())
-        (TUTORIALS / notebook.name).write_text(text)
+        book = json.loads(_NOTEBOOK_DOCS_LINK.sub("](../", notebook.read_text()))
+        why = NOT_EXECUTED.get(notebook.name)
+        if why or DOCS_EXECUTE == "off":
+            book["cells"].insert(1, _not_run_note(why))  # below the title
+        (TUTORIALS / notebook.name).write_text(json.dumps(book, indent=1, ensure_ascii=False))
     write_pages(ROOT / "data" / "benchmarks", DOCS / "measurements")
 
 
