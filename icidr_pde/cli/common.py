@@ -10,23 +10,12 @@ import signal
 import sys
 from pathlib import Path
 
+from ..mpi_ranks import launcher_rank
+
 EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
 EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
 PREFIX = "icidr-pde: error:"
 
-
-#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
-RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
-
-
-def launcher_rank() -> int:
-    """This process's rank as its MPI launcher set it in the environment (0 outside one), read
-    before MPI is started (the command line's own errors)."""
-    for name in RANK_VARIABLES:
-        value = os.environ.get(name, "")
-        if value.isdigit():
-            return int(value)
-    return 0
 
 
 class Parser(argparse.ArgumentParser):
