@@ -18,6 +18,19 @@ PREFIX = "icidr-pde: error:"
 
 
 
+def check_engine(engine) -> None:
+    """Refuse, before any work, an engine this process cannot start: the PETSc engine without
+    petsc4py (the message names the extra), beside another MPI or under another MPI's launcher
+    (ValueError: one line, exit 2). Starts PETSc (MPI) on every rank of an MPI run."""
+    if engine == "petsc":
+        from ..engines.petsc import rank
+
+        try:
+            rank()
+        except ImportError as err:
+            raise ValueError(str(err)) from None
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one error prefix for every subcommand and defaults shown in --help."""
 

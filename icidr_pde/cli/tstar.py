@@ -37,7 +37,7 @@ from ..times import check_t_end
 from ..validation import integer, real
 from .argtypes import add_rheology_option
 from .cluster import add_cache_option, add_cluster_options, check_cache_option, client_of
-from .common import EXIT_INTERRUPTED, PREFIX, interrupt_signals
+from .common import EXIT_INTERRUPTED, PREFIX, check_engine, interrupt_signals
 
 __all__ = ["add_parser", "cmd"]
 
@@ -122,6 +122,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd(args) -> int:
+    check_engine(args.engine)
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
