@@ -17,7 +17,13 @@ nothing. The rules, all kept here:
   (an output's folder) is made by rank 0 and its verdict agreed (:func:`same_verdict`), the
   cases a study takes from its cache are those every rank found (:func:`everywhere`), and the
   command's exit status is the largest of the ranks' (:func:`agree`), so that a write that
-  failed on rank 0 (4) or an interrupt (130, 143) is every rank's status.
+  failed on rank 0 (4) or an interrupt (130, 143) is every rank's status;
+- *signals at agreed points*: SIGINT and SIGTERM (mpiexec sends them to every rank, each in its
+  own place) are noted, not raised where they land (:func:`defer`, :func:`noting_signals`): a rank
+  leaving alone would leave the others waiting in its collectives. Every rank raises the largest
+  noted signal at the same point (:func:`deliver`): after a step of the PETSc engine (its per-step
+  reduction carries :func:`pending`) and after each case of a study (:func:`at_agreed_point`), from
+  where the serial path keeps what was computed.
 
 The ranks talk through PETSc's COMM_WORLD (petsc4py: the MPI the engine runs on; mpi4py is not
 needed), started here when the launcher says there are several processes. Without a launcher,
@@ -30,10 +36,16 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import signal
 import sys
+import threading
 
 __all__ = ["RANK_VARIABLES", "launcher_rank", "launched", "speaks", "writes_here", "ranks", "root_speaks",
-           "gathered", "agree", "everywhere", "same_verdict"]
+           "gathered", "agree", "everywhere", "same_verdict", "defer", "pending", "deliver", "noting_signals",
+           "at_agreed_point", "SIGNALS"]
+
+#: the signals that stop a run and keep what it computed
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 #: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
 RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
@@ -76,10 +88,12 @@ def _world():
     sees as one COMM_WORLD; else None (one process, no petsc4py, or another MPI's launcher)."""
     if launched() < 2:
         return None
-    from .engines.petsc import _petsc
+    from . import loaded_mpi
 
+    if loaded_mpi.loaded() and "petsc4py.PETSc" not in sys.modules:  # another MPI here: PETSc's would abort
+        return None
     try:
-        PETSc = _petsc()
+        from petsc4py import PETSc
     except ImportError:  # the PETSc engine says why, in one line, if the command asks for it
         return None
     return PETSc if PETSc.COMM_WORLD.size > 1 else None
@@ -158,3 +172,74 @@ def root_speaks():
             yield
         finally:
             sys.stdout, sys.stderr = saved
+
+
+_NOTED = {"signal": 0, "delivering": False}
+
+
+def _several() -> bool:
+    """Whether this process is one of several ranks that agree (known once MPI started here)."""
+    return _world.cache_info().currsize > 0 and _world() is not None
+
+
+def defer(signum: int) -> bool:
+    """For a handler of SIGINT or SIGTERM: True where the signal is noted for the ranks' next agreed
+    point (several ranks), False where the handler acts now (one process, or :func:`deliver`)."""
+    if _NOTED["delivering"] or not _several():
+        return False
+    _NOTED["signal"] = max(_NOTED["signal"], int(signum))
+    return True
+
+
+def pending() -> int:
+    """The signal noted on this rank since the last delivery (0: none)."""
+    return _NOTED["signal"]
+
+
+def deliver(signum: int) -> None:
+    """Raise `signum` here, on every rank at the same point: to the handlers that
+    :func:`noting_signals` replaced (the command line's, which then raise)."""
+    _NOTED["signal"] = 0
+    for sig, handler in _REPLACED.items():
+        signal.signal(sig, handler)
+    _REPLACED.clear()
+    _NOTED["delivering"] = True
+    try:
+        signal.raise_signal(signum)
+    finally:
+        _NOTED["delivering"] = False
+
+
+_REPLACED: dict = {}  # signal -> the handler noting_signals replaced
+
+
+@contextlib.contextmanager
+def noting_signals():
+    """For the block, where there are several ranks (in the main thread): SIGINT and SIGTERM noted
+    (:func:`defer`), the handlers that were there back after it (and at :func:`deliver`)."""
+    if ranks() < 2 or threading.current_thread() is not threading.main_thread() or _REPLACED:
+        yield
+        return
+
+    def note(signum, frame):
+        defer(signum)
+
+    for sig in SIGNALS:
+        previous = signal.signal(sig, note)
+        if previous is not None:  # None: not set from Python, nothing to restore
+            _REPLACED[sig] = previous
+    try:
+        yield
+    finally:
+        for sig, handler in _REPLACED.items():
+            signal.signal(sig, handler)
+        _REPLACED.clear()
+
+
+def at_agreed_point() -> None:
+    """Where every rank passes alike (after a study's case): the largest signal any rank noted is
+    raised on every rank (collective where there are several ranks)."""
+    if _several():
+        noted = int(gathered([pending()]).max())
+        if noted:
+            deliver(noted)

@@ -10,7 +10,7 @@ import signal
 import sys
 from pathlib import Path
 
-from ..mpi_ranks import launcher_rank
+from ..mpi_ranks import defer, launcher_rank
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
 EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
@@ -90,7 +90,8 @@ class Terminated(KeyboardInterrupt):
 
 
 class interrupt_signals:
-    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came."""
+    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came (of several MPI
+    ranks, each raises it at the same point: :mod:`icidr_pde.mpi_ranks`)."""
 
     def __enter__(self):
         self.received = None
@@ -104,6 +105,8 @@ class interrupt_signals:
 
     def _handle(self, signum, frame):
         self.received = signal.Signals(signum)
+        if defer(signum):  # one of several MPI ranks: raised on every rank at the next agreed point
+            return
         raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
     def __exit__(self, *exc):

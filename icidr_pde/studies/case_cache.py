@@ -20,6 +20,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..mpi_ranks import at_agreed_point
 from ..outputs import write_json, writable_folder
 from .parallel import StudyInterrupted, run_cases
 
@@ -153,6 +154,7 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
             if store is not None:
                 store.put(cases[i], result)
             results[i] = result
+            at_agreed_point()  # under MPI: a signal noted during the case, raised on every rank here
     except KeyboardInterrupt as interrupt:  # what finished goes with it (None: not run)
         raise StudyInterrupted(results) from interrupt
     return results
