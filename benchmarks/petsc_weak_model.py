@@ -1,5 +1,11 @@
 """A weak-scaling MODEL of the PETSc engine on 64-1024 ranks, from per-rank costs measured here.
 
+``--pc xfourier`` (the default): the engine with the x-Fourier preconditioner distributed as a
+shell PC (z-slabs; each application a local x-FFT, one all-to-all transpose to wave-number slabs,
+the banded solves of its wave numbers over all z, the transpose back; :func:`xfourier_main`, its
+docstring says what is measured and what is assumed). ``--pc "bjacobi/ILU(0)" gamg``: the model
+of the engine's PETSc preconditioners, measured as below.
+
 Not a measurement of many ranks (this machine has 2 cores): it measures, as whole ``mpiexec``
 processes (benchmarks/petsc_ranks.py's child, PETSc's log), iCIDR bump2d to t_end
 
@@ -39,8 +45,11 @@ memory within a node is faster), BANDWIDTH = 10 GB/s per rank, no overlap of com
 with computation, no load imbalance, the same time step sequence on P ranks as measured at
 that grid size's fit. The table is a model; only its inputs are measurements.
 
-    nice -n 10 python benchmarks/petsc_weak_model.py [--t-end 1] [--cells-per-rank 4096] [--json M.json]
-    python benchmarks/petsc_weak_model.py --measured M.json [--cells-per-rank 16384]   # the model again
+    nice -n 10 python benchmarks/petsc_weak_model.py                     # x-Fourier: measures, models, writes
+                                                                          # data/benchmarks/petsc_weak_model.json
+    python benchmarks/petsc_weak_model.py --measured data/benchmarks/petsc_weak_model.json  # the model again
+    nice -n 10 python benchmarks/petsc_weak_model.py --pc "bjacobi/ILU(0)" gamg [--t-end 1] [--cells-per-rank 4096] [--json M.json]
+    python benchmarks/petsc_weak_model.py --pc "bjacobi/ILU(0)" gamg --measured M.json [--cells-per-rank 16384]
 
 ``--json`` keeps the measurements; ``--measured`` models from kept ones without running.
 """
@@ -57,6 +66,10 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from petsc_ranks import ROOT, one  # noqa: E402
 from provenance import write_json  # noqa: E402
+
+# one core per rank: the band solves' numba threads (read when numba starts) and the BLAS's, one each
+for _name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
 
 ALPHA = 2e-6  # s per message (ASSUMPTION)
 BANDWIDTH = 10e9  # bytes/s per rank (ASSUMPTION)
@@ -135,7 +148,430 @@ def model(name: str, one_rank: list, two: dict, n: int, t_end: float) -> None:
               f"{steps * step:.0f} s | {gather * 1e3:.1f} ms | {rss:.0f} MiB |")
 
 
+# --- the x-Fourier preconditioner on PETSc: per-rank costs measured, the network assumed ----------------
+
+#: cells per rank modelled, ranks, and the grids whose serial runs give the counts per step
+CELLS_PER_RANK = (64 * 64, 128 * 128, 256 * 256)
+XF_RANKS = (1, 64, 256, 1024)
+COUNT_SIZES = (32, 64, 128, 256)
+#: the network assumed for P >= 64 ranks (NAMED, not measured): a cluster of 64-core nodes on HDR100
+#: InfiniBand (100 Gb/s = 12.5 GB/s per node; e.g. the Alliance's Narval, docs.computecanada.ca,
+#: "High-performance interconnect": HDR100 to each node, islands of up to 66 nodes non-blocking, so
+#: 1024 ranks = 16 nodes lie in one island); ConnectX-6 adapters state sub-0.6 us (NVIDIA's manual),
+#: 2 us per MPI message allows for the MPI stack and the switches, as the earlier model did
+NET_LATENCY = 2e-6
+NODE_BANDWIDTH = 12.5e9
+RANKS_PER_NODE = 64
+#: bytes per cell that a transpose moves: 3 fields, the real FFT's Nx/2 + 1 complex values of Nx reals
+TRANSPOSE_BYTES_PER_CELL = 3 * 16 / 2
+XF_TIMES = ["0.5", "1", "2", "5", "10"]
+
+
+def _best(f, repeat=7, number=1) -> tuple[float, float]:
+    """(min, median) seconds per call of f over `repeat` rounds of `number` calls (the min: the
+    cost on a core of its own, the nearest a shared machine gives; the median: under its load)."""
+    import time
+
+    f()
+    rounds = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            f()
+        rounds.append((time.perf_counter() - t0) / number)
+    return float(np.min(rounds)), float(np.median(rounds))
+
+
+def _slab(nx: int, nz: int):
+    """iCIDR bump2d's scheme on a block of nx x nz cells of the grid's spacing (30 / nx): its
+    patch (dof, nx + 2, nz + 2) with x periodic ghosts and z ghosts copied, its Patches, the
+    scheme, the state."""
+    from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
+    from icidr_pde.cells.plane2d.scenes import Bump2DScene
+
+    L = 30.0
+    pde = ShearCell2DPDE("icidr")
+    scene = Bump2DScene()
+    grid = pde.make_grid((nx, nz), L * nz / nx, L=L)
+    state = pde.make_state(grid, *scene.initial_condition(pde.nodes(grid)))
+    g = np.pad(state.data, ((0, 0), (1, 1), (0, 0)), mode="wrap")
+    g = np.ascontiguousarray(np.pad(g, ((0, 0), (0, 0), (1, 1)), mode="edge"))
+    return pde, state, pde.patches(state), g
+
+
+def rank_costs(N: int, P: int, n: int, lin_per_newton: float) -> dict:
+    """Seconds per call, (min, median), of what one rank of P does on the N x N grid in z-slabs of
+    n cells (N x n/N): the right-hand side (the patch kernel), the Jacobian rows and their
+    x-average, the band LU factors of its wave numbers (all of them on 1 rank; ceil((N/2)/P) on P,
+    the real k = 0 and k = N/2 sharing one rank), one preconditioner application's FFTs with the
+    packing around the transposes and its band solves, and GMRES's vector work per iteration (PETSc's
+    classical Gram-Schmidt: j + 1 dot products and axpys of 3n values at the mean Krylov
+    dimension j). The serial implementation (engines/linear/xfourier_inverse.py) at these sizes."""
+    from icidr_pde.engines.linear import xfourier_inverse as xf
+
+    nz = n // N
+    nzm = max(nz, 4)  # the scheme's grid has 4 rows at least: a thinner slab is timed at 4, scaled by its rows
+    pde, state, patches, g = _slab(N, nzm)
+    out = np.empty((3, N, nzm))
+    rhs = _best(lambda: patches.rates(g, False, False, out), repeat=11, number=5)
+    jac = _best(lambda: patches.jacobian(g, False, False), repeat=3)
+    J = pde.make_jacobian(state)(0.0, state.data.ravel()).tocsc()
+    reach = np.zeros(2, dtype=np.int64)
+    xf._reach(J.indptr, J.indices, 3, N, nzm, reach)
+    band, dx = int(reach[0]), int(reach[1])
+    average = np.zeros((3 * nzm, 2 * band + 1, 2 * dx + 1))
+    xavg = _best(lambda: xf._x_average(J.indptr, J.indices, J.data, 3, N, nzm, band, dx, average), repeat=9)
+    rhs, jac, xavg = ([t * nz / nzm for t in pair] for pair in (rhs, jac, xavg))
+    # the band systems of the whole z (3N unknowns) for this rank's wave numbers: the preconditioner of an
+    # nxk x N grid has nxk/2 + 1 of them
+    modes = N // 2 + 1 if P == 1 else -(-(N // 2) // P)
+    nxk = max(4, 2 * (modes - 1)) if P == 1 else max(4, 2 * modes)
+    pd, ps, _, _ = _slab(nxk, N)
+    Jk = pd.make_jacobian(ps)(0.0, ps.data.ravel())
+    pre = xf.XFourierPreconditioner(Jk, (3, nxk, N), 0.05)
+    systems = pre.lu.shape[0]
+    gammas = iter(np.linspace(0.05, 0.06, 1000))
+    factor = _best(lambda: pre.at(next(gammas)), repeat=7)
+    factor = tuple(t * modes / systems for t in factor)
+    m = 3 * N
+    columns = (np.random.default_rng(0).standard_normal((modes, m)) + 0j)
+    lu, rec, piv = pre.lu[:modes], pre.reciprocal[:modes], pre.pivots[:modes]
+    if modes > systems:
+        raise ValueError(f"{modes} wave numbers asked of {systems} factored")
+    work = columns.copy()
+
+    def band_solve():
+        work[:] = columns
+        xf._band_solve(lu, rec, piv, pre.kl, pre.ku, work)
+
+    band_s = _best(band_solve, repeat=11, number=3)
+    slab = np.random.default_rng(1).standard_normal((3, N, nzm))
+
+    def fft_and_packing():
+        spectrum = np.fft.rfft(slab, axis=1)                         # (3, N/2 + 1, nz)
+        send = np.ascontiguousarray(spectrum.transpose(1, 2, 0))     # by wave number: the transpose's blocks
+        back = np.ascontiguousarray(send.transpose(2, 0, 1))         # from the transpose back
+        return np.fft.irfft(back, n=N, axis=1)
+
+    fft = [t * nz / nzm for t in _best(fft_and_packing, repeat=11, number=3)]
+    k = max(1.0, (lin_per_newton + 1) / 2)  # the mean Krylov dimension of a solve
+    V = np.random.default_rng(2).standard_normal((int(round(k)) + 1, 3 * n))
+    w = np.empty(3 * n)
+
+    def gram_schmidt():  # the new Krylov vector against the basis: dot products, axpys, its norm
+        w[:] = V[-1]
+        h = V[:-1] @ w
+        w[:] -= h @ V[:-1]
+        return np.linalg.norm(w)
+
+    vec = _best(gram_schmidt, repeat=11, number=5)
+    return {"N": N, "P": P, "cells_per_rank": n, "slab": [N, nz], "wave_numbers": modes, "band": band,
+            "rhs_s": rhs, "jac_s": jac, "xavg_s": xavg, "factor_s": factor, "band_solve_s": band_s, "fft_s": fft,
+            "gram_schmidt_s": vec, "krylov_dimension": k, "band_width": [pre.kl, pre.ku],
+            "averages_bytes": 3 * N * (2 * band + 1) * (2 * dx + 1) * 8}
+
+
+def serial_counts(N: int, last: dict) -> dict:
+    """CVODE's counters of the serial default (GMRES + the x-Fourier inverse, BDF order 2) on iCIDR
+    bump2d N^2 to t = 10, the preset's tolerances: what a step needs (steps, Newton and GMRES
+    iterations, right-hand sides, Jacobians, factorizations, preconditioner applications), its
+    solve time, max|w| at 0.5 .. 10."""
+    import resource
+    import time
+
+    from icidr_pde.api import run
+
+    last.clear()
+    cpu = time.process_time()
+    r = run("icidr", "bump2d", (N, N), 10.0, XF_TIMES, method="CVODE", jacobian="fourier", engine="pde",
+            progress=False)
+    d = r.to_dict()
+    return {"N": N, "linear_solver": r.settings["linear_solver"], "solve_s": d["wall_s"],
+            "cpu_s": time.process_time() - cpu, "n_rhs": d["n_rhs"], "max_w": d["max_w"],
+            "rtol": r.rtol, "atol": r.atol, "max_order": r.settings.get("max_order"),
+            "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, **last}
+
+
+ALLTOALL_CHILD = """
+import json, sys, time
+import numpy as np
+from petsc4py import PETSc
+comm = PETSc.COMM_WORLD
+P, r = comm.size, comm.rank
+out = []
+for L in map(int, sys.argv[2:]):  # doubles per rank, a multiple of P
+    x = PETSc.Vec().createMPI((L, None), comm=comm)
+    y = x.duplicate()
+    start, _ = x.getOwnershipRange()
+    block = L // P
+    j = np.arange(L)
+    # the transpose: block b of rank r goes to rank b's block r
+    dest = (j // block) * L + r * block + j % block
+    scatter = PETSc.Scatter().create(x, PETSc.IS().createGeneral((start + j).astype(PETSc.IntType)), y,
+                                     PETSc.IS().createGeneral(dest.astype(PETSc.IntType)))
+    x.setArray(np.arange(L, dtype=float) + start)
+    reps = max(5, min(2000, int(2e8 // (8 * L + 1))))
+    rounds = []
+    for _ in range(7):
+        comm.barrier()
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            scatter.scatter(x, y, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        comm.barrier()
+        rounds.append((time.perf_counter() - t0) / reps)
+    got = y.getArray(readonly=True)
+    # what arrived: y's local block b came from rank b's block r (their global indices)
+    k = np.arange(L)
+    expect = (k // block) * L + r * block + k % block
+    ok = bool(np.array_equal(got, expect.astype(float)))
+    norms = []
+    for _ in range(7):
+        comm.barrier()
+        t0 = time.perf_counter()
+        for _ in range(200):
+            x.dot(x)  # not x.norm(): PETSc keeps the norm of an unchanged vector
+        norms.append((time.perf_counter() - t0) / 200)
+    out.append({"doubles_per_rank": L, "bytes_per_rank": 8 * L, "alltoall_s": [min(rounds), float(np.median(rounds))],
+                "allreduce_s": [min(norms), float(np.median(norms))], "transposed_exactly": ok})
+    for obj in (scatter, x, y):
+        obj.destroy()
+if r == 0:
+    with open(sys.argv[1], "w") as f:
+        json.dump(out, f)
+"""
+
+
+def measure_alltoall(cells) -> list:
+    """The transpose of a rank's 24 bytes per cell (the real FFT's complex values of 3 fields)
+    between 2 ranks of this machine (PETSc's scatter, shared memory), and an allreduce (VecNorm):
+    (min, median) seconds, with a check that every value arrived where the transpose puts it."""
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        script = pathlib.Path(tmp) / "alltoall.py"
+        script.write_text(ALLTOALL_CHILD)
+        out = pathlib.Path(tmp) / "out.json"
+        doubles = [2] + [int(TRANSPOSE_BYTES_PER_CELL * c // 8) for c in cells]
+        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OMPI_MCA_mpi_yield_when_idle="1", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+        from petsc_ranks import launcher
+
+        subprocess.run([launcher(), "-n", "2", sys.executable, str(script), str(out), *map(str, doubles)],
+                       env=env, check=True)
+        return json.loads(out.read_text())
+
+
+def measure_reductions(t_end: float = 1.0, N: int = 32) -> dict:
+    """MPI reductions per GMRES iteration and per step besides, on 2 ranks (PETSc's log of a whole
+    mpiexec run of the engine, bump2d N^2 to t_end): GMRES's own dot products and norms, and
+    the steps' (SNES norms, TS's error norm, the mass correction, the state check)."""
+    os.environ["PETSC_OPTIONS"] = ""
+    r = one(str(ROOT), 2, N, t_end)
+    apps = max(r["PCApply_n"], 1)
+    return {"N": N, "t_end": t_end, "steps": r["steps"], "krylov_reductions_per_iteration": r["KSPSolve_reductions"] / apps,
+            "other_reductions_per_step": (r["TSStep_reductions"] - r["KSPSolve_reductions"]) / r["steps"],
+            "process_s": r["process_s"], "max_w": r["max_w"]}
+
+
+def measure_xfourier() -> dict:
+    from icidr_pde.engines import sundae
+    from icidr_pde.studies.parallel import limit_blas_threads
+
+    limit_blas_threads(1)
+    last = {}
+    counts = sundae.CvodeEngine.counts
+
+    def counting(self):
+        if self.counters is not None:
+            last.update(self.counters.all())
+        return counts(self)
+
+    sundae.CvodeEngine.counts = counting
+    runs = []
+    for N in COUNT_SIZES:
+        c = serial_counts(N, last)
+        runs.append(c)
+        print(f"measured serial default {N}^2 to t = 10 ({c['linear_solver']}, order {c['max_order']}, rtol "
+              f"{c['rtol']:g}): solve {c['solve_s']:.2f} s, {c['steps']} steps, {c['newton_iterations']} Newton, "
+              f"{c['linear_iterations']} GMRES, {c['n_rhs']} RHS, {c['preconditioner_setups']} Jacobians, {c['lu']} "
+              f"factorizations, {c['preconditioner_solves']} preconditioner applications; max|w|(10) "
+              f"{c['max_w']['10']:.6e}", flush=True)
+    lin_per_newton = runs[-1]["linear_iterations"] / runs[-1]["newton_iterations"]
+    costs = []
+    for n in CELLS_PER_RANK:
+        for P in XF_RANKS:
+            N = math.isqrt(P * n)
+            c = rank_costs(N, P, n, lin_per_newton)
+            costs.append(c)
+            print(f"measured per rank, {n} cells of {N}^2 on {P} ranks (slab {c['slab'][0]} x {c['slab'][1]}, "
+                  f"{c['wave_numbers']} wave numbers of {3 * N} unknowns): RHS {c['rhs_s'][0] * 1e3:.3f} ms, "
+                  f"Jacobian {c['jac_s'][0] * 1e3:.2f} ms, x-average {c['xavg_s'][0] * 1e3:.3f} ms, factors "
+                  f"{c['factor_s'][0] * 1e3:.2f} ms, band solves {c['band_solve_s'][0] * 1e3:.3f} ms, FFTs and packing "
+                  f"{c['fft_s'][0] * 1e3:.3f} ms, Gram-Schmidt {c['gram_schmidt_s'][0] * 1e3:.3f} ms (min of repeats)",
+                  flush=True)
+    transposes = measure_alltoall(CELLS_PER_RANK)
+    for t in transposes:
+        print(f"measured on 2 ranks here: transpose of {t['bytes_per_rank']} bytes per rank "
+              f"{t['alltoall_s'][0] * 1e6:.1f} us (median {t['alltoall_s'][1] * 1e6:.1f}), exact: "
+              f"{t['transposed_exactly']}; allreduce {t['allreduce_s'][0] * 1e6:.1f} us", flush=True)
+    reductions = measure_reductions()
+    print(f"measured on 2 ranks: {reductions['krylov_reductions_per_iteration']:.2f} reductions per GMRES iteration, "
+          f"{reductions['other_reductions_per_step']:.1f} per step besides", flush=True)
+    return {"uptime": os.popen("uptime").read().strip(), "serial": runs, "rank_costs": costs,
+            "transposes_2_ranks": transposes, "reductions_2_ranks": reductions}
+
+
+def alltoall_time(bytes_per_rank: float, P: int, latency: float, beta: float) -> tuple[float, str]:
+    """An all-to-all where each of P ranks sends `bytes_per_rank` in all (P blocks, one its own):
+    the cheaper of pairwise exchange, (P - 1) alpha + (P - 1)/P m beta, and Bruck's algorithm,
+    log2(P) alpha + (m/2) log2(P) beta (Thakur, Rabenseifner and Gropp, "Optimization of collective
+    communication operations in MPICH", Int. J. High Perform. Comput. Appl. 19 (2005) 49-66,
+    section 4), the choice MPI libraries make by message size."""
+    if P == 1:
+        return 0.0, ""
+    pairwise = (P - 1) * latency + (P - 1) / P * bytes_per_rank * beta
+    bruck = math.ceil(math.log2(P)) * latency + bytes_per_rank / 2 * math.log2(P) * beta
+    return (pairwise, "pairwise") if pairwise <= bruck else (bruck, "Bruck")
+
+
+def xfourier_model(kept: dict, latency: float, node_bandwidth: float, ranks_per_node: int) -> list:
+    """Per step on P ranks at n cells each: counts per step at the grid N = sqrt(P n) (power laws in N
+    fitted to the serial runs), compute from the per-rank costs measured at that block, and the
+    communication under the network assumed. Returns the rows of the table."""
+    runs = kept["serial"]
+    sides = [r["N"] for r in runs]
+    per_step = {}
+    for key, name in (("steps", "steps"), ("newton_iterations", "newton"), ("linear_iterations", "gmres"),
+                      ("n_rhs", "rhs"), ("preconditioner_setups", "jacobians"), ("lu", "factorizations"),
+                      ("preconditioner_solves", "applications")):
+        values = [max(r[key], 1) / (r["steps"] if key != "steps" else 1) for r in runs]
+        q = power_law(sides, values)
+        per_step[name] = (values[-1], sides[-1], q)
+
+    def at(name, N):
+        value, N0, q = per_step[name]
+        return value * (N / N0) ** q
+
+    beta = ranks_per_node / node_bandwidth  # s per byte per rank when every rank of a node sends at once
+    measured_step = {r["N"]: r["solve_s"] / r["steps"] for r in runs}
+    red = kept["reductions_2_ranks"]
+    rows = []
+    for n in sorted({c["cells_per_rank"] for c in kept["rank_costs"]}):
+        base = None
+        for c in sorted((c for c in kept["rank_costs"] if c["cells_per_rank"] == n), key=lambda c: c["P"]):
+            N, P = c["N"], c["P"]
+            steps, rhs, jac, lu, apps, gmres = (at(k, N) for k in ("steps", "rhs", "jacobians", "factorizations",
+                                                                  "applications", "gmres"))
+            compute = (rhs * c["rhs_s"][0] + jac * (c["jac_s"][0] + c["xavg_s"][0]) + lu * c["factor_s"][0]
+                       + apps * (c["fft_s"][0] + c["band_solve_s"][0]) + gmres * c["gram_schmidt_s"][0])
+            if P == 1:
+                halo = transposes = reductions = gather = 0.0
+                algorithm = ""
+            else:
+                halo = rhs * 2 * (latency + 3 * 8 * N * beta)  # one ghost row of 3 fields to each of 2 neighbours
+                one, algorithm = alltoall_time(TRANSPOSE_BYTES_PER_CELL * n, P, latency, beta)
+                transposes = apps * 2 * one
+                count = red["krylov_reductions_per_iteration"] * gmres + red["other_reductions_per_step"]
+                reductions = count * 2 * latency * math.log2(P)  # recursive doubling of a few numbers
+                gather = jac * (math.ceil(math.log2(P)) * latency + c["averages_bytes"] * beta)
+            step = compute + halo + transposes + reductions + gather
+            if base is None:  # P = 1: the serial run's time per step over the kernels' (the rest of a step)
+                base, overhead = step, measured_step.get(N, step) / step
+            calibrated = compute * overhead + halo + transposes + reductions + gather
+            base_calibrated = base * overhead
+            rows.append({"cells_per_rank": n, "P": P, "N": N, "steps": steps, "gmres_per_step": gmres,
+                         "applications_per_step": apps, "compute_s": compute, "halo_s": halo, "transposes_s": transposes,
+                         "alltoall": algorithm, "reductions_s": reductions, "averages_gather_s": gather, "step_s": step,
+                         "efficiency": base / step, "compute_share": compute / step, "run_s": steps * step,
+                         "overhead_factor": overhead, "step_calibrated_s": calibrated,
+                         "efficiency_calibrated": base_calibrated / calibrated})
+    return rows, per_step
+
+
+def xfourier_main(args) -> None:
+    """The model of the x-Fourier preconditioner on PETSc over P = 64, 256, 1024 ranks at 64^2,
+    128^2 and 256^2 cells per rank (the grid sqrt(P n) a side, split in z-slabs of all x).
+
+    Measured here, in this process unless said:
+
+    * what a step needs, from CVODE's counters of the serial default (GMRES + the x-Fourier
+      inverse, BDF order 2, the preset's tolerances) on iCIDR bump2d 32^2 .. 256^2 to t = 10:
+      steps, Newton and GMRES iterations, right-hand sides (those of the difference-quotient
+      products included), Jacobians, factorizations (a new step coefficient) and preconditioner
+      applications per step, each fitted as a power of the grid side and extrapolated to the grid
+      of P ranks (ASSUMPTION: the PETSc engine's TS/SNES/KSP with the same preconditioner needs
+      what CVODE needs);
+    * per rank, with one thread, at the block a rank of P holds (:func:`rank_costs`): the
+      right-hand side, the Jacobian rows and their x-average, the band factors and solves of its
+      wave numbers, the FFTs with the packing around the transposes, GMRES's Gram-Schmidt;
+    * on 2 ranks of this machine (``mpiexec -n 2``, PETSc's scatter): a transpose of the size a
+      rank sends (24 bytes per cell), and an allreduce; and, from PETSc's log of a 2-rank run of
+      the engine, the reductions per GMRES iteration and per step besides.
+
+    Modelled (ASSUMPTIONS named in the JSON and the table's notes): the network of
+    :data:`NET_LATENCY`, :data:`NODE_BANDWIDTH` and :data:`RANKS_PER_NODE` (every rank of a node
+    sends at once through the node's link: the per-rank bandwidth is the node's divided by its
+    ranks, traffic within a node counted at that rate too); the all-to-all by
+    :func:`alltoall_time`; a halo exchange per right-hand side (one ghost row to each of 2
+    neighbours); an allreduce of a few numbers 2 alpha log2(P); the x-averages gathered once per
+    Jacobian; no overlap, no imbalance beyond the wave numbers' (ceil((N/2)/P) per rank). The
+    compute of a step is the kernels' sum; the serial run's measured time per step is more than
+    that sum (the Python and CVODE work around the kernels: the ratio is printed), so a second
+    efficiency takes the kernels' sum times that ratio, measured at each block size on 1 rank
+    ("calibrated")."""
+    if args.measured:
+        kept = json.loads(pathlib.Path(args.measured).read_text())
+        kept = kept.get("measured", kept)
+        print(f"measured: {args.measured} ({kept['uptime']})")
+    else:
+        print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
+        kept = measure_xfourier()
+        kept["uptime_end"] = os.popen("uptime").read().strip()
+    rows, per_step = xfourier_model(kept, args.latency, args.node_bandwidth, args.ranks_per_node)
+    check = []
+    for r in kept["serial"]:  # the model's compute on 1 rank against the serial run it was fitted to
+        row = next((x for x in rows if x["P"] == 1 and x["N"] == r["N"]), None)
+        if row is not None:
+            check.append({"N": r["N"], "modelled_step_s": row["compute_s"], "measured_step_s": r["solve_s"] / r["steps"]})
+    print(f"\nx-Fourier on PETSc, weak scaling; counts per step ~ N^q fitted over {COUNT_SIZES[0]}^2..{COUNT_SIZES[-1]}^2: "
+          + ", ".join(f"{k} {v[0]:.2f} at {v[1]}^2, q = {v[2]:.2f}" for k, v in per_step.items()))
+    for c in check:
+        print(f"1 rank at {c['N']}^2: modelled compute per step {c['modelled_step_s'] * 1e3:.2f} ms, the serial default's "
+              f"solve per step measured {c['measured_step_s'] * 1e3:.2f} ms (ratio {c['modelled_step_s'] / c['measured_step_s']:.2f})")
+    print(f"network assumed: latency {args.latency * 1e6:g} us, {args.node_bandwidth / 1e9:g} GB/s per node of "
+          f"{args.ranks_per_node} ranks ({args.node_bandwidth / args.ranks_per_node / 1e9:.3f} GB/s per rank)")
+    print("| cells per rank | ranks P | grid | steps | GMRES/step | compute/step | halo/step | transposes/step | "
+          "reductions/step | step | weak efficiency | compute share | step, calibrated | weak efficiency, calibrated |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for r in rows:
+        side = math.isqrt(r["cells_per_rank"])
+        print(f"| {side}^2 | {r['P']} | {r['N']}^2 | {r['steps']:.0f} | {r['gmres_per_step']:.1f} | "
+              f"{r['compute_s'] * 1e3:.1f} ms | {r['halo_s'] * 1e3:.2f} ms | {r['transposes_s'] * 1e3:.2f} ms"
+              f"{(' (' + r['alltoall'] + ')') if r['alltoall'] else ''} | {r['reductions_s'] * 1e3:.2f} ms | "
+              f"{r['step_s'] * 1e3:.1f} ms | {r['efficiency']:.2f} | {r['compute_share']:.2f} | "
+              f"{r['step_calibrated_s'] * 1e3:.1f} ms | {r['efficiency_calibrated']:.2f} |")
+    assumptions = {"latency_s": args.latency, "node_bandwidth_bytes_per_s": args.node_bandwidth,
+                   "ranks_per_node": args.ranks_per_node, "transpose_bytes_per_cell": TRANSPOSE_BYTES_PER_CELL}
+    if args.measured and not args.json:  # the model again: the kept measurement's file stays as it was
+        return
+    write_json(args.json or str(ROOT / "data" / "benchmarks" / "petsc_weak_model.json"),
+               {"measured": kept, "assumptions": assumptions, "model": rows, "model_check_1_rank": check,
+                "counts_per_step": {k: {"value": v[0], "at_N": v[1], "exponent": v[2]} for k, v in per_step.items()}})
+
+
 def main() -> None:
+    if "--pc" not in sys.argv or "xfourier" in sys.argv:
+        ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+        ap.add_argument("--pc", choices=["xfourier"], default="xfourier")
+        ap.add_argument("--latency", type=float, default=NET_LATENCY, help="s per MPI message (assumed)")
+        ap.add_argument("--node-bandwidth", type=float, default=NODE_BANDWIDTH, help="bytes/s per node (assumed)")
+        ap.add_argument("--ranks-per-node", type=int, default=RANKS_PER_NODE)
+        ap.add_argument("--json", default=None, help="default: data/benchmarks/petsc_weak_model.json (with "
+                        "--measured: none unless given)")
+        ap.add_argument("--measured", default=None, help="model from a kept JSON of this benchmark (no runs)")
+        xfourier_main(ap.parse_args())
+        return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--cells-per-rank", type=int, default=64 * 64)

@@ -12,7 +12,10 @@ summaries, the stability reports) is written through :func:`replacing` or
 - a symbolic link is followed: its target is replaced, the link stays a link;
 - a character device or a FIFO (``/dev/stdout``, ``/dev/null``, a pipe) is written through,
   never replaced;
-- a directory is refused.
+- a directory is refused;
+- under an MPI launcher, rank 0 alone installs files (:func:`icidr_pde.mpi_ranks.writes_here`):
+  another rank's data go to a temporary file that is removed, so that every rank runs the same
+  code and one file results.
 
 :func:`check_outputs` refuses, before any work, an output that cannot be written and two
 outputs onto one file. The rules are stated for users in docs/security.md ("Output files").
@@ -166,6 +169,9 @@ def replacing(path, suffix: str | None = None, *, fsync: bool = False):
     """Context yielding a temporary path to write `path`'s data to; on a clean exit the file
     is installed at `path` (:func:`install`), on any exception (KeyboardInterrupt included)
     it is removed and `path` is left as it was."""
+    if not _writes_here():
+        yield from _elsewhere(path, suffix)
+        return
     try:
         tmp = temporary_beside(path, suffix)
     except OSError as err:
@@ -182,6 +188,26 @@ def replacing(path, suffix: str | None = None, *, fsync: bool = False):
         install(tmp, path, fsync=fsync)
     except OSError as err:
         raise _write_error(path, err) from err
+
+
+def _writes_here() -> bool:
+    """Whether this process installs files (:mod:`icidr_pde.mpi_ranks`; True where this module is
+    loaded alone, from its file, by benchmarks/provenance.py)."""
+    if not __package__:
+        return True
+    from .mpi_ranks import writes_here
+
+    return writes_here()
+
+
+def _elsewhere(path, suffix):
+    """A rank other than 0 writes `path`'s data to a temporary file of its own, then removes it."""
+    fd, tmp = tempfile.mkstemp(prefix=".rank.", suffix=Path(path).suffix if suffix is None else suffix)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+    finally:
+        discard(tmp)
 
 
 def _write_error(path, err: OSError) -> OSError:
@@ -263,7 +289,16 @@ def save_figure(fig, path, **kwargs) -> None:
 
 def writable_folder(option: str, path) -> Path:
     """Create the folder `path` if needed and check that files can be made in it, before any
-    work; OutputError naming `option` otherwise."""
+    work; OutputError naming `option` otherwise (made and checked by rank 0 under an MPI launcher,
+    every rank taking its verdict)."""
+    if __package__:
+        from .mpi_ranks import same_verdict
+
+        return same_verdict(lambda: _writable_folder(option, path), OutputError) or Path(path)
+    return _writable_folder(option, path)
+
+
+def _writable_folder(option: str, path) -> Path:
     folder = Path(path)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"`{option}` must be a directory; got the file {str(folder)!r}")
@@ -278,6 +313,7 @@ def writable_folder(option: str, path) -> Path:
 def write_json(summary, path):
     """Write a JSON summary atomically (never half-written)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if _writes_here():
+        path.parent.mkdir(parents=True, exist_ok=True)
     text = json.dumps(summary, indent=1)
     write_atomically(path, lambda fh: fh.write(text))

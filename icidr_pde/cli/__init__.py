@@ -79,7 +79,18 @@ def _describe_subcommands(parser) -> None:
 
 
 def main(argv=None) -> int:
-    """Run ``icidr-pde ARGV`` (default: this process's arguments); its exit status."""
+    """Run ``icidr-pde ARGV`` (default: this process's arguments); its exit status.
+
+    Under an MPI launcher every rank runs the command, rank 0 alone prints and writes, and every
+    rank exits with the largest status of the ranks (:mod:`icidr_pde.mpi_ranks`)."""
+    from .. import mpi_ranks
+
+    with mpi_ranks.root_speaks():
+        status = _main(argv)
+        return mpi_ranks.agree(status) if mpi_ranks.launched() > 1 else status
+
+
+def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # the subcommand is the first word (the top level has no option but --help)
     parser = make_parser(commands=argv[:1])

@@ -41,7 +41,20 @@ def client_of(args, *, dashboard: bool = True):
 
     A cluster that cannot start or a scheduler that does not answer is bad input: a ValueError
     naming the option (``icidr-pde`` prints it as one line, exit 2).
+
+    Under an MPI launcher (``mpiexec -n P``, ``srun``) the ranks compute each run together (the
+    PETSc engine), one run after the other in this process: ``args.jobs`` is set to 1, and
+    ``--workers`` or ``--scheduler`` is bad input.
     """
+    from ..mpi_ranks import launched
+
+    if launched() > 1:
+        given = "--workers" if args.workers is not None else "--scheduler" if args.scheduler is not None else None
+        if given:
+            raise ValueError(f"`{given}` must not be given under an MPI launcher ({launched()} processes): the "
+                             "ranks compute each run together, one run after the other; got "
+                             f"{given} {getattr(args, given[2:])}")
+        args.jobs = 1
     if args.workers is None and args.scheduler is None:
         yield None
         return

@@ -10,23 +10,25 @@ import signal
 import sys
 from pathlib import Path
 
+from ..mpi_ranks import defer, launcher_rank
+
 EXIT_OK, EXIT_BAD_INPUT, EXIT_RUN_FAILED, EXIT_WRITE_FAILED = 0, 2, 3, 4
 EXIT_INTERRUPTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
 PREFIX = "icidr-pde: error:"
 
 
-#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
-RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
 
+def check_engine(engine) -> None:
+    """Refuse, before any work, an engine this process cannot start: the PETSc engine without
+    petsc4py (the message names the extra), beside another MPI or under another MPI's launcher
+    (ValueError: one line, exit 2). Starts PETSc (MPI) on every rank of an MPI run."""
+    if engine == "petsc":
+        from ..engines.petsc import rank
 
-def launcher_rank() -> int:
-    """This process's rank as its MPI launcher set it in the environment (0 outside one), read
-    before MPI is started (the command line's own errors)."""
-    for name in RANK_VARIABLES:
-        value = os.environ.get(name, "")
-        if value.isdigit():
-            return int(value)
-    return 0
+        try:
+            rank()
+        except ImportError as err:
+            raise ValueError(str(err)) from None
 
 
 class Parser(argparse.ArgumentParser):
@@ -88,7 +90,8 @@ class Terminated(KeyboardInterrupt):
 
 
 class interrupt_signals:
-    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came."""
+    """Context: SIGTERM stops the run like SIGINT; `received` is the signal that came (of several MPI
+    ranks, each raises it at the same point: :mod:`icidr_pde.mpi_ranks`)."""
 
     def __enter__(self):
         self.received = None
@@ -102,6 +105,8 @@ class interrupt_signals:
 
     def _handle(self, signum, frame):
         self.received = signal.Signals(signum)
+        if defer(signum):  # one of several MPI ranks: raised on every rank at the next agreed point
+            return
         raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
     def __exit__(self, *exc):

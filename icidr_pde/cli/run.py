@@ -13,7 +13,8 @@ import sys
 import warnings
 
 from .argtypes import add_rheology_option, number, positive_int, time_value
-from .common import (EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, EXIT_WRITE_FAILED, PREFIX,
+from ..mpi_ranks import speaks
+from .common import (EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, EXIT_WRITE_FAILED, PREFIX, check_engine,
                      figure_path, interrupt_signals, is_stdout, write_outputs)
 
 __all__ = ["add_parser", "cmd", "discretization_options"]
@@ -111,18 +112,11 @@ def cmd(args) -> int:
     from ..scenes import SCENES, scene_parameters
     from ..validation import ParameterError
 
-    # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes. Every
-    # rank checks the input the same way, so that bad input ends every rank with the same status
-    args.quiet = False
-    if args.engine == "petsc" or args.method == PETSC_METHOD:
-        from ..engines.petsc import rank
-
-        try:
-            args.quiet = rank() != 0
-        except ImportError as err:
-            print(f"{PREFIX} {err}", file=sys.stderr)
-            return EXIT_BAD_INPUT
-    quiet = args.quiet
+    # a rank other than 0 of an MPI run computes and says nothing: rank 0 prints and writes
+    # (icidr_pde.mpi_ranks). Every rank checks the input the same way, so that bad input ends every
+    # rank with the same status
+    check_engine("petsc" if args.method == PETSC_METHOD else args.engine)
+    args.quiet = quiet = not speaks()
     plot = figure_path("--plot", args.plot)
     check_outputs({"--json": args.json, "--save": args.save, "--movie": args.movie, "--plot": plot})
     scene_params = {k: getattr(args, k) for k in scene_parameters() if getattr(args, k) is not None}

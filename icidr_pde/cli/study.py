@@ -41,6 +41,10 @@ def add_parser(subparsers):
                    help="cells per side (convergence, tstar; default: the study's)")
     s.add_argument("--advection", choices=("central", "upwind"), default=None,
                    help="convergence: the advection scheme (default central; upwind writes convergence_upwind.json)")
+    s.add_argument("--engine", choices=["petsc"], default=None,
+                   help="convergence, tstar: the 2-D runs on the PETSc engine (runs under mpiexec: "
+                        "docs/distributed.md) (default: the study's CVODE and GMRES)")
+    s.add_argument("--json", default=None, help="write the study's JSON here (default: its file in data/sim2d)")
     add_cluster_options(s, "the study's runs")
     add_cache_option(s, "run")
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -80,12 +84,25 @@ def _sim2d(args) -> int:
         print()
         print(sim2d.growth_table(json.loads((sim2d.DATA / "mode_growth.json").read_text())))
         return 0
+    from ..outputs import check_outputs
+    from .common import check_engine
+
+    if args.engine and args.part == "growth":
+        raise ValueError(f"`--engine` applies to the convergence and tstar parts; got --engine {args.engine} "
+                         "with growth")
+    check_engine(args.engine)
+    check_outputs({"--json": args.json})
     check_cache_option(args)
     sizes = {"sizes": tuple(args.sizes)} if args.sizes else {}
     if args.advection == "upwind":
         sizes.update(advection="upwind", path=sim2d.DATA / "convergence_upwind.json")
+    if args.json:
+        sizes.update(path=args.json)
+    if args.engine:
+        sizes.update(engine=args.engine)
     studies = {"convergence": lambda **kw: sim2d.convergence_study(**sizes, **kw),
-               "tstar": lambda **kw: sim2d.tstar_study(**sizes, **kw), "growth": sim2d.growth_study}
+               "tstar": lambda **kw: sim2d.tstar_study(**sizes, **kw),
+               "growth": lambda **kw: sim2d.growth_study(**({"path": args.json} if args.json else {}), **kw)}
     with client_of(args, dashboard=not args.no_progress) as client:
         studies[args.part](jobs=args.jobs, client=client, progress=not args.no_progress, cache=args.cache)
     return 0

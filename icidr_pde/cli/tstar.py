@@ -37,7 +37,7 @@ from ..times import check_t_end
 from ..validation import integer, real
 from .argtypes import add_rheology_option
 from .cluster import add_cache_option, add_cluster_options, check_cache_option, client_of
-from .common import EXIT_INTERRUPTED, PREFIX, interrupt_signals
+from .common import EXIT_INTERRUPTED, PREFIX, check_engine, interrupt_signals
 
 __all__ = ["add_parser", "cmd"]
 
@@ -89,15 +89,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "Interrupted (Ctrl-C: exit 130, SIGTERM: 143), the cases that finished are written.")
     add_rheology_option(p, "mui")
     p.add_argument("--scene", choices=sorted(SCENES), default="shear", help="initial condition")
-    p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=["fd"],
-                   help="one or both of fd (default) and cheb")
+    p.add_argument("--discretization", nargs="+", choices=sorted(DISCRETIZATIONS), default=None,
+                   help="one or both of fd and cheb (default: fd; a 2-D scene's own, fv2d)")
     p.add_argument("--N", default=None,
                    help="start:stop:step with stop included, e.g. 21:201:2 (default), "
                         "or a comma-separated list")
     p.add_argument("--t-end", type=float, default=20.0, help="a run that reaches it did not fail")
-    p.add_argument("--engine", choices=[r for r in REQUESTS if r in ("pde", "native")], default="pde",
+    p.add_argument("--engine", choices=[r for r in REQUESTS if r in ("pde", "native", "petsc")], default="pde",
                    help="pde (default): scipy's or scikit-sundae's solver on the py-pde scheme; native: the "
-                        "compiled problem and CVODE (Chebyshev: GMRES with the low-order band preconditioner)")
+                        "compiled problem and CVODE (Chebyshev: GMRES with the low-order band preconditioner); petsc: "
+                        "PETSc on a 2-D scene (runs under mpiexec: docs/distributed.md)")
     p.add_argument("--method", choices=sorted(METHODS), default=None,
                    help="integrator (default: BDF; CVODE with --engine native)")
     p.add_argument("--rtol", type=float, default=None,
@@ -121,6 +122,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd(args) -> int:
+    check_engine(args.engine)
     check_outputs({"--json": args.json, "--plot": args.plot})
     curves: dict[str, dict] = {}
     for spec in args.load:
@@ -130,10 +132,10 @@ def cmd(args) -> int:
         results = {}
     else:
         Ns = parse_range(args.N or "21:201:2")
-        native = args.engine == "native"
+        native = args.engine in ("native", "petsc")  # petsc: CVODE asked, the preset's tolerances, as native
         method = args.method or ("CVODE" if native else "BDF")
         if native and method != "CVODE":
-            raise ValueError(f"`--method` must be CVODE with `--engine native`; got {method!r}")
+            raise ValueError(f"`--method` must be CVODE with `--engine {args.engine}`; got {method!r}")
         default_rtol, default_atol = (None, None) if native else (BDF_RTOL, BDF_ATOL)  # None: the preset's, per scheme
         rtol = default_rtol if args.rtol is None else args.rtol
         atol = default_atol if args.atol is None else args.atol
@@ -145,7 +147,8 @@ def cmd(args) -> int:
         with interrupt_signals() as signals:
             try:
                 with client_of(args, dashboard=not args.no_progress) as client:
-                    results = sweep(Ns, tuple(dict.fromkeys(args.discretization)), jobs=args.jobs,
+                    discretizations = args.discretization or [getattr(SCENES[args.scene], "discretization", "fd")]
+                    results = sweep(Ns, tuple(dict.fromkeys(discretizations)), jobs=args.jobs,
                                     progress=not args.no_progress, client=client, cache=args.cache,
                                     rheology=args.rheology, scene=args.scene, t_end=args.t_end, method=method,
                                     rtol=rtol, atol=atol, jacobian=args.jacobian,

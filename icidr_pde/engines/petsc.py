@@ -26,13 +26,11 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import signal
 import sys
-import threading
 
 import numpy as np
 
-from .. import loaded_mpi
+from .. import loaded_mpi, mpi_ranks
 from ..validation import ParameterError
 from .base import Engine, Problem
 from ..cvode_settings import A_STABLE_ORDER
@@ -171,7 +169,6 @@ class PetscEngine(Engine):
         self._work, self._good, self._kept = self.x.duplicate(), self.x.copy(), self.x.copy()
         # the last output (time, whole state once gathered); _good: the last accepted state
         self._kept_t, self._kept_y = float(t0), np.array(problem.y0, dtype=float)
-        self._signals = _SignalsAtSteps(self.ranks > 1)
         self._flags = PETSc.Vec().createMPI((1, None), comm=self.comm)  # one number per rank, reduced by max
         self._inside = None if self.grid is None else self.grid.patches.inside
 
@@ -340,7 +337,7 @@ class PetscEngine(Engine):
         return values
 
     def advance(self, t_end):
-        with self._signals:
+        with mpi_ranks.noting_signals():
             return self._advance(t_end)
 
     def _advance(self, t_end):
@@ -377,10 +374,10 @@ class PetscEngine(Engine):
             invalid = self.problem.check(self._gathered(self.x)) is not None
         if self.ranks == 1:
             return invalid
-        self._flags.setArray([SIGNAL_WEIGHT * self._signals.received + invalid])
+        self._flags.setArray([SIGNAL_WEIGHT * mpi_ranks.pending() + invalid])
         flag = int(self._flags.max()[1])
         if flag >= SIGNAL_WEIGHT:
-            self._signals.deliver(flag // SIGNAL_WEIGHT)
+            mpi_ranks.deliver(flag // SIGNAL_WEIGHT)
         return bool(flag)
 
     def _at(self, t):
@@ -397,7 +394,7 @@ class PetscEngine(Engine):
         """As :meth:`Engine.advance_outputs`; max|w| by a reduction over the ranks' blocks, the
         state gathered only where it is kept (store[k] >= 0: the snapshots, the last output)."""
         field = None if self.grid is None else self.grid.patches.measured
-        with self._signals:
+        with mpi_ranks.noting_signals():
             for k, t in enumerate(times):
                 failure = self._advance(t)
                 if failure is not None:
@@ -424,43 +421,6 @@ class PetscEngine(Engine):
 
 #: a signal's number weighs this much in the per-step reduction of (signal, invalid state)
 SIGNAL_WEIGHT = 64
-
-
-class _SignalsAtSteps:
-    """Where the run has more than one rank: SIGINT and SIGTERM are noted, not raised, while the
-    ranks step, and delivered by :meth:`deliver` after a step, on every rank alike, to the
-    handlers that were there (the command line's ``cli.interrupt_signals``, so that the run stops
-    and keeps what it computed as a serial run does). Raised where it came, a rank would leave
-    the step alone while the others wait in its collectives (mpiexec sends the signal to every
-    rank, each in its own place)."""
-
-    def __init__(self, active: bool):
-        self.active, self.received, self._previous = active, 0, {}
-
-    def __enter__(self):
-        if self.active and threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._previous[sig] = signal.signal(sig, self._note)
-        return self
-
-    def _note(self, signum, frame):
-        self.received = max(self.received, signum)
-
-    def _restore(self):
-        for sig, handler in self._previous.items():
-            if handler is not None:  # None: not set from Python, nothing to restore
-                signal.signal(sig, handler)
-        self._previous = {}
-
-    def __exit__(self, *exc):
-        self._restore()
-        return False
-
-    def deliver(self, signum: int):
-        """The signal to this rank's own handler, as if it had come now."""
-        self._restore()
-        self.received = 0
-        signal.raise_signal(signum)
 
 
 def _reason_name(PETSc, reason) -> str:

@@ -20,6 +20,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..mpi_ranks import at_agreed_point
 from ..outputs import write_json, writable_folder
 from .parallel import StudyInterrupted, run_cases
 
@@ -117,18 +118,24 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
     `expect`, (what, predicate): the shape every computed result must have; a result of another
     shape (a cluster's worker that does not run this package's function, see
     :func:`~.distributed.check_task_result`) is a ValueError, one line, before it is used.
+    Under an MPI launcher every rank runs the same cases (the PETSc engine's runs are collective):
+    a case is taken from the cache only where every rank found it, and rank 0 alone writes.
     """
     from .distributed import check_task_result
 
     store = None if cache is None else CaseCache(cache, name)
+    kept = [None if store is None else store.get(case) for case in cases]
+    if store is not None:  # under MPI a case is taken from the cache where every rank found it
+        from ..mpi_ranks import everywhere
+
+        kept = [k if found else None for k, found in zip(kept, everywhere([k is not None for k in kept]))]
     results = [None] * len(cases)
     todo = []
     for i, case in enumerate(cases):
-        kept = None if store is None else store.get(case)
-        if kept is None:
+        if kept[i] is None:
             todo.append((i, case))
         else:
-            results[i] = kept
+            results[i] = kept[i]
     pending = {i for i, _ in todo}
 
     def checked(item):
@@ -147,6 +154,7 @@ def run_cached(function, cases: list, cache, name: str, *, jobs: int, progress: 
             if store is not None:
                 store.put(cases[i], result)
             results[i] = result
+            at_agreed_point()  # under MPI: a signal noted during the case, raised on every rank here
     except KeyboardInterrupt as interrupt:  # what finished goes with it (None: not run)
         raise StudyInterrupted(results) from interrupt
     return results

@@ -44,6 +44,12 @@ SETTINGS = dict(method="CVODE", rtol=1e-7, atol=1e-10)
 SOLVER_2D = dict(jacobian="krylov")
 
 
+def _solver_2d(settings: dict) -> dict:
+    """The linear solver of a 2-D run of the studies: :data:`SOLVER_2D`, or the PETSc engine's own
+    (its Newton systems are sparse matrices: ``engine="petsc"`` in the settings)."""
+    return {} if settings.get("engine") == "petsc" else SOLVER_2D
+
+
 def observed_orders(values: list[float]) -> list[float | None]:
     """log2 of successive difference ratios |q_N - q_2N| / |q_2N - q_4N| (grids doubling)."""
     out = []
@@ -58,7 +64,8 @@ def _convergence_run(case: dict) -> tuple[dict, str]:
     from ..api import run
 
     n, times = case["n"], case["times"]
-    result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times), **{**SOLVER_2D, **case["settings"]})
+    result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times),
+                 **{**_solver_2d(case["settings"]), **case["settings"]})
     fields = {k: v for k, v in result.to_dict().items()
               if k in ("Nx", "Nz", "L", "blew_up", "reason", "mass_drift", "wall_s", "n_rhs", *QUANTITIES)}
     return fields, str(result)
@@ -80,9 +87,10 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
         print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
     advection = f" --advection {settings['advection']}" if "advection" in settings else ""
+    engine = f" --engine {settings['engine']}" if "engine" in settings else ""
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": "icidr-pde study sim2d convergence" + advection}
+               "command": "icidr-pde study sim2d convergence" + advection + engine}
     write_json(payload, path)
     return payload
 
@@ -97,9 +105,10 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
     n, t_end, settings = case["n"], case["t_end"], case["settings"]
     times = ["0", f"{t_end:g}"]
     if case["dim"] == 2:
-        r = run("mui", "bump2d", (n, n), t_end, times, series_times=[], **{**SOLVER_2D, **settings})
+        r = run("mui", "bump2d", (n, n), t_end, times, series_times=[], **{**_solver_2d(settings), **settings})
         return r.t_star, r.reason, None, str(r)
-    r = run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[], **settings)
+    one_d = {k: v for k, v in settings.items() if k != "engine"}  # the 1-D runs: the study's CVODE
+    r = run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[], **one_d)
     return r.t_star, r.reason, None if r.blew_up else float(np.max(np.abs(r.final[2]))), str(r)
 
 
@@ -119,8 +128,9 @@ def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "ts
         rows.append({"N": n, "t_star_2d": t2, "reason_2d": reason2, "t_star_1d": t1,
                      "reason_1d": reason1, "max_w_1d_end": max_w1})
         print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
+    engine = f" --engine {settings['engine']}" if "engine" in settings else ""
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
-               "command": "icidr-pde study sim2d tstar"}
+               "command": "icidr-pde study sim2d tstar" + engine}
     write_json(payload, path)
     return payload
 

@@ -1,0 +1,245 @@
+"""The ranks of a command started by an MPI launcher (``mpiexec -n P icidr-pde ...``, ``srun``):
+which one speaks and writes, and what they agree on.
+
+Every rank runs the same command and computes (the PETSc engine divides each run among them);
+rank 0 alone prints (progress, results, errors) and writes the outputs, the others write
+nothing. The rules, all kept here:
+
+- *who is rank 0*: the rank the launcher put in the environment (:func:`launcher_rank`), readable
+  before MPI starts (argparse's errors come first) and the same as MPI's COMM_WORLD rank;
+- *rank 0 speaks*: :func:`root_speaks` sends the other ranks' standard output and error to
+  ``os.devnull`` for the command (an error that escapes it is still shown: the streams are back
+  before the interpreter prints a traceback);
+- *rank 0 writes*: :func:`writes_here` is what :mod:`icidr_pde.outputs` asks before it installs
+  a file (the other ranks write to a temporary file that is removed), so every output of every
+  command, written atomically there, is rank 0's alone;
+- *a failure on any rank reaches all ranks*: a check that depends on the rank's file system
+  (an output's folder) is made by rank 0 and its verdict agreed (:func:`same_verdict`), the
+  cases a study takes from its cache are those every rank found (:func:`everywhere`), and the
+  command's exit status is the largest of the ranks' (:func:`agree`), so that a write that
+  failed on rank 0 (4) or an interrupt (130, 143) is every rank's status;
+- *signals at agreed points*: SIGINT and SIGTERM (mpiexec sends them to every rank, each in its
+  own place) are noted, not raised where they land (:func:`defer`, :func:`noting_signals`): a rank
+  leaving alone would leave the others waiting in its collectives. Every rank raises the largest
+  noted signal at the same point (:func:`deliver`): after a step of the PETSc engine (its per-step
+  reduction carries :func:`pending`) and after each case of a study (:func:`at_agreed_point`), from
+  where the serial path keeps what was computed.
+
+The ranks talk through PETSc's COMM_WORLD (petsc4py: the MPI the engine runs on; mpi4py is not
+needed), started here when the launcher says there are several processes. Without a launcher,
+with one process, or where PETSc cannot start (petsc4py missing, another MPI's launcher), every
+function here is that of a single process: it speaks, writes and agrees with itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+import signal
+import sys
+import threading
+
+__all__ = ["RANK_VARIABLES", "launcher_rank", "launched", "speaks", "writes_here", "ranks", "root_speaks",
+           "gathered", "agree", "everywhere", "same_verdict", "defer", "pending", "deliver", "noting_signals",
+           "at_agreed_point", "SIGNALS"]
+
+#: the signals that stop a run and keep what it computed
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
+RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
+#: the number of processes it started (srun: the job step's tasks)
+SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS")
+
+
+def _first_number(names) -> int | None:
+    for name in names:
+        value = os.environ.get(name, "")
+        if value.isdigit():
+            return int(value)
+    return None
+
+
+def launcher_rank() -> int:
+    """This process's rank as its MPI launcher set it in the environment (0 outside one), read
+    before MPI is started (the command line's own errors)."""
+    return _first_number(RANK_VARIABLES) or 0
+
+
+def launched() -> int:
+    """How many processes the launcher started (1 outside one)."""
+    return max(_first_number(SIZE_VARIABLES) or 1, 1)
+
+
+def speaks() -> bool:
+    """Whether this process prints: rank 0, or a process without a launcher."""
+    return launcher_rank() == 0
+
+
+def writes_here() -> bool:
+    """Whether this process installs the files it writes (rank 0 alone)."""
+    return launcher_rank() == 0
+
+
+@functools.cache
+def _world():
+    """petsc4py's PETSc with MPI started, where the launcher started several processes that PETSc
+    sees as one COMM_WORLD; else None (one process, no petsc4py, or another MPI's launcher)."""
+    if launched() < 2:
+        return None
+    from . import loaded_mpi
+
+    if loaded_mpi.loaded() and "petsc4py.PETSc" not in sys.modules:  # another MPI here: PETSc's would abort
+        return None
+    try:
+        from petsc4py import PETSc
+    except ImportError:  # the PETSc engine says why, in one line, if the command asks for it
+        return None
+    return PETSc if PETSc.COMM_WORLD.size > 1 else None
+
+
+def ranks() -> int:
+    """The number of ranks that agree (1: this process alone)."""
+    world = _world()
+    return 1 if world is None else world.COMM_WORLD.size
+
+
+def gathered(values):
+    """(ranks, m): the m numbers each rank gives, on every rank (collective: every rank calls it
+    with the same m). One rank: its own, as one row."""
+    import numpy as np
+
+    values = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
+    PETSc = _world()
+    if PETSc is None:
+        return values[None, :]
+    if values.size == 0:
+        return np.empty((PETSc.COMM_WORLD.size, 0))
+    mine = PETSc.Vec().createMPI((values.size, None), comm=PETSc.COMM_WORLD)
+    mine.setArray(values)
+    scatter, full = PETSc.Scatter.toAll(mine)
+    try:
+        scatter.scatter(mine, full, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return np.array(full.getArray(readonly=True)).reshape(PETSc.COMM_WORLD.size, values.size)
+    finally:
+        for obj in (scatter, full, mine):
+            obj.destroy()
+
+
+def agree(status: int) -> int:
+    """The largest exit status of the ranks, on every rank (collective)."""
+    return int(gathered([status]).max())
+
+
+def everywhere(flags):
+    """For each flag, whether every rank has it (collective)."""
+    import numpy as np
+
+    flags = np.asarray(flags, dtype=bool)
+    return gathered(flags).min(axis=0).astype(bool).reshape(flags.shape) if flags.size else flags
+
+
+def same_verdict(check, refusal: type[Exception] = ValueError):
+    """``check()`` on rank 0 and its verdict on every rank (collective): what it returns, or the
+    exception it raises, raised on every rank (the other ranks, which say nothing, raise
+    `refusal`). For checks of the file system rank 0 writes to, which another rank may not see
+    alike (another node's mounts)."""
+    if _world() is None:
+        return check()
+    error, out = None, None
+    if writes_here():
+        try:
+            out = check()
+        except Exception as err:  # noqa: BLE001 - every kind goes to the other ranks as a failure
+            error = err
+    if agree(error is not None):
+        raise error if error is not None else refusal("refused on rank 0 (which says why)")
+    return out
+
+
+@contextlib.contextmanager
+def root_speaks():
+    """For the block: on a rank other than 0, standard output and error go to ``os.devnull``
+    (print, progress bars, warnings); back as they were after it, whatever happens in it."""
+    if speaks():
+        yield
+        return
+    saved = sys.stdout, sys.stderr
+    with open(os.devnull, "w") as sink:
+        sys.stdout = sys.stderr = sink
+        try:
+            yield
+        finally:
+            sys.stdout, sys.stderr = saved
+
+
+_NOTED = {"signal": 0, "delivering": False}
+
+
+def _several() -> bool:
+    """Whether this process is one of several ranks that agree (known once MPI started here)."""
+    return _world.cache_info().currsize > 0 and _world() is not None
+
+
+def defer(signum: int) -> bool:
+    """For a handler of SIGINT or SIGTERM: True where the signal is noted for the ranks' next agreed
+    point (several ranks), False where the handler acts now (one process, or :func:`deliver`)."""
+    if _NOTED["delivering"] or not _several():
+        return False
+    _NOTED["signal"] = max(_NOTED["signal"], int(signum))
+    return True
+
+
+def pending() -> int:
+    """The signal noted on this rank since the last delivery (0: none)."""
+    return _NOTED["signal"]
+
+
+def deliver(signum: int) -> None:
+    """Raise `signum` here, on every rank at the same point: to the handlers that
+    :func:`noting_signals` replaced (the command line's, which then raise)."""
+    _NOTED["signal"] = 0
+    for sig, handler in _REPLACED.items():
+        signal.signal(sig, handler)
+    _REPLACED.clear()
+    _NOTED["delivering"] = True
+    try:
+        signal.raise_signal(signum)
+    finally:
+        _NOTED["delivering"] = False
+
+
+_REPLACED: dict = {}  # signal -> the handler noting_signals replaced
+
+
+@contextlib.contextmanager
+def noting_signals():
+    """For the block, where there are several ranks (in the main thread): SIGINT and SIGTERM noted
+    (:func:`defer`), the handlers that were there back after it (and at :func:`deliver`)."""
+    if ranks() < 2 or threading.current_thread() is not threading.main_thread() or _REPLACED:
+        yield
+        return
+
+    def note(signum, frame):
+        defer(signum)
+
+    for sig in SIGNALS:
+        previous = signal.signal(sig, note)
+        if previous is not None:  # None: not set from Python, nothing to restore
+            _REPLACED[sig] = previous
+    try:
+        yield
+    finally:
+        for sig, handler in _REPLACED.items():
+            signal.signal(sig, handler)
+        _REPLACED.clear()
+
+
+def at_agreed_point() -> None:
+    """Where every rank passes alike (after a study's case): the largest signal any rank noted is
+    raised on every rank (collective where there are several ranks)."""
+    if _several():
+        noted = int(gathered([pending()]).max())
+        if noted:
+            deliver(noted)
