@@ -44,6 +44,9 @@ __all__ = ["NativeUnavailable", "sundials", "library", "LIBRARY_FLAGS"]
 
 LIBRARY_FLAGS = ("-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fvisibility=hidden")
 _LIBRARIES: dict[str, ctypes.CDLL] = {}
+#: the library of a law in a cell, once this process has loaded it: the cache name's key reads and
+#: hashes the source of every module the C is made from, which took longer than a small run's solve
+_LOADED: dict[tuple, ctypes.CDLL] = {}
 _LOCK = threading.Lock()
 
 
@@ -167,11 +170,18 @@ def library(rheology, kinematics) -> ctypes.CDLL:
     from .. import kernel_cache
     from ..rheology import codegen
 
+    friction, dilatancy = rheology.material.law_key()
+    law = (rheology.definition_key(), type(rheology), friction, dilatancy, type(kinematics),
+           os.environ.get("CC", "gcc"))
+    with _LOCK:
+        if law in _LOADED:
+            return _LOADED[law]
     libdir, libs, index = sundials()
     cc = _compiler()
     name = kernel_cache.stem("native", codegen._digest(_key(rheology, kinematics, libs, index, cc)))
     with _LOCK:
         if name in _LIBRARIES:
+            _LOADED[law] = _LIBRARIES[name]
             return _LIBRARIES[name]
         for attempt in range(2):
             try:
@@ -194,7 +204,7 @@ def library(rheology, kinematics) -> ctypes.CDLL:
                 path.unlink(missing_ok=True)  # rebuilt by the next run
                 raise NativeUnavailable(f"native library not loadable: {err}") from None
         _declare(lib, kinematics)
-        _LIBRARIES[name] = lib
+        _LIBRARIES[name] = _LOADED[law] = lib
         return lib
 
 
