@@ -1,0 +1,177 @@
+"""Fig 4(b)'s t*(N) sweep, whole processes, against a careful scipy script, with the t* accuracy beside.
+
+    nice -n 10 python benchmarks/tstar_sweep.py [--repeats 3] [--json data/benchmarks/tstar_sweep.json]
+
+Three measurements, each a whole process (start, imports, library loads, worker pool, runs, the
+JSON and plot written) timed from outside, interleaved over ``--repeats`` rounds after one
+unreported warm-up of the project (the kernel cache filled: "warm"):
+
+* ``full``: ``icidr-pde tstar --rheology mui --scene shear --discretization fd cheb --N 21:201:2
+  --plot tstar.png`` (182 runs, its default ``--accuracy stated``, its default 2 worker processes);
+* ``cheb-sweep``: ``icidr-pde tstar --discretization cheb --N 21:201:20`` against the baseline's
+  loop over the same N in one process;
+* ``cheb-201``: ``icidr-pde tstar --discretization cheb --N 201`` against the baseline at N = 201.
+
+**Baseline**: end_to_end.py's plain numpy + scipy script (:func:`end_to_end.baseline_tstar`: the
+Chebyshev collocation written out, the dense analytic Jacobian, scipy's BDF stepped by hand to the
+failure), at the paper's tolerances (rtol 1e-6, atol 1e-9), t_end = 20, run as
+``python benchmarks/tstar_sweep.py --baseline N ...`` with OPENBLAS_NUM_THREADS=1 (one thread:
+end_to_end.py's docstring says why).
+
+**Accuracy** (beside every timing): each Chebyshev t* against the converged t* of
+data/tstar/tstar_accuracy.json (benchmarks/tstar_accuracy.py), relative, the largest over the N
+run, and whether every N agrees on failing or not; each finite-volume t* against the median of
+that file's tight runs, with the number of N outside the accuracy stated there.
+
+Timings on a shared machine are upper bounds: the provenance records the load at start and end,
+and the load is printed beside each round.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from provenance import ROOT, write_json  # noqa: E402
+
+ACCURACY_FILE = ROOT / "data" / "tstar" / "tstar_accuracy.json"
+FULL = ["tstar", "--rheology", "mui", "--scene", "shear", "--discretization", "fd", "cheb", "--N", "21:201:2"]
+SWEEP_N = list(range(21, 202, 20))
+#: the baseline's tolerances: the paper's (scipy's BDF as the paper's ode15s)
+BASELINE = dict(rtol=1e-6, atol=1e-9)
+T_END = 20.0
+
+
+def baseline(Ns) -> dict:
+    """The scipy script at every N, in this process: {N: t* or None}, solve seconds."""
+    import end_to_end
+
+    t_star, solve = {}, 0.0
+    for N in Ns:
+        end_to_end.CASES["tstar-cheb"].update(N=N, t_end=T_END, baseline=BASELINE)
+        r = end_to_end.baseline_tstar("tstar-cheb")
+        t_star[str(N)] = None if r["t_star"] >= T_END else r["t_star"]  # it returns the last good time
+        solve += r["solve_s"]
+    return dict(t_star=t_star, solve_s=solve)
+
+
+def environment(blas_one: bool) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    if blas_one:
+        env.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    return env
+
+
+def whole(args: list[str], env: dict) -> float:
+    start = time.perf_counter()
+    proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    return wall
+
+
+def project(argv: list[str], folder: Path) -> tuple[float, dict]:
+    """Whole-process wall time of ``icidr-pde ARGV --json F --no-progress`` and its t* by discretization."""
+    out = folder / "tstar.json"
+    wall = whole([sys.executable, "-m", "icidr_pde.cli", *argv, "--json", str(out), "--no-progress"],
+                 environment(False))
+    document = json.loads(out.read_text())
+    return wall, {d: e["t_star"] for d, e in document["discretizations"].items()}
+
+
+def scripted(Ns) -> tuple[float, dict]:
+    out = tempfile.NamedTemporaryFile(suffix=".json", delete=False)
+    out.close()
+    try:
+        wall = whole([sys.executable, __file__, "--baseline", *map(str, Ns), "--out", out.name], environment(True))
+        return wall, json.loads(Path(out.name).read_text())["t_star"]
+    finally:
+        os.unlink(out.name)
+
+
+def accuracy(curves: dict, truth: dict) -> dict:
+    """The t* accuracy of `curves` ({discretization: {N: t*}}) against tstar_accuracy.json."""
+    out = {}
+    for disc, curve in curves.items():
+        ref = truth["cheb"]["converged"] if disc == "cheb" else truth["fd"]["reference"]
+        bound = ({n: truth["cheb"]["accuracy"] for n in curve} if disc == "cheb" else truth["fd"]["accuracy"])
+        same_fate = all((t is None) == (ref[n] is None) for n, t in curve.items())
+        errors = {n: abs(t - ref[n]) / ref[n] for n, t in curve.items() if t is not None and ref[n] is not None}
+        outside = sorted(int(n) for n, e in errors.items() if bound[n] is not None and e > bound[n])
+        out[disc] = dict(max_error=max(errors.values(), default=0.0), same_fate=same_fate, outside=outside)
+    return out
+
+
+def shown(acc: dict) -> str:
+    return "; ".join(f"{d} t* max error {a['max_error']:.1e}, fails where the converged fails: {a['same_fate']}, "
+                     f"outside the stated accuracy at N {a['outside'] or 'none'}" for d, a in acc.items())
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--json", default=str(ROOT / "data" / "benchmarks" / "tstar_sweep.json"))
+    p.add_argument("--baseline", type=int, nargs="+", help=argparse.SUPPRESS)  # the child: the scipy script
+    p.add_argument("--out", help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.baseline:
+        Path(args.out).write_text(json.dumps(baseline(args.baseline)))
+        return 0
+    truth = json.loads(ACCURACY_FILE.read_text())
+    cases = {"full": dict(project=FULL + ["--plot", "PLOT"], baseline=None),
+             "cheb-sweep": dict(project=["tstar", "--discretization", "cheb", "--N", "21:201:20"], baseline=SWEEP_N),
+             "cheb-201": dict(project=["tstar", "--discretization", "cheb", "--N", "201"], baseline=[201])}
+    rounds = {name: dict(project=[], baseline=[], load=[]) for name in cases}
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        plot = str(folder / "tstar.png")
+        project([a if a != "PLOT" else plot for a in cases["full"]["project"]], folder)  # warm-up, not reported
+        for r in range(args.repeats):
+            for name, case in cases.items():
+                load = os.getloadavg()[0]
+                wall, curves = project([a if a != "PLOT" else plot for a in case["project"]], folder)
+                rounds[name]["project"].append(wall)
+                rounds[name]["load"].append(load)
+                results.setdefault(name, {})["project"] = curves
+                line = f"round {r + 1} {name:10s} load {load:5.2f}  project {wall:6.2f} s"
+                if case["baseline"] is not None:
+                    b_wall, b_curve = scripted(case["baseline"])
+                    rounds[name]["baseline"].append(b_wall)
+                    results[name]["baseline"] = {"cheb": b_curve}
+                    line += f"  baseline {b_wall:6.2f} s  x{b_wall / wall:.1f}"
+                print(line, flush=True)
+    summary = {}
+    for name, case in cases.items():
+        row = dict(command="icidr-pde " + " ".join(a if a != "PLOT" else "tstar.png" for a in case["project"]),
+                   project_s=statistics.median(rounds[name]["project"]), project_rounds=rounds[name]["project"],
+                   load_1min=rounds[name]["load"], project_accuracy=accuracy(results[name]["project"], truth),
+                   project_t_star=results[name]["project"])
+        if case["baseline"] is not None:
+            row.update(baseline="end_to_end.baseline_tstar (scipy BDF, dense analytic Jacobian), "
+                                f"rtol {BASELINE['rtol']:g}, atol {BASELINE['atol']:g}, N = {case['baseline']}",
+                       baseline_s=statistics.median(rounds[name]["baseline"]), baseline_rounds=rounds[name]["baseline"],
+                       baseline_accuracy=accuracy(results[name]["baseline"], truth),
+                       baseline_t_star=results[name]["baseline"]["cheb"])
+            row["speed_up"] = row["baseline_s"] / row["project_s"]
+        summary[name] = row
+        print(f"{name:10s} project {row['project_s']:6.2f} s (median of {args.repeats}; {shown(row['project_accuracy'])})")
+        if case["baseline"] is not None:
+            print(f"{'':10s} baseline {row['baseline_s']:6.2f} s ({shown(row['baseline_accuracy'])}); "
+                  f"x{row['speed_up']:.1f}")
+    write_json(args.json, dict(t_end=T_END, accuracy_file=str(ACCURACY_FILE.relative_to(ROOT)), cases=summary))
+    print(f"written to {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
