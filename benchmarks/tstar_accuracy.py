@@ -18,9 +18,10 @@ one case after the other (one BLAS thread):
   relative, the band a finite-volume t* of any of these tolerances is to be read with.
 * Candidates: each engine / linear solver / tolerance a sweep could use, with its t*, error
   against the above, steps and solve time (:attr:`Result.wall_s`, without set-up) per N. The
-  cheapest candidate meeting the accuracy (Chebyshev: at every N; finite volumes: at every N from
-  ``FD_FROM`` on, the misses below listed) is the ``tstar`` default
-  (:data:`icidr_pde.studies.failure_time.ACCURACY`).
+  cheapest candidate (least solve CPU time summed over the N: on a shared machine the wall time
+  measures the load as much as the run) meeting the accuracy (Chebyshev: at every N, with a margin
+  of ``CHEB_MARGIN``; finite volumes: at every N from ``FD_FROM`` on, the misses below listed) is the
+  ``tstar`` default (:data:`icidr_pde.studies.failure_time.ACCURACY`).
 
 The solve times are those of a shared machine (the provenance records its load): compare them
 within the file, not across files.
@@ -57,6 +58,9 @@ CANDIDATES = (
 )
 #: the accuracy a Chebyshev t* is quoted with (relative, against the converged t*)
 CHEB_ACCURACY = 1e-3
+#: a Chebyshev candidate meets it with this margin (its largest error at most CHEB_ACCURACY / CHEB_MARGIN): the
+#: round-off of another machine's linear algebra moves t*, and a candidate at the edge would not hold there
+CHEB_MARGIN = 2.0
 #: the least relative accuracy claimed for a finite-volume t* (its scatter, where larger, is claimed instead)
 FD_ACCURACY = 1e-2
 #: the finite-volume t* of the N from here on must meet it (issue 40); below, where the t* scatter by
@@ -79,7 +83,8 @@ def one(discretization: str, linear_solver, rtol: float, N: int) -> dict:
                              engine="native")
     finally:
         native_cheb.LINEAR_SOLVER = before
-    return dict(t_star=r["t_star"], wall_s=r["wall_s"], n_steps=r["n_steps"], linear_solver=r["linear_solver"])
+    return dict(t_star=r["t_star"], wall_s=r["wall_s"], cpu_s=r["cpu_s"], n_steps=r["n_steps"],
+                linear_solver=r["linear_solver"])
 
 
 def series(spec, Ns) -> dict:
@@ -90,8 +95,9 @@ def series(spec, Ns) -> dict:
     return dict(discretization=disc, linear_solver=runs[Ns[-1]]["linear_solver"], rtol=rtol, atol=rtol * 1e-3,
                 t_star={str(N): r["t_star"] for N, r in runs.items()},
                 wall_s={str(N): r["wall_s"] for N, r in runs.items()},
+                cpu_s={str(N): r["cpu_s"] for N, r in runs.items()},
                 n_steps={str(N): r["n_steps"] for N, r in runs.items()},
-                solve_s=sum(r["wall_s"] for r in runs.values()))
+                solve_s=sum(r["wall_s"] for r in runs.values()), solve_cpu_s=sum(r["cpu_s"] for r in runs.values()))
 
 
 def relative(t, ref):
@@ -140,27 +146,29 @@ def main(argv=None) -> int:
         row = series(spec, Ns)
         disc = row["discretization"]
         error = {n: relative(row["t_star"][n], truth[disc][n]) for n in keys}
-        misses = [int(n) for n in keys if accuracy[disc][n] is not None and not within(error[n], accuracy[disc][n])]
+        margin = CHEB_MARGIN if disc == "cheb" else 1.0
+        misses = [int(n) for n in keys
+                  if accuracy[disc][n] is not None and not within(error[n], accuracy[disc][n] / margin)]
         checked_from = FD_FROM if disc == "fd" else 0
         row.update(error=error, max_error=max((e for e in error.values() if e is not None), default=None),
                    meets=not [n for n in misses if n >= checked_from], misses=misses, checked_from=checked_from)
         candidates[spec[0]] = row
         print(f"  max error {row['max_error']}  meets {row['meets']}  misses {row['misses']}  "
-              f"solve {row['solve_s']:.2f} s", flush=True)
+              f"solve {row['solve_s']:.2f} s, CPU {row['solve_cpu_s']:.2f} s", flush=True)
     fd_runs = [*tight_fd.values(), *(r for r in candidates.values() if r["discretization"] == "fd")]
     scatter_all = {n: None if reference[n] is None else max((relative(r["t_star"][n], reference[n]) for r in fd_runs),
                                                              key=lambda e: float("inf") if e is None else e)
                    for n in keys}
     choice = {}
     for disc in ("fd", "cheb"):
-        meeting = [(row["solve_s"], label) for label, row in candidates.items()
+        meeting = [(row["solve_cpu_s"], label) for label, row in candidates.items()
                    if row["discretization"] == disc and row["meets"]]
         choice[disc] = min(meeting)[1] if meeting else None
     print(f"cheapest meeting the accuracy: {choice}")
     write_json(args.json, dict(
         case=dict(rheology="mui", scene="shear", engine="native", method="CVODE", t_end=T_END, atol="rtol / 1000"),
         N=Ns, cheb=dict(converged=converged, converged_error=converged_error, accuracy=CHEB_ACCURACY,
-                        runs=tight_cheb),
+                        margin=CHEB_MARGIN, runs=tight_cheb),
         fd=dict(reference=reference, scatter=scatter, accuracy=accuracy["fd"], least_accuracy=FD_ACCURACY,
                 checked_from=FD_FROM, scatter_all=scatter_all, runs=tight_fd),
         candidates=candidates, cheapest=choice))
