@@ -70,8 +70,10 @@ T_END = 20.0
 
 
 def one(discretization: str, linear_solver, rtol: float, N: int) -> dict:
+    """The run ``tstar`` makes of the case (studies.failure_time's, without the max|w| series), on the
+    Chebyshev problem's `linear_solver` ('dense', 'krylov'; None: its default)."""
+    from icidr_pde.api import run
     from icidr_pde.cells.shear1d import native_cheb
-    from icidr_pde.studies.failure_time import failure_time
 
     before = native_cheb.LINEAR_SOLVER
     if linear_solver is not None:
@@ -79,12 +81,12 @@ def one(discretization: str, linear_solver, rtol: float, N: int) -> dict:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            r = failure_time("mui", "shear", discretization, N, T_END, method="CVODE", rtol=rtol, atol=rtol * 1e-3,
-                             engine="native")
+            r = run("mui", "shear", N, T_END, [0.0], discretization=discretization, method="CVODE", rtol=rtol,
+                    atol=rtol * 1e-3, engine="native", series_times=())
     finally:
         native_cheb.LINEAR_SOLVER = before
-    return dict(t_star=r["t_star"], wall_s=r["wall_s"], cpu_s=r["cpu_s"], n_steps=r["n_steps"],
-                linear_solver=r["linear_solver"])
+    return dict(t_star=r.t_star, wall_s=r.wall_s, cpu_s=r.cpu_s, n_steps=int(r.n_steps),
+                linear_solver=r.settings.get("linear_solver"))
 
 
 def series(spec, Ns) -> dict:

@@ -121,7 +121,7 @@ def failure_time(
     ('pde': scipy's or scikit-sundae's solver; 'native' needs method 'CVODE' and takes the
     numba backend's kernels in C); `rtol`, `atol` None: the accuracy preset's for the scheme.
 
-    Returns a dict with N, t_star, reason, wall_s and cpu_s (solve, without set-up), n_steps, n_rhs,
+    Returns a dict with N, t_star, reason, wall_s (solve, without set-up), n_steps, n_rhs,
     n_jac, n_lu, the settings the run used as its :class:`~icidr_pde.result.Result` holds them
     (:data:`SETTINGS`, and discretization) (and, with `return_state`, t_final, z and the final state (3, N) or the
     state at t*; with `times`, snapshot_times and snapshots (n, 3, N) at those reached).
@@ -151,7 +151,7 @@ def failure_record(result) -> dict:
     or of a task of :func:`~icidr_pde.studies.distributed.run_many`): N, t_star, reason, wall_s, the
     counts and the settings (:data:`SETTINGS`, and discretization)."""
     return {"N": result.N, "t_star": result.t_star, "reason": result.reason, "wall_s": result.wall_s,
-            "cpu_s": result.cpu_s, **{k: getattr(result, k) for k in ("rheology", "scene", "discretization", "t_end", "method", "rtol",
+            **{k: getattr(result, k) for k in ("rheology", "scene", "discretization", "t_end", "method", "rtol",
                                                "atol", "jacobian", "material", "scene_params")},
             "engine": result.settings.get("engine"), "linear_solver": result.settings.get("linear_solver"),
             **{k: _int(getattr(result, k)) for k in ("n_steps", "n_rhs", "n_jac", "n_lu")}}
