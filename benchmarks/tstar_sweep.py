@@ -79,9 +79,8 @@ def whole(args: list[str], env: dict) -> float:
     return wall
 
 
-def project(argv: list[str], folder: Path) -> tuple[float, dict]:
-    """Whole-process wall time of ``icidr-pde ARGV --json F --no-progress`` and its t* by discretization."""
-    out = folder / "tstar.json"
+def project(argv: list[str], out: Path) -> tuple[float, dict]:
+    """Whole-process wall time of ``icidr-pde ARGV --json OUT --no-progress`` and its t* by discretization."""
     wall = whole([sys.executable, "-m", "icidr_pde.cli", *argv, "--json", str(out), "--no-progress"],
                  environment(False))
     document = json.loads(out.read_text())
@@ -96,6 +95,22 @@ def scripted(Ns) -> tuple[float, dict]:
         return wall, json.loads(Path(out.name).read_text())["t_star"]
     finally:
         os.unlink(out.name)
+
+
+#: the parts of the full command besides its runs, each a whole process: start and the command's
+#: imports; the same plus a pool of the 2 workers the sweep starts (each importing what a case
+#: needs); the plot of a saved sweep (start, imports, matplotlib, drawing)
+PARTS = {
+    "start and imports": ["-c", "import icidr_pde.cli.tstar"],
+    "start, imports and worker pool": ["-c", "import importlib, multiprocessing, time, icidr_pde.cli.tstar\n"
+                                             "from icidr_pde.studies import parallel\n"
+                                             "if __name__ == '__main__':\n"
+                                             "    parallel.single_thread_environment()\n"
+                                             "    with multiprocessing.get_context('spawn').Pool(\n"
+                                             "            2, importlib.import_module, ('icidr_pde.studies.failure_time',)) as pool:\n"
+                                             "        pool.map(time.sleep, [0.05] * 2, chunksize=1)"],
+    "plot of the saved sweep": ["-m", "icidr_pde.cli", "tstar", "--load", "SWEEP", "--plot", "PLOT"],
+}
 
 
 def accuracy(curves: dict, truth: dict) -> dict:
@@ -135,11 +150,11 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         plot = str(folder / "tstar.png")
-        project([a if a != "PLOT" else plot for a in cases["full"]["project"]], folder)  # warm-up, not reported
+        project([a if a != "PLOT" else plot for a in cases["full"]["project"]], folder / "full.json")  # warm-up
         for r in range(args.repeats):
             for name, case in cases.items():
                 load = os.getloadavg()[0]
-                wall, curves = project([a if a != "PLOT" else plot for a in case["project"]], folder)
+                wall, curves = project([a if a != "PLOT" else plot for a in case["project"]], folder / f"{name}.json")
                 rounds[name]["project"].append(wall)
                 rounds[name]["load"].append(load)
                 results.setdefault(name, {})["project"] = curves
@@ -150,6 +165,12 @@ def main(argv=None) -> int:
                     results[name]["baseline"] = {"cheb": b_curve}
                     line += f"  baseline {b_wall:6.2f} s  x{b_wall / wall:.1f}"
                 print(line, flush=True)
+        parts = {}
+        for part, args_ in PARTS.items():
+            argv_ = [{"SWEEP": str(folder / "full.json"), "PLOT": plot}.get(a, a) for a in args_]
+            parts[part] = statistics.median(whole([sys.executable, *argv_], environment(False))
+                                            for _ in range(args.repeats))
+            print(f"{part:32s} {parts[part]:6.2f} s", flush=True)
     summary = {}
     for name, case in cases.items():
         row = dict(command="icidr-pde " + " ".join(a if a != "PLOT" else "tstar.png" for a in case["project"]),
@@ -168,7 +189,12 @@ def main(argv=None) -> int:
         if case["baseline"] is not None:
             print(f"{'':10s} baseline {row['baseline_s']:6.2f} s ({shown(row['baseline_accuracy'])}); "
                   f"x{row['speed_up']:.1f}")
-    write_json(args.json, dict(t_end=T_END, accuracy_file=str(ACCURACY_FILE.relative_to(ROOT)), cases=summary))
+    full = summary["full"]["project_s"]
+    parts["the runs (the rest)"] = full - parts["start, imports and worker pool"] - (
+        parts["plot of the saved sweep"] - parts["start and imports"])
+    print(f"full command {full:.2f} s: " + ", ".join(f"{k} {v:.2f} s" for k, v in parts.items()))
+    write_json(args.json, dict(t_end=T_END, accuracy_file=str(ACCURACY_FILE.relative_to(ROOT)), cases=summary,
+                               parts_of_the_full_command=parts))
     print(f"written to {args.json}")
     return 0
 

@@ -88,6 +88,12 @@ def _described(accuracy: str, discretization: str) -> str:
     return f"{row['engine']} engine, {row['method']}, rtol {row['rtol']:g}, atol {row['atol']:g}"
 
 
+def _settings_text(runs: dict) -> str:
+    """'native CVODE, rtol 1e-07, atol 1e-10' of a discretization's runs (each setting shown once)."""
+    used = sorted({(r.get("engine"), r.get("method"), r.get("rtol"), r.get("atol")) for r in runs.values()}, key=str)
+    return "; ".join(f"{e} {m}, rtol {rt:g}, atol {at:g}" for e, m, rt, at in used if rt is not None)
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``tstar`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -190,7 +196,7 @@ def cmd(args) -> int:
             return EXIT_INTERRUPTED[interrupted]  # nothing finished: no plot
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
-        plot_tstar(curves, args.plot, t_end=args.t_end,
-                   paper=args.rheology == "mui" and args.scene == "shear")
+        plot_tstar(curves, args.plot, t_end=args.t_end, paper=args.rheology == "mui" and args.scene == "shear",
+                   settings={disc: _settings_text(runs) for disc, runs in results.items()})
         print(f"plot written to {args.plot}")
     return 0 if interrupted is None else EXIT_INTERRUPTED[interrupted]

@@ -23,7 +23,8 @@ import numpy as np
 from ..api import run
 from ..discretizations.grid_size import CHEB, FD
 from ..times import check_t_end
-from .parallel import StudyInterrupted, run_cases
+from ..validation import integer
+from .parallel import StudyInterrupted, max_processes, run_cases
 
 __all__ = ["failure_time", "failure_record", "sweep", "sweep_settings", "parse_range", "tstar_mapping", "tstar_report",
            "read_tstar_curves", "threshold", "SETTINGS", "TSTAR_SCHEMA", "PAPER_TSTAR", "BDF_RTOL", "BDF_ATOL",
@@ -239,6 +240,8 @@ def sweep(
                 out[case["discretization"]][case["N"]] = res
         return {d: dict(sorted(v.items())) for d, v in out.items()}
 
+    if client is None:  # checked as run_cases checks it, then no worker started that would have no case
+        jobs = min(integer("jobs", jobs, 1, max_processes()), max(1, len(cases)))
     try:
         return by_scheme(run_cached(_run_case, cases, cache, "failure_time", jobs=jobs, progress=progress,
                                     postfix=label, desc="t*(N)", client=client,
