@@ -24,7 +24,10 @@ run, and whether every N agrees on failing or not; each finite-volume t* against
 that file's tight runs, with the number of N outside the accuracy stated there.
 
 Timings on a shared machine are upper bounds: the provenance records the load at start and end,
-and the load is printed beside each round.
+and the load is printed beside each round. Beside each wall time the CPU time of the process and
+of its workers (user + system): on a loaded machine a process waits for cores, and its CPU time
+is the better measure of what it costs (on 2 idle cores the full command takes about its CPU time
+over 2 plus what does not run in parallel).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -70,10 +74,18 @@ def environment(blas_one: bool) -> dict:
     return env
 
 
+#: CPU seconds (user + system) of the last process :func:`whole` ran, its worker processes included:
+#: on a loaded machine the wall time waits for cores, the CPU time much less
+LAST_CPU = [0.0]
+
+
 def whole(args: list[str], env: dict) -> float:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=ROOT)
     wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    LAST_CPU[0] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     return wall
@@ -145,7 +157,7 @@ def main(argv=None) -> int:
     cases = {"full": dict(project=FULL + ["--plot", "PLOT"], baseline=None),
              "cheb-sweep": dict(project=["tstar", "--discretization", "cheb", "--N", "21:201:20"], baseline=SWEEP_N),
              "cheb-201": dict(project=["tstar", "--discretization", "cheb", "--N", "201"], baseline=[201])}
-    rounds = {name: dict(project=[], baseline=[], load=[]) for name in cases}
+    rounds = {name: dict(project=[], baseline=[], load=[], project_cpu=[], baseline_cpu=[]) for name in cases}
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -156,45 +168,59 @@ def main(argv=None) -> int:
                 load = os.getloadavg()[0]
                 wall, curves = project([a if a != "PLOT" else plot for a in case["project"]], folder / f"{name}.json")
                 rounds[name]["project"].append(wall)
+                rounds[name]["project_cpu"].append(LAST_CPU[0])
                 rounds[name]["load"].append(load)
                 results.setdefault(name, {})["project"] = curves
-                line = f"round {r + 1} {name:10s} load {load:5.2f}  project {wall:6.2f} s"
+                line = f"round {r + 1} {name:10s} load {load:5.2f}  project {wall:6.2f} s (CPU {LAST_CPU[0]:6.2f} s)"
                 if case["baseline"] is not None:
                     b_wall, b_curve = scripted(case["baseline"])
                     rounds[name]["baseline"].append(b_wall)
+                    rounds[name]["baseline_cpu"].append(LAST_CPU[0])
                     results[name]["baseline"] = {"cheb": b_curve}
-                    line += f"  baseline {b_wall:6.2f} s  x{b_wall / wall:.1f}"
+                    line += (f"  baseline {b_wall:6.2f} s (CPU {LAST_CPU[0]:6.2f} s)  x{b_wall / wall:.1f} wall, "
+                             f"x{LAST_CPU[0] / rounds[name]['project_cpu'][-1]:.1f} CPU")
                 print(line, flush=True)
-        parts = {}
+        parts, parts_cpu = {}, {}
         for part, args_ in PARTS.items():
             argv_ = [{"SWEEP": str(folder / "full.json"), "PLOT": plot}.get(a, a) for a in args_]
-            parts[part] = statistics.median(whole([sys.executable, *argv_], environment(False))
-                                            for _ in range(args.repeats))
-            print(f"{part:32s} {parts[part]:6.2f} s", flush=True)
+            walls, cpus = [], []
+            for _ in range(args.repeats):
+                walls.append(whole([sys.executable, *argv_], environment(False)))
+                cpus.append(LAST_CPU[0])
+            parts[part] = statistics.median(walls)
+            parts_cpu[part] = statistics.median(cpus)
+            print(f"{part:32s} {parts[part]:6.2f} s, CPU {parts_cpu[part]:6.2f} s", flush=True)
     summary = {}
     for name, case in cases.items():
         row = dict(command="icidr-pde " + " ".join(a if a != "PLOT" else "tstar.png" for a in case["project"]),
                    project_s=statistics.median(rounds[name]["project"]), project_rounds=rounds[name]["project"],
+                   project_cpu_s=statistics.median(rounds[name]["project_cpu"]),
+                   project_cpu_rounds=rounds[name]["project_cpu"],
                    load_1min=rounds[name]["load"], project_accuracy=accuracy(results[name]["project"], truth),
                    project_t_star=results[name]["project"])
         if case["baseline"] is not None:
             row.update(baseline="end_to_end.baseline_tstar (scipy BDF, dense analytic Jacobian), "
                                 f"rtol {BASELINE['rtol']:g}, atol {BASELINE['atol']:g}, N = {case['baseline']}",
                        baseline_s=statistics.median(rounds[name]["baseline"]), baseline_rounds=rounds[name]["baseline"],
+                       baseline_cpu_s=statistics.median(rounds[name]["baseline_cpu"]),
+                       baseline_cpu_rounds=rounds[name]["baseline_cpu"],
                        baseline_accuracy=accuracy(results[name]["baseline"], truth),
                        baseline_t_star=results[name]["baseline"]["cheb"])
             row["speed_up"] = row["baseline_s"] / row["project_s"]
+            row["speed_up_cpu"] = row["baseline_cpu_s"] / row["project_cpu_s"]
         summary[name] = row
-        print(f"{name:10s} project {row['project_s']:6.2f} s (median of {args.repeats}; {shown(row['project_accuracy'])})")
+        print(f"{name:10s} project {row['project_s']:6.2f} s, CPU {row['project_cpu_s']:6.2f} s (median of "
+              f"{args.repeats}; {shown(row['project_accuracy'])})")
         if case["baseline"] is not None:
-            print(f"{'':10s} baseline {row['baseline_s']:6.2f} s ({shown(row['baseline_accuracy'])}); "
-                  f"x{row['speed_up']:.1f}")
-    full = summary["full"]["project_s"]
-    parts["the runs (the rest)"] = full - parts["start, imports and worker pool"] - (
-        parts["plot of the saved sweep"] - parts["start and imports"])
-    print(f"full command {full:.2f} s: " + ", ".join(f"{k} {v:.2f} s" for k, v in parts.items()))
+            print(f"{'':10s} baseline {row['baseline_s']:6.2f} s, CPU {row['baseline_cpu_s']:6.2f} s "
+                  f"({shown(row['baseline_accuracy'])}); x{row['speed_up']:.1f} wall, x{row['speed_up_cpu']:.1f} CPU")
+    for times, key in ((parts, "project_s"), (parts_cpu, "project_cpu_s")):
+        full = summary["full"][key]
+        times["the runs (the rest)"] = full - times["start, imports and worker pool"] - (
+            times["plot of the saved sweep"] - times["start and imports"])
+        print(f"full command {full:.2f} s ({key}): " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items()))
     write_json(args.json, dict(t_end=T_END, accuracy_file=str(ACCURACY_FILE.relative_to(ROOT)), cases=summary,
-                               parts_of_the_full_command=parts))
+                               parts_of_the_full_command=parts, parts_of_the_full_command_cpu=parts_cpu))
     print(f"written to {args.json}")
     return 0
 
