@@ -373,8 +373,8 @@ def test_gallery_numbers_that_quote_committed_data_are_that_data():
     assert figures["tstar2d"]["t_star_2d"] == committed
     assert figures["tstar2d"]["t_star_1d_fails_from_N"] == min(
         r["N"] for r in data("sim2d/tstar.json")["rows"] if r["t_star_1d"] is not None)
-    assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_CHEB)[201]
-    assert figures["fig4"]["cheb_threshold_N"] == first_failing_N(tstar_sweep(TSTAR_CHEB))
+    assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_STATED, "cheb")[201]
+    assert figures["fig4"]["cheb_threshold_N"] == first_failing_N(tstar_sweep(TSTAR_STATED, "cheb"))
     # the fresh runs of the gallery agree with the committed ones to the digits the pages quote
     assert agrees(f"{committed['64']:.4g}", figures["bump2d"]["t_star_mui"])
 

@@ -154,13 +154,14 @@ def fig4(runs):
     N, t = _load_tstar(FIG4B_SWEEP, "cheb")
     ax.plot(N, t, "o", color="k", ms=3, mfc="none",
             label=f"Chebyshev, icidr-pde tstar\n({_sweep_settings(FIG4B_SWEEP, 'cheb')})")
-    ax.plot([cheb.N], [cheb.t_star], "*", color="tab:red", ms=12, label=f"this run, N = {cheb.N}")
+    ax.plot([cheb.N], [cheb.t_star], "*", color="tab:red", ms=12,
+            label=f"panel (a)'s run, N = {cheb.N} ({cheb.method}, rtol {cheb.rtol:g})")
     ax.set_yscale("log")
     ax.set(xlabel="$N_z$", ylabel="$t_*$", title="(b)  no failure by t = 20 below the threshold")
     threshold = int(N[np.isfinite(t)].min())
     ax.axvline(threshold - 1, color="gray", lw=0.6, ls=":")
     ax.text(threshold + 3, 0.5 * np.nanmax(t), f"fails for $N_z \\geq$ {threshold}", fontsize=8, va="top")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     numbers.update(paper_t_star=PAPER_TSTAR_CHEB, cheb_threshold_N=threshold,
                    cheb_t_star_N201_data=float(t[N == 201][0]))
