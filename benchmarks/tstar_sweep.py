@@ -14,7 +14,7 @@ unreported warm-up of the project (the kernel cache filled: "warm"):
 
 **Baseline**: end_to_end.py's plain numpy + scipy script (:func:`end_to_end.baseline_tstar`: the
 Chebyshev collocation written out, the dense analytic Jacobian, scipy's BDF stepped by hand to the
-failure), at the paper's tolerances (rtol 1e-6, atol 1e-9), t_end = 20, run as
+failure), at the paper's tolerances (rtol 1e-6, atol 1e-9; ``--baseline-rtol`` another), t_end = 20, run as
 ``python benchmarks/tstar_sweep.py --baseline N ...`` with OPENBLAS_NUM_THREADS=1 (one thread:
 end_to_end.py's docstring says why).
 
@@ -49,7 +49,8 @@ from provenance import ROOT, write_json  # noqa: E402
 ACCURACY_FILE = ROOT / "data" / "tstar" / "tstar_accuracy.json"
 FULL = ["tstar", "--rheology", "mui", "--scene", "shear", "--discretization", "fd", "cheb", "--N", "21:201:2"]
 SWEEP_N = list(range(21, 202, 20))
-#: the baseline's tolerances: the paper's (scipy's BDF as the paper's ode15s)
+#: the baseline's tolerances: by default the paper's (scipy's BDF as the paper's ode15s);
+#: ``--baseline-rtol`` another (atol = rtol / 1000)
 BASELINE = dict(rtol=1e-6, atol=1e-9)
 T_END = 20.0
 
@@ -103,7 +104,8 @@ def scripted(Ns) -> tuple[float, dict]:
     out = tempfile.NamedTemporaryFile(suffix=".json", delete=False)
     out.close()
     try:
-        wall = whole([sys.executable, __file__, "--baseline", *map(str, Ns), "--out", out.name], environment(True))
+        wall = whole([sys.executable, __file__, "--baseline", *map(str, Ns), "--out", out.name,
+                      "--baseline-rtol", repr(BASELINE["rtol"])], environment(True))
         return wall, json.loads(Path(out.name).read_text())["t_star"]
     finally:
         os.unlink(out.name)
@@ -134,13 +136,16 @@ def accuracy(curves: dict, truth: dict) -> dict:
         same_fate = all((t is None) == (ref[n] is None) for n, t in curve.items())
         errors = {n: abs(t - ref[n]) / ref[n] for n, t in curve.items() if t is not None and ref[n] is not None}
         outside = sorted(int(n) for n, e in errors.items() if bound[n] is not None and e > bound[n])
-        out[disc] = dict(max_error=max(errors.values(), default=0.0), same_fate=same_fate, outside=outside)
+        claimed_from = truth["fd"]["checked_from"] if disc == "fd" else 0  # the N the accuracy is stated for
+        out[disc] = dict(max_error=max(errors.values(), default=0.0), same_fate=same_fate, outside=outside,
+                         outside_where_stated=[n for n in outside if n >= claimed_from])
     return out
 
 
 def shown(acc: dict) -> str:
     return "; ".join(f"{d} t* max error {a['max_error']:.1e}, fails where the converged fails: {a['same_fate']}, "
-                     f"outside the stated accuracy at N {a['outside'] or 'none'}" for d, a in acc.items())
+                     f"outside the stated accuracy where it is stated at N {a['outside_where_stated'] or 'none'} "
+                     f"(anywhere: {a['outside'] or 'none'})" for d, a in acc.items())
 
 
 def main(argv=None) -> int:
@@ -149,7 +154,10 @@ def main(argv=None) -> int:
     p.add_argument("--json", default=str(ROOT / "data" / "benchmarks" / "tstar_sweep.json"))
     p.add_argument("--baseline", type=int, nargs="+", help=argparse.SUPPRESS)  # the child: the scipy script
     p.add_argument("--out", help=argparse.SUPPRESS)
+    p.add_argument("--baseline-rtol", type=float, default=BASELINE["rtol"],
+                   help="the baseline's rtol (atol = rtol / 1000; default: the paper's 1e-6)")
     args = p.parse_args(argv)
+    BASELINE.update(rtol=args.baseline_rtol, atol=args.baseline_rtol * 1e-3)
     if args.baseline:
         Path(args.out).write_text(json.dumps(baseline(args.baseline)))
         return 0
