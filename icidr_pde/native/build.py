@@ -44,9 +44,6 @@ __all__ = ["NativeUnavailable", "sundials", "library", "LIBRARY_FLAGS"]
 
 LIBRARY_FLAGS = ("-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fvisibility=hidden")
 _LIBRARIES: dict[str, ctypes.CDLL] = {}
-#: the library of a law in a cell, once this process has loaded it: the cache name's key reads and
-#: hashes the source of every module the C is made from, which took longer than a small run's solve
-_LOADED: dict[tuple, ctypes.CDLL] = {}
 _LOCK = threading.Lock()
 
 
@@ -140,16 +137,25 @@ def _compiler() -> str:
     return cc
 
 
+#: the parts of a library's key read from this package's sources, by cell: read (and the cell's
+#: class found in its file) once a process, since a sweep asked for them at every run, which took
+#: longer than a small run's solve; the sources of a process's loaded code do not change under it
+_SOURCE_KEYS: dict[type, tuple[str, str]] = {}
+
+
 def _key(rheology, kinematics, libs, index, cc) -> str:
     from ..rheology import codegen
 
     friction, dilatancy = rheology.material.law_key()
+    if type(kinematics) not in _SOURCE_KEYS:
+        _SOURCE_KEYS[type(kinematics)] = (
+            "\n".join([codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode")]),
+            "\n".join([type(kinematics).__qualname__, inspect.getsource(type(kinematics)), _template(kinematics),
+                       _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__)]))
+    generator, cell = _SOURCE_KEYS[type(kinematics)]
     return "\n".join([
-        codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
-        rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
-        dilatancy.__qualname__, type(kinematics).__qualname__, inspect.getsource(type(kinematics)),
-        _template(kinematics), _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__),
-        *map(str, libs), index, cc, *LIBRARY_FLAGS])
+        generator, rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
+        dilatancy.__qualname__, cell, *map(str, libs), index, cc, *LIBRARY_FLAGS])
 
 
 def _source(rheology, kinematics, index, libs=()) -> str:
@@ -170,18 +176,11 @@ def library(rheology, kinematics) -> ctypes.CDLL:
     from .. import kernel_cache
     from ..rheology import codegen
 
-    friction, dilatancy = rheology.material.law_key()
-    law = (rheology.definition_key(), type(rheology), friction, dilatancy, type(kinematics),
-           os.environ.get("CC", "gcc"))
-    with _LOCK:
-        if law in _LOADED:
-            return _LOADED[law]
     libdir, libs, index = sundials()
     cc = _compiler()
     name = kernel_cache.stem("native", codegen._digest(_key(rheology, kinematics, libs, index, cc)))
     with _LOCK:
         if name in _LIBRARIES:
-            _LOADED[law] = _LIBRARIES[name]
             return _LIBRARIES[name]
         for attempt in range(2):
             try:
@@ -204,7 +203,7 @@ def library(rheology, kinematics) -> ctypes.CDLL:
                 path.unlink(missing_ok=True)  # rebuilt by the next run
                 raise NativeUnavailable(f"native library not loadable: {err}") from None
         _declare(lib, kinematics)
-        _LIBRARIES[name] = _LOADED[law] = lib
+        _LIBRARIES[name] = lib
         return lib
 
 
