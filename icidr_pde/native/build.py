@@ -137,25 +137,25 @@ def _compiler() -> str:
     return cc
 
 
-#: the parts of a library's key read from this package's sources, by cell: read (and the cell's
-#: class found in its file) once a process, since a sweep asked for them at every run, which took
-#: longer than a small run's solve; the sources of a process's loaded code do not change under it
-_SOURCE_KEYS: dict[type, tuple[str, str]] = {}
+#: the source of each cell's kinematics class, found once a process: inspect finds a class by
+#: tokenizing its module, which took 18 ms, longer than a small run's solve, at every run of a sweep
+#: (a class's source does not change under the process that loaded it)
+_CLASS_SOURCES: dict[type, str] = {}
 
 
 def _key(rheology, kinematics, libs, index, cc) -> str:
     from ..rheology import codegen
 
     friction, dilatancy = rheology.material.law_key()
-    if type(kinematics) not in _SOURCE_KEYS:
-        _SOURCE_KEYS[type(kinematics)] = (
-            "\n".join([codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode")]),
-            "\n".join([type(kinematics).__qualname__, inspect.getsource(type(kinematics)), _template(kinematics),
-                       _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__)]))
-    generator, cell = _SOURCE_KEYS[type(kinematics)]
+    kind = type(kinematics)
+    if kind not in _CLASS_SOURCES:
+        _CLASS_SOURCES[kind] = inspect.getsource(kind)
     return "\n".join([
-        generator, rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
-        dilatancy.__qualname__, cell, *map(str, libs), index, cc, *LIBRARY_FLAGS])
+        codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
+        rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
+        dilatancy.__qualname__, kind.__qualname__, _CLASS_SOURCES[kind],
+        _template(kinematics), _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__),
+        *map(str, libs), index, cc, *LIBRARY_FLAGS])
 
 
 def _source(rheology, kinematics, index, libs=()) -> str:
