@@ -138,8 +138,8 @@ def _compiler() -> str:
 
 
 #: the source of each cell's kinematics class, found once a process: inspect finds a class by
-#: tokenizing its module, which took 18 ms, longer than a small run's solve, at every run of a sweep
-#: (a class's source does not change under the process that loaded it)
+#: tokenizing its module, which took longer than a small run's solve at every run of a sweep
+#: (docs/performance.md; a class's source does not change under the process that loaded it)
 _CLASS_SOURCES: dict[type, str] = {}
 
 

@@ -51,7 +51,7 @@ def _openblas_libraries():
     try:
         with open("/proc/self/maps") as fh:
             # the lines naming openblas picked first: a regular expression over every line of a
-            # process with hundreds of libraries mapped took milliseconds
+            # process with hundreds of libraries mapped cost more than a small case's solve
             paths = sorted({path for line in fh.read().splitlines() if "openblas" in line
                             for path in re.findall(r"(/\S*openblas\S*\.so\S*)", line)})
     except OSError:
