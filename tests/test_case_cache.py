@@ -17,7 +17,8 @@ from icidr_pde.studies import case_cache
 
 ft = importlib.import_module("icidr_pde.studies.failure_time")  # the module (the package exports its function)
 
-ARGV = ["tstar", "--discretization", "fd", "--N", "21,25,29", "--t-end", "0.02", "--jobs", "1", "--no-progress"]
+ARGV = ["tstar", "--discretization", "fd", "--N", "21,25,29", "--t-end", "0.02", "--accuracy", "paper", "--jobs", "1",
+        "--no-progress"]
 
 
 @pytest.fixture

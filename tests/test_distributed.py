@@ -20,7 +20,7 @@ pytest.importorskip("distributed", reason="dask.distributed is not installed (th
 from icidr_pde.cli import main  # noqa: E402
 from icidr_pde.result import Result  # noqa: E402
 from icidr_pde.studies.distributed import TaskError, cluster, run_many  # noqa: E402
-from icidr_pde.studies.failure_time import sweep  # noqa: E402
+from icidr_pde.studies.failure_time import sweep, tstar_report  # noqa: E402
 
 ANCHOR_TSTAR_CHEB_201 = 0.010581191657354078
 SWEEP = dict(rheology="mui", scene="shear", t_end=20.0, method="BDF", backend="numpy")
@@ -53,7 +53,7 @@ def test_a_sweep_as_tasks_gives_the_serial_t_star_bit_for_bit(client, serial_swe
 def test_tstar_on_a_scheduler_writes_the_serial_mapping(client, serial_sweep, tmp_path, capsys):
     out = tmp_path / "tstar.json"
     # N = 101 only: the N = 201 task is the sweep test's
-    code = main(["tstar", "--discretization", "cheb", "--N", "101", "--t-end", "20",
+    code = main(["tstar", "--discretization", "cheb", "--N", "101", "--t-end", "20", "--accuracy", "paper",
                  "--scheduler", client.scheduler.address, "--json", str(out)])
     assert code == 0
     written = json.loads(out.read_text())["discretizations"]["cheb"]["t_star"]
@@ -76,6 +76,7 @@ def test_run_many_returns_results_in_order_with_failures_as_values(client):
     assert error.case == cases[2] and "no-such-law" in error.error and "Traceback" in error.traceback
     serial = run_many(cases[:2])
     assert [r.t_star for r in serial] == [r.t_star for r in results[:2]]
+    assert tstar_report(results[:2]) == tstar_report(serial)  # the tstar --json document of tasks is the serial one
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -77,12 +77,18 @@ TSTAR_CHEB = "tstar/mui_shear_cheb_BDF_rtol1e-6_atol1e-9.json"
 TSTAR_FD = "tstar/mui_shear_fd_BDF_rtol1e-6_atol1e-9.json"
 
 
-def tstar_sweep(path):
-    """N -> t* (None: no failure by t_end) of a committed sweep, in either of its two forms."""
-    doc = data(path)
-    if "cases" in doc:  # the `tstar --json` document
-        return {int(c["N"]): c["t_star"] for c in doc["cases"]}
-    return {int(n): t for n, t in doc.items()}
+TSTAR_STATED = "tstar/mui_shear_stated.json"
+TSTAR_ACCURACY = "tstar/tstar_accuracy.json"
+
+
+def tstar_sweep(path, discretization=None):
+    """N -> t* (None: no failure by t_end) of a committed sweep, in either of its forms (the `tstar
+    --json` document: the curve of `discretization`)."""
+    from icidr_pde.studies.failure_time import read_tstar_curves
+
+    curves = read_tstar_curves(data(path))
+    curve = curves[discretization] if discretization is not None else next(iter(curves.values()))
+    return {int(n): t for n, t in curve.items()}
 
 
 def tolerance_run(discretization, method, rtol, atol):
@@ -140,6 +146,37 @@ def test_chebyshev_headline_and_fig4b():
     assert m, "chebyshev.md: the thresholds sentence changed; update this test with it"
     assert int(m.group(1)) == first_failing_N(cheb) and agrees(m.group(2), cheb[first_failing_N(cheb)])
     assert int(m.group(3)) == first_failing_N(fd) and agrees(m.group(4), fd[first_failing_N(fd)])
+
+
+def test_chebyshev_fig4b_default_and_the_accuracy_of_a_tstar():
+    """docs/chebyshev.md's fig 4(b) of the default settings and its accuracy statement, against
+    data/tstar/mui_shear_stated.json and data/tstar/tstar_accuracy.json."""
+    text = page("chebyshev.md")
+    cheb, fd = tstar_sweep(TSTAR_STATED, "cheb"), tstar_sweep(TSTAR_STATED, "fd")
+    m = re.search(r"The default finds the same: Chebyshev from N = (\d+) on\s+\(t\* = ([\d.]+) at N = \d+\), "
+                  r"finite volumes from N = (\d+) on \(t\* = ([\d.]+) at N = \d+\)", text)
+    assert m, "chebyshev.md: the default's thresholds sentence changed; update this test with it"
+    assert int(m.group(1)) == first_failing_N(cheb) and agrees(m.group(2), cheb[first_failing_N(cheb)])
+    assert int(m.group(3)) == first_failing_N(fd) and agrees(m.group(4), fd[first_failing_N(fd)])
+    study = data(TSTAR_ACCURACY)
+    assert agrees(re.search(r"rtol 1e-9 and 1e-10\s+agree to ([\d.e-]+) at every N", text).group(1),
+                  max(study["cheb"]["converged_error"].values()))
+    scatter = {int(n): e for n, e in study["fd"]["scatter"].items() if study["fd"]["reference"][n] is not None}
+    every = {int(n): e for n, e in study["fd"]["scatter_all"].items() if e is not None}
+    m = re.search(r"scatter by up to ([\d.]+) % of\s+their median at N ≥ 121 and up to ([\d.]+) %", text)
+    assert agrees(m.group(1) + "%", max(e for n, e in scatter.items() if n >= 121))
+    assert agrees(m.group(2) + "%", max(e for n, e in scatter.items() if n < 121))
+    m = re.search(r"lies within ([\d.]+) % of the\s+median at N ≥ 121, within ([\d.]+) % below", text)
+    assert agrees(m.group(1) + "%", max(e for n, e in every.items() if n >= 121))
+    assert agrees(m.group(2) + "%", max(e for n, e in every.items() if n < 121))
+    rows = table_after(text, "load of the run):")
+    assert [r[0] for r in rows[1:]] == list(study["candidates"])
+    for row in rows[1:]:
+        candidate = study["candidates"][row[0]]
+        assert agrees(row[1], candidate["max_error"]), row
+        assert agrees(row[3], candidate["solve_cpu_s"]), row
+        assert int(row[4]) == sum(candidate["n_steps"].values()), row
+        assert (row[5] == "yes") == candidate["meets"], row
 
 
 def test_chebyshev_tstar_against_the_linear_solver():
@@ -336,8 +373,8 @@ def test_gallery_numbers_that_quote_committed_data_are_that_data():
     assert figures["tstar2d"]["t_star_2d"] == committed
     assert figures["tstar2d"]["t_star_1d_fails_from_N"] == min(
         r["N"] for r in data("sim2d/tstar.json")["rows"] if r["t_star_1d"] is not None)
-    assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_CHEB)[201]
-    assert figures["fig4"]["cheb_threshold_N"] == first_failing_N(tstar_sweep(TSTAR_CHEB))
+    assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_STATED, "cheb")[201]
+    assert figures["fig4"]["cheb_threshold_N"] == first_failing_N(tstar_sweep(TSTAR_STATED, "cheb"))
     # the fresh runs of the gallery agree with the committed ones to the digits the pages quote
     assert agrees(f"{committed['64']:.4g}", figures["bump2d"]["t_star_mui"])
 
@@ -348,7 +385,8 @@ MEASUREMENT_PAGES = ("chebyshev.md", "performance.md", "scaling.md", "engines.md
                      "distributed.md")
 #: the tables of those pages checked above, by a line of their introduction
 CHECKED = {"chebyshev.md": ("### t* against the linear solver and the Krylov tolerance",
-                            "BDF (scipy), rtol = 1e-6, analytic Jacobian", "## t* depends on the integrator"),
+                            "BDF (scipy), rtol = 1e-6, analytic Jacobian", "## t* depends on the integrator",
+                            "load of the run):"),
            "performance.md": ("(data/benchmarks/cheb_krylov_rtol.json;",),
            "engines.md": ("2 December 2026 on the shared 2-core machine at load 2.8-3.7",
                           "(`--sizes 32 48 64 96 --rhs-sizes --json", "The right-hand side alone at the initial state"),

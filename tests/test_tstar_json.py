@@ -17,11 +17,11 @@ from icidr_pde import cli
 from icidr_pde.api import run
 from icidr_pde.studies.failure_time import SETTINGS, TSTAR_SCHEMA, read_tstar_curves, tstar_report
 
-ARGV = ["tstar", "--rheology", "mui", "--scene", "shear", "--jobs", "1", "--no-progress"]
+ARGV = ["tstar", "--rheology", "mui", "--scene", "shear", "--accuracy", "paper", "--jobs", "1", "--no-progress"]
 
 
 def _result(disc, N, t_end):
-    """The run a sweep of the CLI's defaults makes, by the API itself."""
+    """The run a sweep of ``--accuracy paper`` makes, by the API itself."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return run("mui", "shear", N, t_end, [0.0], discretization=disc, method="BDF", rtol=1e-6, atol=1e-9,
@@ -157,7 +157,7 @@ def test_a_law_file_is_taken_as_run_takes_it(tmp_path, capsys):
     law = Path(__file__).resolve().parents[1] / "examples" / "half_rate_law.toml"
     out = tmp_path / "law.json"
     argv = ["tstar", "--rheology", str(law), "--scene", "sine", "--discretization", "fd", "--N", "11",
-            "--t-end", "0.02", "--jobs", "2", "--no-progress"]
+            "--t-end", "0.02", "--accuracy", "paper", "--jobs", "2", "--no-progress"]
     assert cli.main(argv + ["--json", str(out)]) == 0
     entry = json.loads(out.read_text())["discretizations"]["fd"]
     with warnings.catch_warnings():
@@ -175,3 +175,23 @@ def test_a_law_file_is_taken_as_run_takes_it(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("icidr-pde: error:") and rheology in err, err
         assert not (tmp_path / "no.json").exists()
+
+
+def _cases():
+    """The cases of the `one` fixture's command, as run_many takes them (keyword arguments of api.run)."""
+    return [dict(rheology="mui", scene="shear", N=N, t_end=0.2, times=[0.0], discretization="fd", method="BDF",
+                 rtol=1e-6, atol=1e-9, engine="pde", backend="numpy", series_times=()) for N in (101, 21)]
+
+
+def test_run_many_results_make_the_document_the_command_writes(one):
+    """tstar_report of run_many's Results (in this process) is the command's document for the same
+    cases, whatever their order; a case whose run raised is refused in one line."""
+    from icidr_pde.studies.distributed import run_many
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = run_many(_cases())
+    assert tstar_report(results) == json.loads(one.read_text())
+    bad = run_many([dict(rheology="no-such-law", N=21, t_end=0.01)])
+    with pytest.raises(ValueError, match=r"`results\[1\]` must be a Result"):
+        tstar_report([results[0], *bad])

@@ -5,10 +5,12 @@
 
 The JSON (:func:`~icidr_pde.studies.failure_time.tstar_report`, docs/cli.md) holds, for each
 discretization, the settings the runs used, t* by N (as a string; null where the run reached
-t-end without failing) and the reason each N failed. ``--engine native`` runs each case on the
-native engine (CVODE, tolerances of the standard preset unless given: Chebyshev rtol 1e-7, atol 1e-10)
-instead of scipy's BDF at rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the
-paper's t* are pinned on). Several discretizations at once
+t-end without failing) and the reason each N failed. ``--accuracy stated`` (the default) runs each
+case with the least costly settings that meet the accuracy stated for a t*
+(:data:`~icidr_pde.studies.failure_time.ACCURACY`: the native engine, CVODE; Chebyshev within 1e-3
+of the converged t*, finite volumes within their scatter); ``--accuracy paper`` with scipy's BDF at
+rtol 1e-6, atol 1e-9 (the path fig 4(b)'s committed data and the paper's t* are pinned on).
+``--engine``, ``--method``, ``--rtol``, ``--atol`` given take the place of the accuracy's. Several discretizations at once
 (``--discretization fd cheb``) are entries of the same document; ``--load label=file.json`` adds
 saved sweeps to the plot. ``--rheology`` takes a registered law or a law file, as ``run`` does (each
 worker process reads the file itself: a Python law file is run in each). Interrupted (Ctrl-C, SIGTERM), the
@@ -31,8 +33,8 @@ from ..outputs import check_outputs, write_json
 from ..rheology.law_files import is_file_law, load_law_file
 from ..scenes import SCENES
 from ..studies.parallel import StudyInterrupted
-from ..studies.failure_time import (BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep, threshold,
-                                   tstar_mapping, tstar_report)
+from ..studies.failure_time import (ACCURACY, BDF_ATOL, BDF_RTOL, parse_range, read_tstar_curves, sweep,
+                                   threshold, tstar_mapping, tstar_report)
 from ..times import check_t_end
 from ..validation import integer, real
 from .argtypes import add_rheology_option
@@ -81,6 +83,17 @@ def _load_curves(text: str) -> dict[str, dict]:
     return curves
 
 
+def _described(accuracy: str, discretization: str) -> str:
+    row = ACCURACY[accuracy][discretization]
+    return f"{row['engine']} engine, {row['method']}, rtol {row['rtol']:g}, atol {row['atol']:g}"
+
+
+def _settings_text(runs: dict) -> str:
+    """'native CVODE, rtol 1e-07, atol 1e-10' of a discretization's runs (each setting shown once)."""
+    used = sorted({(r.get("engine"), r.get("method"), r.get("rtol"), r.get("atol")) for r in runs.values()}, key=str)
+    return "; ".join(f"{e} {m}, rtol {rt:g}, atol {at:g}" for e, m, rt, at in used if rt is not None)
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``tstar`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -95,16 +108,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="start:stop:step with stop included, e.g. 21:201:2 (default), "
                         "or a comma-separated list")
     p.add_argument("--t-end", type=float, default=20.0, help="a run that reaches it did not fail")
-    p.add_argument("--engine", choices=[r for r in REQUESTS if r in ("pde", "native", "petsc")], default="pde",
-                   help="pde (default): scipy's or scikit-sundae's solver on the py-pde scheme; native: the "
-                        "compiled problem and CVODE (Chebyshev: GMRES with the low-order band preconditioner); petsc: "
-                        "PETSc on a 2-D scene (runs under mpiexec: docs/distributed.md)")
+    p.add_argument("--accuracy", choices=sorted(ACCURACY), default="stated",
+                   help="stated (default): the least costly settings meeting the stated accuracy of a t* "
+                        f"(Chebyshev within 1e-3 of the converged t*: {_described('stated', 'cheb')}; finite "
+                        f"volumes within their scatter: {_described('stated', 'fd')}; docs/chebyshev.md); "
+                        f"paper: the paper's ({_described('paper', 'cheb')})")
+    p.add_argument("--engine", choices=[r for r in REQUESTS if r in ("pde", "native", "petsc")], default=None,
+                   help="default: the accuracy's; pde: scipy's or scikit-sundae's solver on the py-pde scheme "
+                        "(the paper's settings); native: the compiled problem and CVODE (Chebyshev: GMRES with "
+                        "the low-order band preconditioner; the stated settings); petsc: PETSc on a 2-D scene "
+                        "(runs under mpiexec: docs/distributed.md)")
     p.add_argument("--method", choices=sorted(METHODS), default=None,
-                   help="integrator (default: BDF; CVODE with --engine native)")
-    p.add_argument("--rtol", type=float, default=None,
-                   help="relative tolerance (default: 1e-6; with --engine native the standard preset's)")
-    p.add_argument("--atol", type=float, default=None,
-                   help="absolute tolerance (default: 1e-9; with --engine native the standard preset's)")
+                   help="integrator (default: the accuracy's; a method of scipy's runs on --engine pde)")
+    p.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the accuracy's)")
+    p.add_argument("--atol", type=float, default=None, help="absolute tolerance (default: the accuracy's)")
     p.add_argument("--jacobian", choices=JACOBIAN_MODES, default=None,
                    help="default: the method's own (analytic for BDF and Radau)")
     p.add_argument("--backend", choices=["numpy", "numba"], default="numpy",
@@ -132,14 +149,10 @@ def cmd(args) -> int:
         results = {}
     else:
         Ns = parse_range(args.N or "21:201:2")
-        native = args.engine in ("native", "petsc")  # petsc: CVODE asked, the preset's tolerances, as native
-        method = args.method or ("CVODE" if native else "BDF")
-        if native and method != "CVODE":
-            raise ValueError(f"`--method` must be CVODE with `--engine {args.engine}`; got {method!r}")
-        default_rtol, default_atol = (None, None) if native else (BDF_RTOL, BDF_ATOL)  # None: the preset's, per scheme
-        rtol = default_rtol if args.rtol is None else args.rtol
-        atol = default_atol if args.atol is None else args.atol
-        check_tolerances(BDF_RTOL if rtol is None else rtol, BDF_ATOL if atol is None else atol)  # those given
+        if args.engine in ("native", "petsc") and args.method not in (None, "CVODE"):
+            raise ValueError(f"`--method` must be CVODE with `--engine {args.engine}`; got {args.method!r}")
+        check_tolerances(BDF_RTOL if args.rtol is None else args.rtol,
+                         BDF_ATOL if args.atol is None else args.atol)  # those given
         check_t_end(args.t_end)
         check_cache_option(args)
         if is_file_law(args.rheology):  # read here, before any run: a file that cannot be used is bad input
@@ -150,9 +163,9 @@ def cmd(args) -> int:
                     discretizations = args.discretization or [getattr(SCENES[args.scene], "discretization", "fd")]
                     results = sweep(Ns, tuple(dict.fromkeys(discretizations)), jobs=args.jobs,
                                     progress=not args.no_progress, client=client, cache=args.cache,
-                                    rheology=args.rheology, scene=args.scene, t_end=args.t_end, method=method,
-                                    rtol=rtol, atol=atol, jacobian=args.jacobian,
-                                    backend=args.backend, engine=args.engine)
+                                    accuracy=args.accuracy, rheology=args.rheology, scene=args.scene,
+                                    t_end=args.t_end, engine=args.engine, method=args.method, rtol=args.rtol,
+                                    atol=args.atol, jacobian=args.jacobian, backend=args.backend)
             except StudyInterrupted as stop:  # the workers are stopped; what finished is written
                 results, interrupted = stop.done, signals.received or signal.SIGINT
             except KeyboardInterrupt:  # before the first case started
@@ -186,7 +199,7 @@ def cmd(args) -> int:
             return EXIT_INTERRUPTED[interrupted]  # nothing finished: no plot
         if not curves:
             raise ValueError("nothing to plot: give --N or --load")
-        plot_tstar(curves, args.plot, t_end=args.t_end,
-                   paper=args.rheology == "mui" and args.scene == "shear")
+        plot_tstar(curves, args.plot, t_end=args.t_end, paper=args.rheology == "mui" and args.scene == "shear",
+                   settings={disc: _settings_text(runs) for disc, runs in results.items()})
         print(f"plot written to {args.plot}")
     return 0 if interrupted is None else EXIT_INTERRUPTED[interrupted]

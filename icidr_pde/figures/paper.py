@@ -94,17 +94,38 @@ def fig3(runs):
 
 # --- figure 4 ----------------------------------------------------------------------------------------------------------
 
-def _load_tstar(name):
+#: fig 4(b)'s sweep, written by ``icidr-pde tstar --rheology mui --scene shear --discretization fd cheb
+#: --N 21:201:2 --json data/tstar/mui_shear_stated.json`` (its default settings, ``--accuracy stated``)
+FIG4B_SWEEP = "mui_shear_stated.json"
+
+
+def _load_tstar(name, discretization=None):
+    """(N, t*) of the committed sweep `name` (NaN: no failure), of its one discretization or `discretization`."""
     path = DATA / "tstar" / name
     from ..studies.failure_time import read_tstar_curves
 
-    (data,) = read_tstar_curves(json.loads(path.read_text())).values()  # one discretization, in either form
+    curves = read_tstar_curves(json.loads(path.read_text()))  # either form
+    (data,) = curves.values() if discretization is None else (curves[discretization],)
     N = np.array(sorted(int(k) for k in data))
     t = np.array([np.nan if data[str(n)] is None else data[str(n)] for n in N], dtype=float)
     return N, t
 
 
-@register_figure("fig4", "max|w|(t) of the four mu(I) runs with t* marked; t*(N) of the Chebyshev scheme",
+def _sweep_settings(name, discretization) -> str:
+    """How the sweep's runs of `discretization` were computed, as its document records them."""
+    s = json.loads((DATA / "tstar" / name).read_text())["discretizations"][discretization]["settings"]
+    return f"{s['engine']} {s['method']}, {s['linear_solver']}, rtol {s['rtol']:g}, atol {s['atol']:g}"
+
+
+def _stated(discretization) -> str:
+    from ..studies.failure_time import ACCURACY
+
+    row = ACCURACY["stated"][discretization]
+    return f"{row['engine']} {row['method']}, rtol {row['rtol']:g}, atol {row['atol']:g}"
+
+
+@register_figure("fig4", "max|w|(t) of the four mu(I) runs with t* marked; t*(N) of the Chebyshev scheme "
+                         f"(the sweep of icidr-pde tstar's default: {_stated('cheb')})",
                  "Fig 4: (a) max|w|(t), finite differences dashed, Chebyshev solid, N = 201 red, N = 47 blue, "
                  "t* = 0.01052 indicated; (b) t* against N (Chebyshev)", source="computed + data/tstar/")
 def fig4(runs):
@@ -130,15 +151,17 @@ def fig4(runs):
     ax.set(xlabel="t", ylabel="max|w|", title="(a) max|w|(t) of the four runs", xlim=(1e-4, 10), ylim=(1e-4, 5))
     ax.legend(fontsize=8, loc="lower left")
     ax = axes[1]
-    N, t = _load_tstar("mui_shear_cheb_BDF_rtol1e-6_atol1e-9.json")
-    ax.plot(N, t, "o", color="k", ms=3, mfc="none", label="Chebyshev (data/tstar, icidr-pde tstar)")
-    ax.plot([cheb.N], [cheb.t_star], "*", color="tab:red", ms=12, label=f"this run, N = {cheb.N}")
+    N, t = _load_tstar(FIG4B_SWEEP, "cheb")
+    ax.plot(N, t, "o", color="k", ms=3, mfc="none",
+            label=f"Chebyshev, icidr-pde tstar\n({_sweep_settings(FIG4B_SWEEP, 'cheb')})")
+    ax.plot([cheb.N], [cheb.t_star], "*", color="tab:red", ms=12,
+            label=f"panel (a)'s run, N = {cheb.N} ({cheb.method}, rtol {cheb.rtol:g})")
     ax.set_yscale("log")
     ax.set(xlabel="$N_z$", ylabel="$t_*$", title="(b)  no failure by t = 20 below the threshold")
     threshold = int(N[np.isfinite(t)].min())
     ax.axvline(threshold - 1, color="gray", lw=0.6, ls=":")
     ax.text(threshold + 3, 0.5 * np.nanmax(t), f"fails for $N_z \\geq$ {threshold}", fontsize=8, va="top")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     numbers.update(paper_t_star=PAPER_TSTAR_CHEB, cheb_threshold_N=threshold,
                    cheb_t_star_N201_data=float(t[N == 201][0]))

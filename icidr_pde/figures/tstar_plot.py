@@ -9,8 +9,10 @@ __all__ = ["plot_tstar"]
 
 
 def plot_tstar(curves: dict[str, dict], path: str, *, title: str | None = None,
-               t_end: float | None = None, paper: bool = True) -> None:
-    """Fig 4(b): t* against N, one curve per label; runs without failure marked at the bottom."""
+               t_end: float | None = None, paper: bool = True, settings: dict[str, str] | None = None) -> None:
+    """Fig 4(b): t* against N, one curve per label; runs without failure marked at the bottom.
+    `settings` ({label: text}) says in the legend how a curve was computed (a t* is quoted with its
+    integrator and tolerances)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -30,6 +32,8 @@ def plot_tstar(curves: dict[str, dict], path: str, *, title: str | None = None,
         t_f = [t for n, t in items if t is not None]
         thr = threshold(mapping)
         extra = f", all fail for N >= {thr}" if thr is not None else ""
+        if settings and settings.get(label):
+            extra += f"\n({settings[label]})"
         ax.plot(n_f, t_f, ms=3, lw=1, label=f"{names.get(label, label)}{extra}", **style)
         n_ok = [n for n, t in items if t is None]
         if n_ok:

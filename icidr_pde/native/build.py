@@ -137,14 +137,23 @@ def _compiler() -> str:
     return cc
 
 
+#: the source of each cell's kinematics class, found once a process: inspect finds a class by
+#: tokenizing its module, which took longer than a small run's solve at every run of a sweep
+#: (docs/performance.md; a class's source does not change under the process that loaded it)
+_CLASS_SOURCES: dict[type, str] = {}
+
+
 def _key(rheology, kinematics, libs, index, cc) -> str:
     from ..rheology import codegen
 
     friction, dilatancy = rheology.material.law_key()
+    kind = type(kinematics)
+    if kind not in _CLASS_SOURCES:
+        _CLASS_SOURCES[kind] = inspect.getsource(kind)
     return "\n".join([
         codegen._generator_key(), codegen._module_source("icidr_pde.rheology.ccode"),
         rheology.definition_key(), type(rheology).__qualname__, friction.__qualname__,
-        dilatancy.__qualname__, type(kinematics).__qualname__, inspect.getsource(type(kinematics)),
+        dilatancy.__qualname__, kind.__qualname__, _CLASS_SOURCES[kind],
         _template(kinematics), _text("sundials_api.h"), _driver(kinematics), codegen._module_source(__name__),
         *map(str, libs), index, cc, *LIBRARY_FLAGS])
 

@@ -40,22 +40,38 @@ _THREAD_SYMBOLS = (("openblas_set_num_threads", "openblas_get_num_threads"),
                    ("openblas_set_num_threads64_", "openblas_get_num_threads64_"))
 
 
+#: (set_threads, get_threads) of each OpenBLAS library path found, None where it has neither: a
+#: library once loaded stays, and opening and asking it again at every case of a serial study cost more
+#: than a small case's solve
+_THREAD_FUNCTIONS: dict[str, tuple | None] = {}
+
+
 def _openblas_libraries():
     """(name, set_threads, get_threads) of every OpenBLAS library loaded in this process."""
     try:
         with open("/proc/self/maps") as fh:
-            paths = sorted(set(re.findall(r"(/\S*openblas\S*\.so\S*)", fh.read())))
+            # the lines naming openblas picked first: a regular expression over every line of a
+            # process with hundreds of libraries mapped cost more than a small case's solve
+            paths = sorted({path for line in fh.read().splitlines() if "openblas" in line
+                            for path in re.findall(r"(/\S*openblas\S*\.so\S*)", line)})
     except OSError:
         return
     for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for setter, getter in _THREAD_SYMBOLS:
-            if hasattr(lib, setter) and hasattr(lib, getter):
-                yield os.path.basename(path), getattr(lib, setter), getattr(lib, getter)
-                break
+        if path not in _THREAD_FUNCTIONS:
+            _THREAD_FUNCTIONS[path] = _thread_functions(path)
+        if _THREAD_FUNCTIONS[path] is not None:
+            yield (os.path.basename(path), *_THREAD_FUNCTIONS[path])
+
+
+def _thread_functions(path: str):
+    try:
+        lib = ctypes.CDLL(path)
+    except OSError:
+        return None
+    for setter, getter in _THREAD_SYMBOLS:
+        if hasattr(lib, setter) and hasattr(lib, getter):
+            return getattr(lib, setter), getattr(lib, getter)
+    return None
 
 
 def blas_threads() -> dict[str, int]:
