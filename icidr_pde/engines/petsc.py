@@ -155,6 +155,7 @@ class PetscEngine(Engine):
         split = linear_solver.proc_sizes(self.comm.size) if shell is not None else None
         self.grid = None if problem.patches is None else BlockGrid(PETSc, problem.patches, self.comm, split)
         self._shell = None if shell is None else shell(PETSc, self.grid)
+        self._solver_options = getattr(linear_solver, "petsc_options", {})
         if self.grid is None:
             self.x = PETSc.Vec().createMPI(n, comm=self.comm)
             self.order = np.arange(n)
@@ -219,9 +220,11 @@ class PetscEngine(Engine):
         PETSc, problem = self.PETSc, self.problem
         db = PETSc.Options()
         options = options or {}
-        defaults = dict(DEFAULTS, pc_type="python") if self._shell is not None else DEFAULTS
-        # the engine's own PC type is this run's, not the next one's (the options database outlives a run)
-        own_pc = "pc_type" not in options and not db.hasName("pc_type")
+        solver_options = self._solver_options if self._shell is not None else {}
+        defaults = dict(DEFAULTS, **solver_options)
+        # the linear solver's own settings are this run's, not the next run's (the options database
+        # outlives a run): those the user did not set are taken out again below
+        own = [key for key in solver_options if key not in options and not db.hasName(key)]
         pc_type = options.get("pc_type") or db.getString("pc_type", defaults["pc_type"])
         if (options.get("ts_type") or db.getString("ts_type", DEFAULTS["ts_type"])) == "bdf":
             # the run's setting, set on every run (the options database outlives a run)
@@ -278,8 +281,8 @@ class PetscEngine(Engine):
         pc = ts.getSNES().getKSP().getPC()
         if pc.getType() == "python" and self._shell is not None:
             pc.setPythonContext(self._shell)
-        if own_pc:
-            db.delValue("pc_type")
+        for key in own:
+            db.delValue(key)
         ts.setUp()
         self._keep_mass(ts.getSNES())
         return ts

@@ -12,8 +12,8 @@ distributed here is how its data reaches it:
   (PETSc's shift I - J of the assembled Jacobian) over x; the small arrays of all ranks are
   gathered on every rank (m (2 band + 1) (2 reach + 1) numbers for m = 3 Nz unknowns of a
   column), where a new Jacobian was assembled. Between Jacobians only the shift changes: its
-  change is read from the matrix's diagonal (one reduction) and the banded systems are factored
-  again, not averaged.
+  change is read from the matrix's diagonal (one reduction), and the banded systems are
+  factored again, not averaged, where it moved by more than :data:`LAG`.
 * The solve: the real FFT in x of each rank's rows; one transpose to wave-number slabs (each rank
   then holds all z of its own wave numbers, Nx / 2 + 1 of them shared as evenly as they go)
   and the banded solves there; the transpose back and the inverse FFT. The transposes are one
@@ -39,7 +39,13 @@ from .xfourier_inverse import XFourierFactors
 
 numba_saves_may_fail()
 
-__all__ = ["XFourierShell"]
+__all__ = ["XFourierShell", "LAG"]
+
+#: the factors are kept while the mean of the matrix's diagonal (the shift, plus the mean of -J's
+#: diagonal) stays within this fraction of the one they were factored at, as CVODE keeps its
+#: preconditioner while gamma stays within 0.2 of its own (CVLS_DGMAX): between Jacobians most
+#: Newton systems then reuse the factors, which cost Nx / 2 + 1 banded LUs each
+LAG = 0.2
 
 
 class XFourierShell:
@@ -86,8 +92,8 @@ class XFourierShell:
         self._mine = PETSc.Vec().createMPI((self.local_average.size, None), comm=comm)
         self._gather, self._all = PETSc.Scatter.toAll(self._mine)
         self.m, self.per_row = dof * nz, per_row
-        self.factors, self.fresh, self.shift_change = None, True, None
-        self._diagonal = self._first_diagonal = None
+        self.factors, self.fresh, self._diagonal = None, True, None
+        self.averaged_mean = self.factored_mean = None
         self.n_averages = self.n_factors = 0
 
     def new_jacobian(self):
@@ -99,17 +105,16 @@ class XFourierShell:
         if self._diagonal is None:
             self._diagonal = P.createVecLeft()
         P.getDiagonal(self._diagonal)
+        mean = self._diagonal.sum() / self._diagonal.getSize()  # the shift, and the operator's scale
         if self.fresh or self.factors is None:
             self._average(P)
-            self._first_diagonal = self._diagonal.copy()
-            change = 0.0
-        else:  # the same values, another shift: D I + (x-average as averaged)
-            self._diagonal.axpy(-1.0, self._first_diagonal)
-            change = self._diagonal.sum() / self._diagonal.getSize()
-        if change != self.shift_change:
-            self.factors.factor(1.0, change)
-            self.shift_change = change
-            self.n_factors += 1
+            self.averaged_mean = mean
+        elif abs(mean - self.factored_mean) <= LAG * abs(self.factored_mean):
+            return  # the factors of a nearby shift precondition as well
+        # the same values, another shift: (its change) I + (the average as averaged)
+        self.factors.factor(1.0, mean - self.averaged_mean)
+        self.factored_mean = mean
+        self.n_factors += 1
 
     def _average(self, P):
         """The x-average of this rank's rows of P, gathered on every rank, and its factors' set-up."""
@@ -126,7 +131,7 @@ class XFourierShell:
         self._gather.scatter(self._mine, self._all, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         average = np.array(self._all.getArray(readonly=True)).reshape(self.m * (2 * self.band + 1), -1)
         self.factors = XFourierFactors(average, self.nx, self.band, self.reach, self.modes)
-        self.fresh, self.shift_change = False, None
+        self.fresh = False
         self.n_averages += 1
 
     def apply(self, pc, x, y):
