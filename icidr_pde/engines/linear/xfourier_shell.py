@@ -92,8 +92,8 @@ class XFourierShell:
         self._mine = PETSc.Vec().createMPI((self.local_average.size, None), comm=comm)
         self._gather, self._all = PETSc.Scatter.toAll(self._mine)
         self.m, self.per_row = dof * nz, per_row
-        self.factors, self.fresh, self._diagonal = None, True, None
-        self.averaged_mean = self.factored_mean = None
+        self.factors, self.fresh, self._diagonal, self._averaged = None, True, None, None
+        self.averaged_mean = self.factored_change = None
         self.n_averages = self.n_factors = 0
 
     def new_jacobian(self):
@@ -105,15 +105,18 @@ class XFourierShell:
         if self._diagonal is None:
             self._diagonal = P.createVecLeft()
         P.getDiagonal(self._diagonal)
-        mean = self._diagonal.sum() / self._diagonal.getSize()  # the shift, and the operator's scale
+        size = self._diagonal.getSize()
         if self.fresh or self.factors is None:
             self._average(P)
-            self.averaged_mean = mean
-        elif abs(mean - self.factored_mean) <= LAG * abs(self.factored_mean):
-            return  # the factors of a nearby shift precondition as well
-        # the same values, another shift: (its change) I + (the average as averaged)
-        self.factors.factor(1.0, mean - self.averaged_mean)
-        self.factored_mean = mean
+            self._averaged = self._diagonal.copy()
+            self.averaged_mean, change = self._diagonal.sum() / size, 0.0  # the shift, and the operator's scale
+        else:  # the same values, another shift: its change entry by entry (exact but for the shifts' round-off)
+            self._diagonal.axpy(-1.0, self._averaged)
+            change = self._diagonal.sum() / size
+            if abs(change - self.factored_change) <= LAG * abs(self.averaged_mean + self.factored_change):
+                return  # the factors of a nearby shift precondition as well
+        self.factors.factor(1.0, change)  # (the shift's change) I + (the average as averaged)
+        self.factored_change = change
         self.n_factors += 1
 
     def _average(self, P):
@@ -137,17 +140,17 @@ class XFourierShell:
     def apply(self, pc, x, y):
         """y = the preconditioner's inverse of x: FFT in x, transpose, banded solves, back."""
         PETSc = self.PETSc
-        rows = x.getArray(readonly=True).reshape(self.ze - self.zs, self.nx, self.dof)
-        spectrum = np.fft.rfft(rows, axis=1)  # (z, k, field) of this rank's rows
-        self.spectrum.setArray(np.ascontiguousarray(spectrum).view(np.float64).reshape(-1))
+        shape = (self.ze - self.zs, self.nx, self.dof)
+        spectrum = self.spectrum.getArray().view(np.complex128).reshape(shape[0], -1, self.dof)
+        np.fft.rfft(x.getArray(readonly=True).reshape(shape), axis=1, out=spectrum)  # (z, k, field), this rank's
         self.transpose.scatter(self.spectrum, self.columns, addv=PETSc.InsertMode.INSERT,
                                mode=PETSc.ScatterMode.FORWARD)
         columns = self.columns.getArray().view(np.complex128).reshape(len(self.modes), self.m)
         self.factors.solve(columns)  # in the vector's own memory
         self.transpose.scatter(self.columns, self.spectrum, addv=PETSc.InsertMode.INSERT,
                                mode=PETSc.ScatterMode.REVERSE)
-        spectrum = self.spectrum.getArray(readonly=True).view(np.complex128).reshape(self.ze - self.zs, -1, self.dof)
-        y.setArray(np.fft.irfft(spectrum, n=self.nx, axis=1).reshape(-1))
+        spectrum = self.spectrum.getArray(readonly=True).view(np.complex128).reshape(shape[0], -1, self.dof)
+        np.fft.irfft(spectrum, n=self.nx, axis=1, out=y.getArray().reshape(shape))
 
 
 @njit(cache=True)
