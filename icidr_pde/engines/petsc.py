@@ -220,11 +220,11 @@ class PetscEngine(Engine):
         PETSc, problem = self.PETSc, self.problem
         db = PETSc.Options()
         options = options or {}
-        solver_options = self._solver_options if self._shell is not None else {}
-        defaults = dict(DEFAULTS, **solver_options)
-        # the linear solver's own settings are this run's, not the next run's (the options database
-        # outlives a run): those the user did not set are taken out again below
-        own = [key for key in solver_options if key not in options and not db.hasName(key)]
+        defaults = dict(DEFAULTS, **(self._solver_options if self._shell is not None else {}))
+        # the defaults are this run's, not the next run's (the options database outlives a run, and the
+        # next may take another linear solver's): those the user did not set are taken out again once
+        # read, but for the blocks' (sub_*: read when the blocks are set up, at the first solve)
+        own = [key for key in defaults if key not in options and not db.hasName(key) and not key.startswith("sub_")]
         pc_type = options.get("pc_type") or db.getString("pc_type", defaults["pc_type"])
         if (options.get("ts_type") or db.getString("ts_type", DEFAULTS["ts_type"])) == "bdf":
             # the run's setting, set on every run (the options database outlives a run)
