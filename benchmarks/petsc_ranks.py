@@ -1,4 +1,4 @@
-"""The PETSc engine on 1 and more MPI ranks, and against another checkout of the code.
+"""The PETSc engine on 1 and more MPI ranks, against the serial default, and against another checkout of the code.
 
 iCIDR bump2d on N^2 cells to t_end, ``--engine petsc`` with its defaults, as one whole
 ``mpiexec -n P`` process per line (its wall time is what the user waits for: start-up, kernel
@@ -13,6 +13,16 @@ max|w|(t_end), l2_velocity(t_end), the mass drift and, relative to the first lin
 difference of the max|w| series.
 
     nice -n 10 python benchmarks/petsc_ranks.py --N 64 --ranks 1 2 [--code DIR ...]
+    nice -n 10 python benchmarks/petsc_ranks.py --N 256 512 --t-end 10 --ranks 1 2 --serial --json out.json
+
+``--serial`` measures first, per N, the serial default (``run`` with no engine asked: CVODE,
+GMRES preconditioned by the x-Fourier inverse on the 2-D cell) as one whole process of the same
+interpreter and thread settings, and states each PETSc line's whole process against it
+(``vs serial``) as well as against the first PETSc line. The accuracy beside every line is
+also stated against the grid-converged value, where data/sim2d/richardson.json has it (the
+Richardson extrapolation of max|w| and the l2 velocity at t = 10, central advection): a PETSc
+line and the serial default at the same N and tolerances have the same grid error, so their
+errors against it should agree to the time error. ``uptime`` is printed before every line.
 
 The launcher is the mpiexec of PETSc's own MPI (``engines.petsc.mpiexec()``), not the first on
 PATH. ``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
@@ -35,6 +45,45 @@ from provenance import write_json
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply", "PCSetUp", "PCSetUpOnBlocks", "MatMult", "TSStep")
+#: the thread settings of every child: one BLAS thread (PETSc's vector operations call OpenBLAS,
+#: whose spinning threads took 10x their time on the loaded machine)
+THREADS = dict(OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+
+
+def serial_child(N: int, t_end: float, out: str) -> None:
+    """The serial default on one whole process (the parent times it)."""
+    from icidr_pde import run
+
+    r = run("icidr", "bump2d", t_end=t_end, N=(N, N), progress=False,
+            times=["0", str(t_end)], series_times=list(np.linspace(0, t_end, 21)[1:]))
+    d = r.to_dict()
+    write_json(out, dict(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=1,
+                         linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
+                         l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
+                         compile_s=r.compile_s, cpu_s=time.process_time(),
+                         rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024), stamp=False, indent=None)
+
+
+def converged(t_end: float) -> dict:
+    """The grid-converged max|w| and l2 velocity at t_end (data/sim2d/richardson.json, central), or {}."""
+    path = ROOT / "data" / "sim2d" / "richardson.json"
+    try:
+        schemes = json.loads(path.read_text())["schemes"]["central"]
+        return {q: schemes[q][f"{t_end:g}"]["q_inf"] for q in ("max_w", "l2_velocity")}
+    except (OSError, KeyError, ValueError):
+        return {}
+
+
+def serial(N: int, t_end: float) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "s")
+        env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg", **THREADS)
+        start = time.perf_counter()
+        subprocess.run([sys.executable, __file__, "--serial-child", str(N), str(t_end), out], env=env, check=True)
+        whole = time.perf_counter() - start
+        r = json.loads(pathlib.Path(out).read_text())
+    r["process_s"] = whole
+    return r
 
 
 def child(N: int, t_end: float, out: str) -> None:
@@ -73,8 +122,7 @@ def one(code: str, ranks: int, N: int, t_end: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "r")
         env = dict(os.environ, PYTHONPATH=code, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", OMP_NUM_THREADS="1",
-                   OPENBLAS_NUM_THREADS="1")
+                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", **THREADS)
         command = [launcher(), "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end), out]
         start = time.perf_counter()
         subprocess.run(command, env=env, check=True)
@@ -93,20 +141,48 @@ def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         child(int(sys.argv[2]), float(sys.argv[3]), sys.argv[4])
         return
+    if len(sys.argv) > 1 and sys.argv[1] == "--serial-child":
+        serial_child(int(sys.argv[2]), float(sys.argv[3]), sys.argv[4])
+        return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--N", type=int, nargs="+", default=[64])
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--t-end", type=float, default=2.0)
     ap.add_argument("--code", action="append", default=None, help="checkout to run (PYTHONPATH); default: this one")
+    ap.add_argument("--serial", action="store_true", help="measure the serial default first, per N")
+    ap.add_argument("--json", default=None, help="write every line's record here")
     args = ap.parse_args()
     codes = args.code or [str(ROOT)]
-    print(f"uptime: {os.popen('uptime').read().strip()}")
+    limit = converged(args.t_end)
+    lines = []
+
+    def accuracy(r) -> str:
+        if not limit:
+            return ""
+        return (f"; against the grid-converged value: max|w| {(r['max_w'] - limit['max_w']) / limit['max_w']:+.2e}, "
+                f"l2_velocity {(r['l2'] - limit['l2_velocity']) / limit['l2_velocity']:+.2e}")
+
     for N in args.N:
-        base = None
+        base, baseline = None, None
+        if args.serial:
+            print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
+            baseline = serial(N, args.t_end)
+            lines.append(dict(baseline, N=N, code=str(ROOT), engine="serial default"))
+            print(f"N={N}^2 serial default ({baseline['linear_solver']}, {baseline['method']}): process "
+                  f"{baseline['process_s']:.1f} s, solve {baseline['wall_s']:.1f} s, {baseline['steps']} steps, "
+                  f"process CPU {baseline['cpu_s']:.1f} s, peak RSS {baseline['rss_mib']:.0f} MiB; "
+                  f"max|w|({args.t_end:g}) {baseline['max_w']:.6e}, l2_velocity {baseline['l2']:.6e}, "
+                  f"mass drift {baseline['mass_drift']:.1e}{accuracy(baseline)}", flush=True)
         for code in codes:
             for ranks in args.ranks:
+                print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
                 r = one(code, ranks, N, args.t_end)
+                lines.append(dict(r, N=N, code=code, engine="petsc"))
                 base = base or r
+                against = "" if baseline is None else (
+                    f", {r['process_s'] / baseline['process_s']:.2f}x the serial default's process, max|w| "
+                    f"{(r['max_w'] - baseline['max_w']) / baseline['max_w']:+.1e} and l2_velocity "
+                    f"{(r['l2'] - baseline['l2']) / baseline['l2']:+.1e} from it")
                 dev = np.max(np.abs(np.array(r["series"]) - base["series"])) / np.max(np.abs(base["series"]))
                 print(f"N={N}^2 code={code} ranks={ranks} ({r['linear_solver']}, {r['method']}, settings.ranks "
                       f"{r['ranks']}): process {r['process_s']:.1f} s ({base['process_s'] / r['process_s']:.2f}x), "
@@ -115,8 +191,12 @@ def main() -> None:
                       f"({r['TSFunctionEval_n']} calls), Jacobian per rank {r['TSJacobianEval_ranks_s']} s "
                       f"({r['TSJacobianEval_n']} calls); KSPSolve per rank {r['KSPSolve_ranks_s']} s "
                       f"({r['PCApply_n']} preconditioner applications); process CPU per rank {r['cpu_ranks_s']} s; "
+                      f"peak RSS rank 0 {r['rss_mib']:.0f} MiB; "
                       f"max|w|({args.t_end:g}) {r['max_w']:.6e}, l2_velocity {r['l2']:.6e}, "
-                      f"mass drift {r['mass_drift']:.1e}, max|w| series vs first line {dev:.1e}", flush=True)
+                      f"mass drift {r['mass_drift']:.1e}, max|w| series vs first line {dev:.1e}"
+                      f"{against}{accuracy(r)}", flush=True)
+    if args.json:
+        write_json(args.json, dict(t_end=args.t_end, converged=limit, lines=lines))
 
 
 if __name__ == "__main__":

@@ -115,7 +115,7 @@ def fourier_row(n: int, gamma: float, J, M, b) -> dict:
     P = XFourierPreconditioner(J, (3, n, n), gamma)
     setup = time.process_time() - start
     return {"N": n, "preconditioner": "x-Fourier as wired (--jacobian fourier)", "setup_s": setup,
-            "fill": P.lu.size / M.nnz, **gmres_with(M, P.solve, b)}
+            "fill": P.factors.lu.size / M.nnz, **gmres_with(M, P.solve, b)}
 
 
 def measure(n: int, gamma: float, amg_only: bool = False, t: float = 0.0) -> list[dict]:

@@ -159,6 +159,7 @@ def test_bump2d_agrees_with_the_default_to_t_10():
     petsc = run("icidr", "bump2d", engine="petsc", **kwargs).to_dict()
     default = run("icidr", "bump2d", **kwargs).to_dict()
     assert petsc["settings"]["max_order"] == default["settings"]["max_order"] == 2
+    assert petsc["settings"]["linear_solver"].endswith("PC x-Fourier")  # the 2-D cell's default on PETSc
     for q in ("max_w", "max_phi_dev", "l2_velocity"):
         for t in times:
             assert petsc[q][t] == pytest.approx(default[q][t], rel=1e-3), (q, t)

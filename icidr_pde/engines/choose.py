@@ -209,14 +209,16 @@ def _structure(flags) -> JacobianStructure:
 
 
 def _petsc_choice(jacobian, structure, max_order, warning, schemes) -> Choice:
-    """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov (GMRES + block Jacobi/ILU by default)."""
+    """The PETSc engine: the analytic sparse Jacobian, Newton-Krylov: GMRES preconditioned by the
+    registry's first PETSc solver that applies (the x-Fourier inverse on the 2-D cell), else by
+    block Jacobi/ILU."""
     if not structure.sparse:
         sparse = [name for name, offered in schemes.items() if offered.sparse]
         which = f" ({', '.join(sparse)})" if sparse else ""
         raise ParameterError(f"`engine`='petsc' needs a discretization with a sparse Jacobian{which}; got a dense one")
     if jacobian not in (None, "sparse"):
         raise ParameterError(f"`jacobian` must be 'sparse' on the PETSc engine; got {jacobian!r}")
-    solver = PetscGmres()
+    solver = next((s for s in SOLVERS if s.applies(PETSC_METHOD, "sparse", structure)), PetscGmres())
     return Choice("petsc", "sparse", solver.name, max_order=max_order, warning=warning, solver=solver)
 
 

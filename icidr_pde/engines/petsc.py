@@ -1,6 +1,9 @@
 """PETSc through petsc4py behind the :class:`~.base.Engine` protocol: TS (BDF by default), SNES
-Newton on the analytic sparse Jacobian, KSP GMRES preconditioned by block Jacobi/ILU (or GAMG, ASM: options),
-on one rank or many (``mpiexec -n P``).
+Newton on the analytic sparse Jacobian, KSP GMRES preconditioned by the linear solver's shell
+preconditioner where it brings one (the 2-D cell's x-Fourier inverse,
+:class:`~.linear.xfourier.PetscXFourier`, on a grid split along z only), else by block
+Jacobi/ILU (or GAMG, ASM: options, ``-pc_type`` overriding either), on one rank or many
+(``mpiexec -n P``).
 
 Distribution: where the problem brings its scheme on patches (``Problem.patches``, the 2-D
 cell's :class:`~icidr_pde.cells.plane2d.pde.Patches`), the grid is a DMDA (x
@@ -145,7 +148,12 @@ class PetscEngine(Engine):
         PETSc.Sys.pushErrorHandler("python")  # an interrupt is said once, by the run path, not as PETSc's traceback
         self.n_jac, self._values, self._evaluated, self._last_keys = 0, None, (0, 0, 0), None
         n = problem.y0.size
-        self.grid = None if problem.patches is None else BlockGrid(PETSc, problem.patches, self.comm)
+        # a shell preconditioner of the linear solver's (the x-Fourier inverse) asks for its split of the grid
+        shell = getattr(linear_solver, "shell", None) if problem.patches is not None else None
+        split = linear_solver.proc_sizes(self.comm.size) if shell is not None else None
+        self.grid = None if problem.patches is None else BlockGrid(PETSc, problem.patches, self.comm, split)
+        self._shell = None if shell is None else shell(PETSc, self.grid)
+        self._solver_options = getattr(linear_solver, "petsc_options", {})
         if self.grid is None:
             self.x = PETSc.Vec().createMPI(n, comm=self.comm)
             self.order = np.arange(n)
@@ -158,9 +166,10 @@ class PetscEngine(Engine):
         self._pattern(problem.jacobian.sparsity, n)
         self.max_order = int(max_order)  # TSBDF's order
         self.ts = self._make_ts(t0, rtol, atol, max_step, first_step, options)
+        pc = self.ts.getSNES().getKSP().getPC()
         self.linear_solver = "PETSc TS {} + SNES {} + KSP {} + PC {}".format(
             self.ts.getType(), self.ts.getSNES().getType(), self.ts.getSNES().getKSP().getType(),
-            self.ts.getSNES().getKSP().getPC().getType())
+            "x-Fourier" if self._shell is not None and pc.getType() == "python" else pc.getType())
         self.ranks = self.comm.size
         self.ran = "PETSC-" + str(self.ts.getType()).upper()  # -ts_type may have changed the default BDF
         if self.ranks > 1:
@@ -208,11 +217,16 @@ class PetscEngine(Engine):
         PETSc, problem = self.PETSc, self.problem
         db = PETSc.Options()
         options = options or {}
-        pc_type = options.get("pc_type") or db.getString("pc_type", DEFAULTS["pc_type"])
+        defaults = dict(DEFAULTS, **(self._solver_options if self._shell is not None else {}))
+        # the defaults are this run's, not the next run's (the options database outlives a run, and the
+        # next may take another linear solver's): those the user did not set are taken out again once
+        # read, but for the blocks' (sub_*: read when the blocks are set up, at the first solve)
+        own = [key for key in defaults if key not in options and not db.hasName(key) and not key.startswith("sub_")]
+        pc_type = options.get("pc_type") or db.getString("pc_type", defaults["pc_type"])
         if (options.get("ts_type") or db.getString("ts_type", DEFAULTS["ts_type"])) == "bdf":
             # the run's setting, set on every run (the options database outlives a run)
             options = dict(options, ts_bdf_order=self.max_order)
-        for key, value in dict(DEFAULTS, **options).items():
+        for key, value in dict(defaults, **options).items():
             if key.startswith("sub_") and key not in options and pc_type not in BLOCK_PCS:
                 continue  # another -pc_type has no blocks: PETSc would warn of an unused option
             if not db.hasName(key) or key in options:
@@ -233,6 +247,8 @@ class PetscEngine(Engine):
         def jacobian(ts, t, x, J, P):
             if self._stale(ts):
                 self.n_jac += 1
+                if self._shell is not None:
+                    self._shell.new_jacobian()
                 if self.grid is not None and self.grid.has_jacobian:
                     self._values = self._pattern_values(*self.grid.jacobian_rows(x))
                 else:
@@ -259,6 +275,11 @@ class PetscEngine(Engine):
         if np.isfinite(max_step) and not db.hasName("ts_adapt_dt_max"):
             db.setValue("ts_adapt_dt_max", max_step)
         ts.setFromOptions()
+        pc = ts.getSNES().getKSP().getPC()
+        if pc.getType() == "python" and self._shell is not None:
+            pc.setPythonContext(self._shell)
+        for key in own:
+            db.delValue(key)
         ts.setUp()
         self._keep_mass(ts.getSNES())
         return ts

@@ -44,7 +44,7 @@ from .precond import jacobian_precond
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 
-__all__ = ["XFourierPreconditioner", "xfourier_preconditioner"]
+__all__ = ["XFourierPreconditioner", "XFourierFactors", "x_average", "xfourier_preconditioner"]
 
 
 class XFourierPreconditioner:
@@ -58,7 +58,8 @@ class XFourierPreconditioner:
 
     The coupling of unknown (f, ix, iz) to (g, ix + dx, iz + dz) becomes, averaged over ix, the
     coefficient of row q = fields * iz + f and band position q' - q (q' = fields * (iz + dz) + g)
-    with phase exp(2 pi i k dx / Nx) in wave number k.
+    with phase exp(2 pi i k dx / Nx) in wave number k (:func:`x_average`); :class:`XFourierFactors`
+    factors and solves the banded systems.
     """
 
     def __init__(self, J, shape, gamma: float):
@@ -67,26 +68,8 @@ class XFourierPreconditioner:
             raise ParameterError(f"`J` must be {fields * nx * nz} x {fields * nx * nz} for `shape` {shape}; "
                                  f"got {J.shape}")
         self.fields, self.nx, self.nz = fields, nx, nz
-        J = sparse.csc_matrix(J)
-        reach = np.zeros(2, dtype=np.int64)
-        _reach(J.indptr, J.indices, fields, nx, nz, reach)
-        self.kl = self.ku = band = int(reach[0])
-        dx = int(reach[1])
-        m = fields * nz
-        average = np.zeros((m, 2 * band + 1, 2 * dx + 1))
-        _x_average(J.indptr, J.indices, J.data, fields, nx, nz, band, dx, average)
-        self.average = average.reshape(m * (2 * band + 1), 2 * dx + 1)
-        self.phases = np.exp(2j * np.pi * np.outer(np.arange(-dx, dx + 1), np.arange(nx // 2 + 1)) / nx)
-        rows = np.arange(m)[:, None]
-        cols = rows + np.arange(2 * band + 1)[None, :] - band
-        inside = (cols >= 0) & (cols < m)
-        # LAPACK's band storage of (row, col): ab[kl + ku + row - col, col]
-        self._ab_index = ((self.kl + self.ku + rows - cols)[inside], cols[inside])
-        self._inside = np.flatnonzero(inside)
-        modes = nx // 2 + 1
-        self.lu = np.zeros((modes, 2 * self.kl + self.ku + 1, m), dtype=complex)
-        self.reciprocal = np.zeros((modes, m), dtype=complex)
-        self.pivots = np.zeros((modes, m), dtype=np.int32)
+        average, band, reach = x_average(J, (fields, nx, nz))
+        self.factors = XFourierFactors(average, nx, band, reach)
         self.gamma = None
         self.at(gamma)
 
@@ -94,19 +77,7 @@ class XFourierPreconditioner:
         """Factor I - gamma A_k for every wave number k."""
         if gamma == self.gamma:
             return
-        ab = np.zeros(self.lu.shape[1:], dtype=complex)
-        diagonal_slot = self.ku  # band position 0 of each row
-        for k in range(self.lu.shape[0]):
-            # a sum over the few x-offsets, not a BLAS product: OpenBLAS's threads stall a loaded machine
-            symbol = sum(self.average[:, d] * self.phases[d, k] for d in range(self.phases.shape[0]))
-            matrix = (-gamma * symbol).reshape(-1, 2 * self.ku + 1)
-            matrix[:, diagonal_slot] += 1.0
-            ab[self._ab_index] = matrix.reshape(-1)[self._inside]
-            lu, pivots, info = lapack.zgbtrf(ab, self.kl, self.ku)
-            if info != 0:
-                raise np.linalg.LinAlgError(f"I - gamma A is singular at x-wave number {k} (gamma = {gamma})")
-            self.lu[k], self.pivots[k] = lu, pivots
-            self.reciprocal[k] = 1.0 / lu[self.kl + self.ku]
+        self.factors.factor(-gamma, 1.0)
         self.gamma = gamma
 
     def solve(self, r, out=None):
@@ -114,13 +85,87 @@ class XFourierPreconditioner:
         fields, nx, nz = self.fields, self.nx, self.nz
         spectrum = np.fft.rfft(np.reshape(r, (fields, nx, nz)), axis=1)   # (fields, modes, nz)
         columns = np.ascontiguousarray(spectrum.transpose(1, 2, 0)).reshape(nx // 2 + 1, nz * fields)
-        _band_solve(self.lu, self.reciprocal, self.pivots, self.kl, self.ku, columns)
+        self.factors.solve(columns)
         spectrum = columns.reshape(nx // 2 + 1, nz, fields).transpose(2, 0, 1)
         z = np.fft.irfft(spectrum, n=nx, axis=1).reshape(-1)
         if out is None:
             return z
         out[:] = z
         return out
+
+
+class XFourierFactors:
+    """The banded LU factors of D I + s A_k along z, A_k the x-averaged operator in x-wave number
+    k, for the wave numbers `modes` of the real FFT, and their solve on data laid out by wave number.
+
+    Args:
+        average: the x-averaged coefficients, (m (2 band + 1), 2 reach + 1): row q (of m = fields
+            Nz, q = fields iz + f), band position q' - q + band, x-offset dx + reach (as
+            :func:`x_average` gives them)
+        nx: the cells along x (the phases exp(2 pi i k dx / Nx))
+        band: the largest |q' - q| of a coupling
+        reach: the largest |dx| of a coupling
+        modes: the wave numbers factored here (a range, of 0 ... Nx // 2); None: all of them
+
+    The CVODE preconditioner factors I - gamma A_k (s = -gamma, D = 1); an operator whose
+    coefficients already hold its diagonal (PETSc's shift I - J) is factored with s = 1 and D the
+    change of that diagonal since it was averaged.
+    """
+
+    def __init__(self, average, nx: int, band: int, reach: int, modes=None):
+        self.kl = self.ku = band = int(band)
+        dx = int(reach)
+        m = average.shape[0] // (2 * band + 1)
+        self.average = average
+        self.modes = range(nx // 2 + 1) if modes is None else modes
+        self.phases = np.exp(2j * np.pi * np.outer(np.arange(-dx, dx + 1), np.asarray(self.modes)) / nx)
+        rows = np.arange(m)[:, None]
+        cols = rows + np.arange(2 * band + 1)[None, :] - band
+        inside = (cols >= 0) & (cols < m)
+        # LAPACK's band storage of (row, col): ab[kl + ku + row - col, col]
+        self._ab_index = ((self.kl + self.ku + rows - cols)[inside], cols[inside])
+        self._inside = np.flatnonzero(inside)
+        count = len(self.modes)
+        self.lu = np.zeros((count, 2 * self.kl + self.ku + 1, m), dtype=complex)
+        self.reciprocal = np.zeros((count, m), dtype=complex)
+        self.pivots = np.zeros((count, m), dtype=np.int32)
+
+    def factor(self, scale: float, diagonal: float):
+        """Factor `diagonal` I + `scale` A_k for every wave number k of `modes`."""
+        ab = np.zeros(self.lu.shape[1:], dtype=complex)
+        diagonal_slot = self.ku  # band position 0 of each row
+        for j in range(self.lu.shape[0]):
+            # a sum over the few x-offsets, not a BLAS product: OpenBLAS's threads stall a loaded machine
+            symbol = sum(self.average[:, d] * self.phases[d, j] for d in range(self.phases.shape[0]))
+            matrix = (scale * symbol).reshape(-1, 2 * self.ku + 1)
+            matrix[:, diagonal_slot] += diagonal
+            ab[self._ab_index] = matrix.reshape(-1)[self._inside]
+            lu, pivots, info = lapack.zgbtrf(ab, self.kl, self.ku)
+            if info != 0:
+                raise np.linalg.LinAlgError(f"the x-averaged operator is singular at x-wave number "
+                                            f"{self.modes[j]} (scale {scale}, diagonal {diagonal})")
+            self.lu[j], self.pivots[j] = lu, pivots
+            self.reciprocal[j] = 1.0 / lu[self.kl + self.ku]
+
+    def solve(self, columns):
+        """columns[j] = (D I + s A_k)^-1 columns[j], k = modes[j], in place: `columns`
+        (len(modes), m) complex, C-contiguous, row q of each column as in `average`."""
+        _band_solve(self.lu, self.reciprocal, self.pivots, self.kl, self.ku, columns)
+
+
+def x_average(J, shape):
+    """(average, band, reach) of the sparse Jacobian J of field-major unknowns of `shape` (fields,
+    Nx, Nz): the coefficients of each coupling averaged over the columns x, as
+    :class:`XFourierFactors` takes them."""
+    fields, nx, nz = shape
+    J = sparse.csc_matrix(J)
+    reach = np.zeros(2, dtype=np.int64)
+    _reach(J.indptr, J.indices, fields, nx, nz, reach)
+    band, dx = int(reach[0]), int(reach[1])
+    m = fields * nz
+    average = np.zeros((m, 2 * band + 1, 2 * dx + 1))
+    _x_average(J.indptr, J.indices, J.data, fields, nx, nz, band, dx, average)
+    return average.reshape(m * (2 * band + 1), 2 * dx + 1), band, dx
 
 
 @njit(cache=True)
