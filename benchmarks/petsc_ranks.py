@@ -58,8 +58,8 @@ def serial_child(N: int, t_end: float, out: str) -> None:
             times=["0", str(t_end)], series_times=list(np.linspace(0, t_end, 21)[1:]))
     d = r.to_dict()
     write_json(out, dict(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=1,
-                         linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
-                         l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
+                         linear_solver=r.settings["linear_solver"], max_w=float(r.max_w_series[-1]),
+                         l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w_series)),
                          compile_s=r.compile_s, cpu_s=time.process_time(),
                          rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024), stamp=False, indent=None)
 
@@ -104,8 +104,8 @@ def child(N: int, t_end: float, out: str) -> None:
     if rank == 0:
         d = r.to_dict()
         record.update(wall_s=r.wall_s, steps=r.n_steps, n_jac=r.n_jac, method=r.method, ranks=r.settings.get("ranks"),
-                      linear_solver=r.settings["linear_solver"], max_w=float(r.max_w[-1]),
-                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w)),
+                      linear_solver=r.settings["linear_solver"], max_w=float(r.max_w_series[-1]),
+                      l2=d["l2_velocity"][str(t_end)], mass_drift=r.mass_drift, series=list(map(float, r.max_w_series)),
                       compile_s=r.compile_s, rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
     write_json(f"{out}.{rank}", record, stamp=False, indent=None)  # to the parent, not a measurement
 

@@ -143,7 +143,7 @@ def test_bump2d_agrees_with_cvode_and_conserves_mass():
     assert petsc.settings["engine"] == "petsc" and not petsc.blew_up
     assert (petsc.method, petsc.settings["ranks"]) == ("PETSC-BDF", 1)  # PETSc's method, not the CVODE asked
     assert petsc.to_dict()["settings"]["ranks"] == 1 and cvode.settings["ranks"] == 1
-    assert np.allclose(petsc.max_w, cvode.max_w, rtol=1e-4, atol=1e-9)
+    assert np.allclose(petsc.max_w_series, cvode.max_w_series, rtol=1e-4, atol=1e-9)
     assert abs(petsc.mass_drift) < 1e-12
 
 
@@ -252,7 +252,7 @@ from icidr_pde import run
 from icidr_pde.engines.petsc import rank
 r = run("icidr", "bump2d", t_end=0.3, N=(12, 12), engine="petsc", progress=False)
 if rank() == 0:
-    np.save(sys.argv[1], np.asarray(r.max_w))
+    np.save(sys.argv[1], np.asarray(r.max_w_series))
     with open(sys.argv[1] + ".json", "w") as f:
         json.dump({"ranks": r.settings["ranks"], "method": r.method}, f)
 """

@@ -151,7 +151,7 @@ if rank() == 0:
     d = icidr.to_dict()
     with open(sys.argv[1], "w") as f:
         json.dump({"solver": icidr.settings["linear_solver"], "ranks": icidr.settings["ranks"],
-                   "series": list(map(float, icidr.max_w)), "l2": [d["l2_velocity"][t] for t in ("1", "2")],
+                   "series": list(map(float, icidr.max_w_series)), "l2": [d["l2_velocity"][t] for t in ("1", "2")],
                    "mui_blew_up": mui.blew_up, "t_star": mui.t_star}, f)
 """
 #: a mu(I) bump2d grid that fails before t = 6 (phi leaves its range at t* = 4.27)
