@@ -15,9 +15,13 @@ drift, and the relative difference of max|w|(t_end) from the baseline.
 
 A line whose estimated memory (all ranks above the imports, from the lines of that code measured
 before it at that N) exceeds the memory available (``MemAvailable`` less a margin) is skipped and
-says so: the machine is shared. ``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR),
+says so: the machine is shared (this estimate, not the run's own memory check, whose figure for
+the PETSc engine is the whole grid's on one process: ICIDR_PDE_MEMORY is set out of its way).
+``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR),
 e.g. the code before a change exported by ``git archive COMMIT | tar -x -C DIR``; the default is
-this checkout. Writes data/benchmarks/petsc_memory.json (``--out``).
+this checkout. Writes data/benchmarks/petsc_memory.json (``--out``; ``--append`` adds to its lines,
+each keeping the provenance of the invocation that measured it: a table measured in parts on a
+busy machine).
 """
 
 import argparse
@@ -92,7 +96,7 @@ def one(code: str, ranks: int, N: int, t_end: float) -> dict:
         out = os.path.join(tmp, "r")
         env = dict(os.environ, PYTHONPATH=code, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                    OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", OMP_NUM_THREADS="1",
-                   OPENBLAS_NUM_THREADS="1")
+                   OPENBLAS_NUM_THREADS="1", ICIDR_PDE_MEMORY=str(2**50))  # the estimate below guards, not the run's
         command = [launcher(), "--oversubscribe", "-n", str(ranks), sys.executable, __file__, "--child", str(N),
                    str(t_end), out]
         start = time.perf_counter()
@@ -129,10 +133,16 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=0.1)
     ap.add_argument("--code", action="append", default=None, help="checkout to run (PYTHONPATH); default: this one")
     ap.add_argument("--out", default=str(ROOT / "data" / "benchmarks" / "petsc_memory.json"))
+    ap.add_argument("--append", action="store_true",
+                    help="keep the lines of --out (each with the provenance of the run that measured it)")
     args = ap.parse_args()
     codes = [str(pathlib.Path(c).resolve()) for c in (args.code or [str(ROOT)])]
     print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
     lines, skipped = [], []
+    if args.append and os.path.exists(args.out):
+        kept = json.loads(pathlib.Path(args.out).read_text())
+        lines = [dict(line, provenance=line.get("provenance", kept.get("provenance"))) for line in kept["lines"]]
+        skipped = kept.get("skipped", [])
     for N in args.N:
         base = None
         for code in codes:

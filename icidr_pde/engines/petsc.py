@@ -12,7 +12,10 @@ state vector, the matrix, GMRES and the preconditioner are distributed by the sa
 Each accepted step is checked (finite, phi in range) by each rank on its own block and one
 reduction over the ranks, which also carries an interrupt (SIGINT, SIGTERM) to every rank after
 the same step; max|w| at an output is a reduction too; the state is gathered only where the
-run keeps it (snapshots, the last output) or where it is invalid. A problem without patches
+run keeps it (snapshots, the last output) or where it is invalid. The run path's problem of
+blocks (:func:`block_problem`) is each rank's own: its initial data, its rows of the Jacobian's
+pattern and values, and nothing of the whole grid, whose states are gathered on rank 0 alone
+(what its outputs keep; docs/distributed.md measures the memory per rank). A problem without patches
 (any other sparse problem) is evaluated replicated: the state gathered to every rank for each
 right-hand side and Jacobian, each rank keeping its own rows. What the ranks gain
 (benchmarks/petsc_ranks.py) is in docs/distributed.md.
