@@ -170,6 +170,8 @@ class PetscEngine(Engine):
                 self.x.setArray(problem.y0)
             else:
                 self.grid.scatter_in(problem.y0, self.x)
+            if not self.grid.has_jacobian:  # the problem's whole Jacobian, its rows picked by the whole map
+                self.order = self.grid.order
         self._pattern(problem.jacobian.sparsity, n)
         self._flags = PETSc.Vec().createMPI((1, None), comm=self.comm)  # one number per rank, reduced by max
         self.max_order = int(max_order)  # TSBDF's order
