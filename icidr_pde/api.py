@@ -397,7 +397,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
     patches = scheme_patches(pde, None, choice, None, grid=grid)
     rates_of_block = patches.rates
 
-    def rates(g, low, high, out):  # this rank's evaluations, counted
+    def rates(g, low, high, out):  # this rank's evaluations, counted (before, only the time scale's were)
         counted[0] += 1
         rates_of_block(g, low, high, out)
 
@@ -422,6 +422,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
     blocks.rates(x0, f0)  # the patch kernel compiled or loaded now (set-up time), the initial rates
     blocks.jacobian_rows(x0)  # the law's Jacobian kernels, as _compile_jacobian does
     whole_rates = blocks.to_root(f0)
+    counted[0] = 0  # the run's evaluations (the time scale's, the integrator's), as the other engines count them
     reason = None
     if root:
         invalid = check(y0)
