@@ -71,8 +71,7 @@ def child(N: int, t_end: float, out: str) -> None:
     if rank == 0:
         record.update(steps=r.n_steps, t_final=r.t_final, max_w=float(r.max_w[-1]), mass_drift=r.mass_drift,
                       ranks=r.settings.get("ranks"), blew_up=r.blew_up)
-    with open(f"{out}.{rank}", "w") as fh:  # to the parent, not a measurement file
-        json.dump(record, fh)
+    write_json(f"{out}.{rank}", record, stamp=False, indent=None)  # to the parent, not a measurement
 
 
 def launcher() -> str:
