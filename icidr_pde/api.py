@@ -248,9 +248,11 @@ def _run(case, choice: Choice, settings, t_end, times, *, accuracy, progress, se
     for it."""
     from .engines import engine_class
 
-    check_atol(settings["atol"], case.initial, settings["atol_asked"])
+    set_up = (_native_set_up if choice.engine == "native" else _blocks_set_up if _on_blocks(case, choice)
+              else _scheme_set_up)
+    if set_up is not _blocks_set_up:  # there each rank checks its own block (no rank holds the whole state)
+        check_atol(settings["atol"], case.initial, settings["atol_asked"])
     sched = schedule(case.scene, t_end, times, series_times=series_times)
-    set_up = _native_set_up if choice.engine == "native" else _scheme_set_up
     bar = None
     if progress:
         from .progress import TimeBar
@@ -261,6 +263,8 @@ def _run(case, choice: Choice, settings, t_end, times, *, accuracy, progress, se
     recorders = []
     try:
         view, counted, note = set_up(case, choice, settings, t_end, backend)
+        if not view.root:  # what a run writes or shows is rank 0's, where the whole states are
+            outputs = dict(outputs, save=None, live_plot=False, movie=None)
         recorders = make_recorders(case, t_end, snap_times=sched.snap_times, progress=progress, chi=view.chi,
                                    **outputs)
     except BaseException:
@@ -292,15 +296,17 @@ def _run(case, choice: Choice, settings, t_end, times, *, accuracy, progress, se
         steps_jac_lu = engine.counts()
         choice = choice.solved_by(engine.linear_solver)
         method, ranks = engine.ran or method, engine.ranks
-    recorded = _recorded(view, sched, out, n_done)
     n_steps, n_jac, n_lu = steps_jac_lu
+    if not view.root:  # no whole state here: rank 0's Result, without its fields (View.shared)
+        return view.shared(None), recorders
+    recorded = _recorded(view, sched, out, n_done)
     result = assemble(rheology=case.rheology.name, scene=case.scene, discretization=case.discretization, N=case.N,
                       z=case.nodes(), mass=case.mass, material=case.rheology.material.to_dict(), t_end=t_end,
                       rtol=settings["rtol"], atol=settings["atol"], method=method, choice=choice,
                       accuracy=accuracy, options=case.options, labels=sched.labels, recorded=recorded,
                       outcome=outcome, counts=(n_steps, counted(), n_jac, n_lu), y0_data=case.initial,
                       plane=case.plane(recorded.data), ranks=ranks)
-    return result, recorders
+    return view.shared(result), recorders
 
 
 def _native_set_up(case, choice, settings, t_end, backend):
@@ -343,6 +349,106 @@ def _scheme_set_up(case, choice, settings, t_end, backend):
 
     view = View(case, problem, ordering.to_native, lambda y: ordering.rhs(ordering.to_native(y), 0.0), chi)
     return view, lambda: stats.n_rhs, lambda compile_s: f"compiled in {compile_s:.1f} s"
+
+
+def _on_blocks(case, choice) -> bool:
+    """Whether the run is the PETSc engine's on the blocks of the py-pde scheme's grid (the
+    scheme offers patches: :func:`_blocks_set_up`)."""
+    return choice.engine == "petsc" and case.scheme is None and hasattr(case.pde, "patches")
+
+
+class _BlocksView(View):
+    """The run path's view of a run distributed by blocks (:func:`_blocks_set_up`): the whole
+    initial vector `y0` on rank 0 (an empty one elsewhere), the fields of a whole vector (empty
+    ones of an empty vector), the initial check made by the set-up; `shared` gives every rank
+    rank 0's Result, to ranks other than 0 without its fields (they hold no whole state)."""
+
+    def __init__(self, case, problem, y0, fields, rates, chi, reason, share):
+        super().__init__(case, problem, fields, rates, chi)
+        self.y0, self.root, self._reason, self._share = y0, y0.size > 0, reason, share
+
+    def initial_reason(self) -> str | None:
+        return self._reason
+
+    def shared(self, result):
+        return self._share(result)
+
+
+def _blocks_set_up(case, choice, settings, t_end, backend):
+    """(View, rates counted, the bar's note) of the PETSc engine on the blocks of the py-pde
+    scheme's grid, each rank building its own block alone (:func:`~icidr_pde.engines.petsc.block_problem`:
+    its initial data, its rows of the Jacobian's pattern and values; no whole-grid Jacobian,
+    pattern or rates). Rank 0 alone holds whole states: those its outputs keep (the initial
+    state, the snapshots, the last states, the final state, docs/distributed.md), and the whole
+    initial rates once, for the initial check's message; atol is checked against the largest
+    initial field value over the ranks."""
+    import dataclasses
+
+    from .engines.petsc import _petsc, block_problem, broadcast, reduce_max
+    from .engines.stiff import check_memory, scheme_patches
+    from .validation import invalid_state, nonfinite_rates
+
+    PETSc = _petsc()
+    comm = PETSc.COMM_WORLD
+    pde, grid = case.pde, case.grid
+    check_memory(pde, grid, settings["method"], choice)  # before the engine allocates
+    shape = (3,) + tuple(grid.shape)
+    counted = [0]
+    patches = scheme_patches(pde, None, choice, None, grid=grid)
+    rates_of_block = patches.rates
+
+    def rates(g, low, high, out):  # this rank's evaluations, counted (before, only the time scale's were)
+        counted[0] += 1
+        rates_of_block(g, low, high, out)
+
+    patches = dataclasses.replace(patches, rates=rates)
+
+    def fields(y):
+        return np.reshape(y, shape) if np.size(y) else np.empty((shape[0], 0, 0))
+
+    check_state = getattr(pde, "check_state", lambda data: None)
+
+    def check(y):
+        return invalid_state(y, check_state, fields)
+
+    solver = choice.solver
+    split = solver.proc_sizes(comm.size) if getattr(solver, "shell", None) is not None else None  # the PC's split
+    problem, blocks = block_problem(PETSc, patches, case.initial_block, check, comm, split)
+    scale = reduce_max(PETSc, comm, float(np.max(np.abs(problem.y0))) if problem.y0.size else 0.0)
+    check_atol(settings["atol"], [scale], settings["atol_asked"])
+    root = comm.rank == 0
+    y0 = np.array(case.initial, dtype=float).ravel() if root else np.empty(0)
+    x0 = blocks.da.createGlobalVec()
+    x0.setArray(problem.y0)
+    f0 = x0.duplicate()
+    blocks.rates(x0, f0)  # the patch kernel compiled or loaded now (set-up time), the initial rates
+    blocks.jacobian_rows(x0)  # the law's Jacobian kernels, as _compile_jacobian does
+    whole_rates = blocks.to_root(f0)
+    counted[0] = 0  # the run's evaluations (the time scale's, the integrator's), as the other engines count them
+    reason = None
+    if root:
+        invalid = check(y0)
+        with np.errstate(all="ignore"):
+            reason = f"initial state invalid: {invalid}" if invalid else nonfinite_rates(fields(whole_rates), 0.0)
+    reason = broadcast(PETSc, comm, reason)
+
+    def share(result):
+        if comm.size == 1:
+            return result
+        light = None
+        if root:
+            empty = np.empty((0,) + shape)
+            light = dataclasses.replace(result, z=np.empty(0), phi=empty[:, 0], u=empty[:, 1], w=empty[:, 2],
+                                        final=type(result.final)(*np.empty((3, 0))), last_states=empty)
+        light = broadcast(PETSc, comm, light)
+        return result if root else light
+
+    def chi(data):
+        z, phi, uz, wz = case.strain_rates(data)
+        return z, case.rheology.chi(phi, uz, wz)
+
+    view = _BlocksView(case, problem, y0, fields, lambda y: fields(np.empty(0)), chi, reason, share)
+    return view, lambda: counted[0], lambda compile_s: f"compiled in {compile_s:.1f} s"
 
 
 def _check_stiffness(problem, y0, t_end):

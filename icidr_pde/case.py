@@ -44,9 +44,22 @@ class Case:
 
     @property
     def state(self):
-        if self._state is None:
+        if self._state is None and self.scheme is None:  # the py-pde class's, of the scene
+            self._state = self.pde.make_state(self.grid, *self.scene.initial_condition(self.pde.nodes(self.grid)))
+        elif self._state is None:
             self._state = self.cell.make_state(self.pde, self.grid, self.data)
         return self._state
+
+    def initial_block(self, block) -> np.ndarray:
+        """The initial fields (3, mx, mz) of the cells xs:xe, zs:ze of a 2-D grid, block = ((xs,
+        xe), (zs, ze)) (a rank's block of a distributed grid): the initial state's values there,
+        computed on the block alone where the whole state was not made."""
+        (xs, xe), (zs, ze) = block
+        if self._state is not None or self.scheme is not None:
+            return np.array(self.initial[:, xs:xe, zs:ze])
+        nodes = self.pde.nodes(self.grid, block)
+        return np.array([np.broadcast_to(np.asarray(f, float), nodes.shape[:-1])
+                         for f in self.scene.initial_condition(nodes)])
 
     @property
     def rheology(self):
@@ -157,7 +170,9 @@ def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | No
     `discretization` with its `options` on N points (default: the scheme's ``default_N``), on the
     scheme's py-pde-free core (`core`, else the registry's), else on its py-pde class.
     ``check_grid(pde, grid)``, if given, is called with the py-pde scheme and its grid before the
-    state, the first array of the grid's size, is allocated (the run's memory check)."""
+    state, the first array of the grid's size, is allocated (the run's memory check); the py-pde
+    class's state is made where first asked (:attr:`Case.state`; a distributed run's rank makes
+    only its block, :meth:`Case.initial_block`)."""
     scene_obj = get_scene(scene, **(scene_params or {}))
     entry = get_scheme(discretization) if isinstance(discretization, str) else None
     dim = getattr(scene_obj, "dim", 1)
@@ -182,5 +197,4 @@ def build_case(rheology="icidr", scene="shear", discretization="fd", N: int | No
     grid = pde.make_grid(type(pde).default_N if N is None else N, scene_obj.H, **grid_options)
     if check_grid is not None:
         check_grid(pde, grid)
-    state = pde.make_state(grid, *scene_obj.initial_condition(pde.nodes(grid)))
-    return Case(scene_obj, pde=pde, grid=grid, state=state)
+    return Case(scene_obj, pde=pde, grid=grid)  # its state made where first asked (a rank's block: never)

@@ -38,9 +38,17 @@ class View:
     (`rates`, for the initial check), the chi of (A18) of the fields (`chi`: (positions, chi)) and
     the Problem's check of a vector."""
 
+    #: whether this process holds the whole states (all but the ranks other than 0 of a run
+    #: distributed by blocks, :func:`icidr_pde.api._blocks_set_up`)
+    root = True
+
     def __init__(self, case, problem, fields, rates, chi):
         self.case, self.problem, self.fields, self.rates, self.chi = case, problem, fields, rates, chi
         self.scene, self.N, self.y0 = case.scene, case.N, problem.y0
+
+    def shared(self, result):
+        """The Result this process returns of the Result of its run (the same)."""
+        return result
 
     def initial_reason(self) -> str | None:
         invalid = self.problem.check(self.y0)

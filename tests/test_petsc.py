@@ -37,6 +37,7 @@ needs_mpiexec = pytest.mark.skipif(MPIEXEC is None, reason="the mpiexec of PETSc
 
 #: the tests that start PETSc in processes of their own
 SUBPROCESS_TESTS = ("test_two_ranks_each_evaluate_their_own_cells", "test_two_ranks_agree_with_one",
+                    "test_each_rank_builds_only_its_block_and_one_and_two_ranks_agree",
                     "test_mass_is_kept_to_round_off_on_one_and_two_ranks",
                     "test_petsc_after_lammps_in_one_process_is_refused_not_aborted",
                     "test_bad_input_on_many_ranks_is_one_line_and_status_2_on_each",
@@ -464,3 +465,106 @@ def test_signal_under_mpiexec_keeps_what_was_computed(tmp_path, sent):
     assert 0.5 < d["t_final"] < t_end and float(d["reason"].split("= ")[1]) == pytest.approx(d["t_final"], rel=1e-5)
     assert all(float(label) <= d["t_final"] for label in d["max_w"]) and "0" in d["max_w"]
     assert abs(d["mass_drift"]) < 1e-12
+
+
+BLOCKS_MEMORY_SCRIPT = """
+import json, sys, tracemalloc
+import numpy as np
+import icidr_pde.engines.petsc as petsc
+from icidr_pde import run
+
+engines, peaks = [], []
+engine_init = petsc.PetscEngine.__init__
+
+
+def init(self, *args, **kwargs):  # the engine's set-up, its numpy arrays traced
+    tracemalloc.start()
+    engine_init(self, *args, **kwargs)
+    peaks.append(tracemalloc.get_traced_memory()[1])
+    tracemalloc.stop()
+    engines.append(self)
+
+
+petsc.PetscEngine.__init__ = init
+N = int(sys.argv[2])
+r = run("icidr", "bump2d", t_end=0.3, N=(N, N), engine="petsc", progress=False, times=["0.1", "0.3"])
+engine = engines[0]
+grid = engine.grid
+n = engine.x.getSize()
+rows = np.unique(engine._keys // n)
+record = {"rank": petsc.rank(), "state": int(engine.problem.y0.size), "local": int(engine.x.getLocalSize()),
+          "cells": int(np.prod(grid.owned)), "jacobian_rows": int(rows.size),
+          "rows_inside": bool(np.all((rows >= engine.x.getOwnershipRange()[0]) & (rows < engine.x.getOwnershipRange()[1]))),
+          "whole_maps": sorted(k for k in ("order",) if k in vars(grid)) + [k for k in ("_all",) if getattr(grid, k) is not None],
+          "set_up_peak": peaks[0], "fields": list(np.shape(r.w)), "reason": r.reason,
+          "max_w": list(map(float, r.max_w)), "measures": r.measures, "mass_drift": r.mass_drift,
+          "final_w": np.asarray(r.final[2]).ravel().tolist(), "ranks": r.settings["ranks"]}
+with open(f"{sys.argv[1]}.{record['rank']}", "w") as f:
+    json.dump(record, f)
+"""
+
+
+@needs_petsc
+@needs_mpiexec
+def test_each_rank_builds_only_its_block_and_one_and_two_ranks_agree(tmp_path):
+    """bump2d 64^2 on 1 and 2 ranks: each rank's state vector and Jacobian rows are those of its
+    own cells (3 per cell, together the whole grid), no rank built the whole grid's index maps,
+    and the numpy arrays of a rank's engine set-up (traced) fall with its block (at most 0.6 of
+    the one rank's on 2 ranks); rank 0 alone holds the fields, the other rank gets its numbers; 1
+    and 2 ranks agree to 1e-8 relative (max|w| series, the measures, the final w)."""
+    N = 64
+    script = tmp_path / "blocks_memory.py"
+    script.write_text(BLOCKS_MEMORY_SCRIPT)
+    runs = {}
+    for ranks in (1, 2):
+        out = tmp_path / f"m{ranks}"
+        subprocess.run([MPIEXEC, "-n", str(ranks), sys.executable, str(script), str(out), str(N)], env=_mpi_env(),
+                       check=True, timeout=900, capture_output=True)
+        runs[ranks] = [json.loads(Path(f"{out}.{r}").read_text()) for r in range(ranks)]
+    for ranks, records in runs.items():
+        assert sum(d["cells"] for d in records) == N * N
+        for d in records:
+            assert d["state"] == d["local"] == d["jacobian_rows"] == 3 * d["cells"] and d["rows_inside"]
+            assert d["whole_maps"] == [] and d["ranks"] == ranks and d["reason"] == "reached t_end"
+    one, two = runs[1][0], runs[2]
+    assert max(d["cells"] for d in two) < N * N
+    assert max(d["set_up_peak"] for d in two) < 0.6 * one["set_up_peak"], (one["set_up_peak"], two)
+    assert one["fields"] == two[0]["fields"] == [2, N, N] and two[1]["fields"] == [0, N, N]
+    assert two[1]["final_w"] == [] and two[1]["max_w"] == two[0]["max_w"] and two[1]["measures"] == two[0]["measures"]
+    assert np.allclose(two[0]["max_w"], one["max_w"], rtol=1e-8, atol=0)
+    w1, w2 = np.array(one["final_w"]), np.array(two[0]["final_w"])
+    assert np.max(np.abs(w2 - w1)) <= 1e-8 * np.max(np.abs(w1))
+    for m1, m2 in zip(one["measures"], two[0]["measures"]):
+        for key in ("max_w", "max_phi_dev", "l2_velocity"):
+            assert m2[key] == pytest.approx(m1[key], rel=1e-8, abs=0), key
+
+
+@needs_petsc
+def test_block_set_up_on_one_rank_is_the_whole_grids():
+    """On one rank the block is the whole grid: its initial data are the whole initial state's,
+    its Jacobian pattern is the scheme's (jacobian_sparsity) in PETSc's ordering, and the fastest
+    time scale of the block problem is the whole problem's (fastest_time_scale on the whole
+    right-hand side) bit for bit."""
+    from scipy import sparse
+
+    from icidr_pde.case import build_case
+    from icidr_pde.engines.petsc import PetscEngine, _petsc, block_problem
+    from icidr_pde.time_scale import fastest_time_scale
+
+    PETSc = _petsc()
+    case = build_case("icidr", "bump2d", "fv2d", (12, 10))
+    block = case.initial_block(((0, 12), (0, 10)))
+    pde = case.pde
+    patches = pde.patches(grid=case.grid)
+    problem, grid = block_problem(PETSc, patches, case.initial_block, lambda y: None, PETSc.COMM_SELF)
+    assert np.array_equal(block, case.state.data)  # made on the block, then the whole state: equal
+    assert np.array_equal(problem.y0[grid.order], case.state.data.ravel())
+    rows, cols = grid.pattern()
+    P = sparse.coo_matrix(pde.jacobian_sparsity(case.state))
+    n = P.shape[0]
+    assert np.array_equal(np.unique(rows * n + cols), np.unique(grid.order[P.row] * n + grid.order[P.col]))
+    rhs = pde.make_rates(case.state)
+    whole = fastest_time_scale(lambda t, y: rhs(y.reshape(case.state.data.shape)).ravel(), 0.0,
+                               case.state.data.ravel())
+    engine = PetscEngine("PETSC-BDF", problem, 0.0, rtol=1e-6, atol=1e-9)
+    assert engine.time_scale == whole

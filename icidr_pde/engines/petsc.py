@@ -15,7 +15,10 @@ state vector, the matrix, GMRES and the preconditioner are distributed by the sa
 Each accepted step is checked (finite, phi in range) by each rank on its own block and one
 reduction over the ranks, which also carries an interrupt (SIGINT, SIGTERM) to every rank after
 the same step; max|w| at an output is a reduction too; the state is gathered only where the
-run keeps it (snapshots, the last output) or where it is invalid. A problem without patches
+run keeps it (snapshots, the last output) or where it is invalid. The run path's problem of
+blocks (:func:`block_problem`) is each rank's own: its initial data, its rows of the Jacobian's
+pattern and values, and nothing of the whole grid, whose states are gathered on rank 0 alone
+(what its outputs keep; docs/distributed.md measures the memory per rank). A problem without patches
 (any other sparse problem) is evaluated replicated: the state gathered to every rank for each
 right-hand side and Jacobian, each rank keeping its own rows. What the ranks gain
 (benchmarks/petsc_ranks.py) is in docs/distributed.md.
@@ -27,6 +30,7 @@ Options pass through: ``options={"ksp_type": "bcgs", ...}`` or the environment v
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import sys
@@ -37,9 +41,9 @@ from .. import loaded_mpi, mpi_ranks
 from ..validation import ParameterError
 from .base import Engine, Problem
 from ..cvode_settings import A_STABLE_ORDER
-from ..time_scale import MIN_STEP_FRACTION
+from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 
-__all__ = ["PetscEngine", "BlockGrid", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
+__all__ = ["PetscEngine", "BlockGrid", "block_problem", "broadcast", "reduce_max", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
 #: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
 #: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)): on iCIDR bump2d
@@ -147,23 +151,36 @@ class PetscEngine(Engine):
         self.PETSc, self.problem, self.comm = PETSc, problem, PETSc.COMM_WORLD
         PETSc.Sys.pushErrorHandler("python")  # an interrupt is said once, by the run path, not as PETSc's traceback
         self.n_jac, self._values, self._evaluated, self._last_keys = 0, None, (0, 0, 0), None
-        n = problem.y0.size
         # a shell preconditioner of the linear solver's (the x-Fourier inverse) asks for its split of the grid
         shell = getattr(linear_solver, "shell", None) if problem.patches is not None else None
-        split = linear_solver.proc_sizes(self.comm.size) if shell is not None else None
-        self.grid = None if problem.patches is None else BlockGrid(PETSc, problem.patches, self.comm, split)
+        # a problem whose patches are a BlockGrid is this rank's block (its y0 the block's values, its
+        # grid split as block_problem was told): nothing of the whole grid is built here, and whole
+        # states are gathered on rank 0 alone
+        self.blocks = isinstance(problem.patches, BlockGrid)
+        if self.blocks:
+            self.grid = problem.patches
+        else:
+            split = linear_solver.proc_sizes(self.comm.size) if shell is not None else None
+            self.grid = None if problem.patches is None else BlockGrid(PETSc, problem.patches, self.comm, split)
         self._shell = None if shell is None else shell(PETSc, self.grid)
         self._solver_options = getattr(linear_solver, "petsc_options", {})
         if self.grid is None:
+            n = problem.y0.size
             self.x = PETSc.Vec().createMPI(n, comm=self.comm)
             self.order = np.arange(n)
             self.x.setArray(problem.y0[slice(*self.x.getOwnershipRange())])
             self._gather, self._full = PETSc.Scatter.toAll(self.x)
         else:
             self.x = self.grid.da.createGlobalVec()
-            self.order = self.grid.order
-            self.grid.scatter_in(problem.y0, self.x)
+            n = self.x.getSize()
+            if self.blocks:
+                self.x.setArray(problem.y0)
+            else:
+                self.grid.scatter_in(problem.y0, self.x)
+            if not self.grid.has_jacobian:  # the problem's whole Jacobian, its rows picked by the whole map
+                self.order = self.grid.order
         self._pattern(problem.jacobian.sparsity, n)
+        self._flags = PETSc.Vec().createMPI((1, None), comm=self.comm)  # one number per rank, reduced by max
         self.max_order = int(max_order)  # TSBDF's order
         self.ts = self._make_ts(t0, rtol, atol, max_step, first_step, options)
         pc = self.ts.getSNES().getKSP().getPC()
@@ -177,24 +194,29 @@ class PetscEngine(Engine):
         self.t = float(t0)
         self._work, self._good, self._kept = self.x.duplicate(), self.x.copy(), self.x.copy()
         # the last output (time, whole state once gathered); _good: the last accepted state
-        self._kept_t, self._kept_y = float(t0), np.array(problem.y0, dtype=float)
-        self._flags = PETSc.Vec().createMPI((1, None), comm=self.comm)  # one number per rank, reduced by max
+        self._kept_t = float(t0)
+        self._kept_y = None if self.blocks else np.array(problem.y0, dtype=float)
         self._inside = None if self.grid is None else self.grid.patches.inside
 
     def _pattern(self, sparsity, n):
         """The AIJ matrix with the Jacobian's pattern, its rows distributed as the state vector's,
-        this rank's rows preallocated by COO (in the engine's ordering: `self.order` maps the
-        problem's unknowns to PETSc's)."""
-        from scipy import sparse
-
-        P = sparse.coo_matrix(sparsity)
+        this rank's rows preallocated by COO: on a grid of blocks the pattern of its own cells'
+        rows (:meth:`BlockGrid.pattern`), else this rank's rows of the problem's `sparsity` (in
+        the engine's ordering: `self.order` maps the problem's unknowns to PETSc's)."""
         start, end = self.x.getOwnershipRange()
         self.J = self.PETSc.Mat().create(comm=self.comm)
         self.J.setSizes([(end - start, n), (end - start, n)])
         self.J.setType(self.PETSc.Mat.Type.AIJ)
         self.J.setUp()
-        rows, cols = self.order[P.row], self.order[P.col]
-        mine = (rows >= start) & (rows < end)
+        if self.grid is not None and self.grid.has_jacobian:
+            rows, cols = self.grid.pattern()
+            mine = slice(None)
+        else:
+            from scipy import sparse
+
+            P = sparse.coo_matrix(sparsity)
+            rows, cols = self.order[P.row], self.order[P.col]
+            mine = (rows >= start) & (rows < end)
         # this rank's pattern entries as row * n + col, sorted (before PETSc, which may overwrite
         # the index arrays it is given: MatSetPreallocationCOO on MPIAIJ does)
         self._keys = np.unique(rows[mine].astype(np.int64) * n + cols[mine])
@@ -203,8 +225,11 @@ class PetscEngine(Engine):
         self._n = n
 
     def _gathered(self, vec) -> np.ndarray:
-        """The whole vector on every rank in the problem's ordering (the states kept at outputs, an
-        invalid state's check, and the input of the replicated right-hand side and Jacobian)."""
+        """The whole vector in the problem's ordering (the states kept at outputs, an invalid
+        state's check, and the input of the replicated right-hand side and Jacobian): on rank 0
+        alone (an empty array elsewhere) where the problem is a grid of blocks, else on every rank."""
+        if self.blocks:
+            return self.grid.to_root(vec)
         if self.grid is not None:
             return self.grid.gathered(vec)
         self._gather.scatter(vec, self._full, addv=self.PETSc.InsertMode.INSERT,
@@ -261,7 +286,7 @@ class PetscEngine(Engine):
         ts.setRHSFunction(rhs, F)
         ts.setRHSJacobian(jacobian, self.J, self.J)
         ts.setTime(t0)
-        self.time_scale = problem.time_scale(t0)
+        self.time_scale = problem.time_scale(t0) if self.grid is None else self._time_scale(t0)
         ts.setTimeStep(first_step if first_step is not None else self.time_scale)
         ts.setMaxTime(1e300)
         ts.setMaxSteps(10**9)
@@ -284,16 +309,44 @@ class PetscEngine(Engine):
         self._keep_mass(ts.getSNES())
         return ts
 
+    def _time_scale(self, t0) -> float:
+        """The problem's :meth:`~.base.Problem.time_scale` on a grid of blocks, to the same
+        number: :func:`~icidr_pde.time_scale.fastest_time_scale` on this rank's block, its
+        difference quotients each rank's rates of its own cells, its norms those of the whole
+        vectors in the problem's ordering (taken on rank 0, sent to every rank)."""
+        grid, x = self.grid, self.x
+        f, probe = x.duplicate(), x.duplicate()
+
+        def rates(t, y):
+            probe.setArray(y)
+            grid.rates(probe, f)
+            return np.array(f.getArray(readonly=True))
+
+        def norm(y):
+            probe.setArray(y)
+            whole = grid.to_root(probe)
+            return self._from_root(float(np.linalg.norm(whole)) if self.comm.rank == 0 else 0.0)
+
+        return fastest_time_scale(rates, t0, np.array(x.getArray(readonly=True)), norm=norm,
+                                  index=grid.problem_index())
+
+    def _from_root(self, value: float) -> float:
+        """Rank 0's number on every rank (a reduction by max of it and -inf elsewhere: exact)."""
+        self._flags.setArray([value if self.comm.rank == 0 else -np.inf])
+        return float(self._flags.max()[1])
+
     def _mass_weights(self):
         """The mass weights c (c J = 0: the scheme conserves c . y) as a vector of the state's
         distribution, or None: the problem's `jacobian.weights`; where it has none but brings
         patches, phi (field 0, the Patches' first) on the DMDA's equal cells (as
-        :func:`~.linear.base.cell_mass`)."""
+        :func:`~.linear.base.cell_mass`), each rank on its own cells."""
         weights = self.problem.jacobian.weights
         if weights is None and self.grid is not None:
-            nx, nz = self.grid.shape
-            weights = np.zeros(self.problem.y0.size)
-            weights[:nx * nz] = 1.0
+            c = self.x.duplicate()
+            own = np.zeros(c.getLocalSize())
+            own[::self.grid.dof] = 1.0  # the DMDA's fields interleaved, phi first
+            c.setArray(own)
+            return c
         if weights is None or not np.any(weights):
             return None
         c = self.x.duplicate()
@@ -376,7 +429,8 @@ class PetscEngine(Engine):
                 return self.t, self._gathered(self._good), why
             if self._invalid_anywhere():  # the problem's check says why, on the gathered state
                 y = self._gathered(self.x)
-                why = self.problem.check(y)
+                why = self.problem.check(y) if not self.blocks else broadcast(
+                    self.PETSc, self.comm, self.problem.check(y) if self.comm.rank == 0 else None)
                 if why:
                     return float(ts.getTime()), y, why
             self.t = float(ts.getTime())
@@ -444,6 +498,46 @@ class PetscEngine(Engine):
 SIGNAL_WEIGHT = 64
 
 
+def broadcast(PETSc, comm, obj):
+    """Rank 0's `obj` (picklable) on every rank: its pickle's bytes, one per value of a vector of
+    rank 0's, scattered to all (petsc4py has no broadcast of objects; mpi4py is not required)."""
+    import pickle
+
+    first = comm.rank == 0
+    data = np.frombuffer(pickle.dumps(obj), np.uint8) if first else np.empty(0, np.uint8)
+    size = PETSc.Vec().createMPI((1, None), comm=comm)
+    size.setArray([data.size])
+    n = int(size.max()[1])
+    values = PETSc.Vec().createMPI((n if first else 0, n), comm=comm)
+    values.setArray(data.astype(float))
+    scatter, every = PETSc.Scatter.toAll(values)
+    scatter.scatter(values, every, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    return pickle.loads(every.getArray(readonly=True).astype(np.uint8).tobytes())
+
+
+def reduce_max(PETSc, comm, value: float) -> float:
+    """The largest of the ranks' `value` on every rank."""
+    each = PETSc.Vec().createMPI((1, None), comm=comm)
+    each.setArray([value])
+    return float(each.max()[1])
+
+
+def block_problem(PETSc, patches, initial_block, check, comm=None, proc_sizes=None):
+    """(Problem, BlockGrid) of a scheme's `patches` on the DMDA's blocks, each rank's its own: its
+    y0 the rank's block of the initial data, ``initial_block(((xs, xe), (zs, ze)))`` -> (dof,
+    mx, mz), the Jacobian's pattern and values its rows' (the patch Jacobian), `check` the
+    problem's check of a whole state (on rank 0: why a state is invalid). The engine given it
+    builds nothing of the whole grid. `proc_sizes`: the DMDA's ranks along (x, z), as the linear
+    solver asks (:meth:`BlockGrid`'s; None: PETSc's choice)."""
+    from .base import JacobianSpec
+
+    if patches.jacobian is None:
+        raise ValueError("a problem of blocks needs the scheme's patch Jacobian")
+    grid = BlockGrid(PETSc, patches, comm or PETSc.COMM_WORLD, proc_sizes)
+    y0 = grid.block(initial_block(grid.ranges))
+    return Problem(y0=y0, fun=None, jacobian=JacobianSpec("sparse"), check=check, patches=grid), grid
+
+
 def _reason_name(PETSc, reason) -> str:
     names = {v: k for k, v in vars(PETSc.TS.ConvergedReason).items() if isinstance(v, int)}
     return names.get(reason, str(reason))
@@ -457,8 +551,12 @@ class BlockGrid:
     kernel on its block and one ghost layer (globalToLocal), nothing else is communicated.
 
     The problem's vector is the data (dof, nx, nz) flattened; PETSc's is the DMDA's (per rank
-    block, then z, x, field). ``order[q]`` is PETSc's index of the problem's unknown q.
-    `proc_sizes` (ranks along x, along z): PETSc's choice where None.
+    block, then z, x, field). What a rank builds here is of its own block's size (its patch's
+    global indices from the DMDA's local-to-global map, its rows' Jacobian pattern); the
+    whole-grid maps (``order``: PETSc's index of each of the problem's unknowns, ``gathered``:
+    the whole vector on every rank) are built only where asked (tests, a problem without block
+    data), :meth:`to_root` gathers on rank 0 alone. `proc_sizes` (ranks along x, along z):
+    PETSc's choice where None.
     """
 
     def __init__(self, PETSc, patches, comm, proc_sizes=None):
@@ -466,7 +564,7 @@ class BlockGrid:
         dof, width = patches.dof, patches.stencil
         B = PETSc.DM.BoundaryType
         kinds = tuple(B.PERIODIC if p else B.GHOSTED for p in patches.periodic)
-        self.PETSc, self.patches, self.shape, self.dof = PETSc, patches, (nx, nz), dof
+        self.PETSc, self.patches, self.shape, self.dof, self.width = PETSc, patches, (nx, nz), dof, width
         try:
             self.da = PETSc.DMDA().create(dim=2, dof=dof, sizes=(nx, nz), boundary_type=kinds,
                                           stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=width,
@@ -478,7 +576,7 @@ class BlockGrid:
             raise ParameterError(f"`N` must be a grid that {P} MPI ranks can split into blocks of at least "
                                  f"{width} x {width} cells (PETSc's DMDA; at least {width * P} x {width * P} "
                                  f"cells always can); got ({nx}, {nz})") from None
-        (xs, xe), (zs, ze) = self.da.getRanges()
+        (xs, xe), (zs, ze) = self.ranges = self.da.getRanges()
         (gxs, gxe), (gzs, gze) = self.da.getGhostRanges()
         if (gxe - gxs, gze - gzs) != (xe - xs + 2 * width, ze - zs + 2 * width):
             raise ValueError(f"a block of the {nx} x {nz} grid has no full ghost layer: "
@@ -488,19 +586,48 @@ class BlockGrid:
         self.low, self.high = zs == 0, ze == nz
         self.local = self.da.createLocalVec()
         self.out = np.empty((dof, xe - xs, ze - zs))
-        # natural index of unknown (k, i, j): (j nx + i) dof + k; PETSc's by the DMDA's AO
-        k, i, j = np.meshgrid(np.arange(dof), np.arange(nx), np.arange(nz), indexing="ij")
-        natural = ((j * nx + i) * dof + k).ravel().astype(PETSc.IntType)
-        self.order = np.asarray(self.da.getAO().app2petsc(natural.copy()), dtype=np.int64)
-        self.natural = self.da.createNaturalVec()
-        self._gather, self._full = PETSc.Scatter.toAll(self.natural)
         self.has_jacobian = patches.jacobian is not None
-        # PETSc's index of each value of this rank's patch (-1 beyond a wall) and of its cells
-        kk, a, b = np.meshgrid(np.arange(dof), np.arange(gxs, gxe) % nx, np.arange(gzs, gze), indexing="ij")
-        inside = (b >= 0) & (b < nz)
-        q = (kk * nx + a) * nz + np.clip(b, 0, nz - 1)
-        self.columns = np.where(inside, self.order[q], -1).ravel()
-        self.rows = self.columns.reshape(kk.shape)[:, width:-width, width:-width].ravel()
+        # PETSc's index of each value of this rank's patch (-1 beyond a wall) and of its cells: the
+        # DMDA's local-to-global map of the ghosted block (z, x, field), as the patch (field, x, z)
+        ghosted = np.asarray(self.da.getLGMap().getIndices(), dtype=np.int64)
+        patch = ghosted.reshape(gze - gzs, gxe - gxs, dof).transpose(2, 1, 0)
+        self.columns = np.where(patch >= 0, patch, -1).ravel()
+        self.rows = self.columns.reshape(patch.shape)[:, width:-width, width:-width].ravel()
+        self._natural = self._root = self._all = None
+
+    @functools.cached_property
+    def order(self) -> np.ndarray:
+        """PETSc's index of each of the problem's unknowns (the whole grid's, on every rank: built
+        where asked, by the DMDA's application ordering)."""
+        nx, nz = self.shape
+        k, i, j = np.meshgrid(np.arange(self.dof), np.arange(nx), np.arange(nz), indexing="ij")
+        natural = ((j * nx + i) * self.dof + k).ravel().astype(self.PETSc.IntType)
+        return np.asarray(self.da.getAO().app2petsc(natural.copy()), dtype=np.int64)
+
+    def problem_index(self) -> np.ndarray:
+        """The problem's index ((field nx + i) nz + j) of each of this rank's values, in PETSc's order."""
+        nx, nz = self.shape
+        (xs, xe), (zs, ze) = self.ranges
+        j, i, k = np.meshgrid(np.arange(zs, ze), np.arange(xs, xe), np.arange(self.dof), indexing="ij")
+        return ((k * nx + i) * nz + j).ravel()
+
+    def pattern(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) in PETSc's ordering: the Jacobian's pattern on this rank's rows, every
+        field of each own cell coupled to every field of the cells within the stencil's width
+        around it (x periodic; beyond a wall nothing, the ghost row being folded onto the edge
+        row, which is in it), as the whole grid's pattern (the scheme's ``jacobian_sparsity``)."""
+        dof, w = self.dof, self.width
+        (mx, mz), (gx, gz) = self.owned, self.ghosted
+        columns = self.columns.reshape(dof, gx, gz)
+        rows = np.broadcast_to(self.rows.reshape(dof, 1, mx, mz), (dof, dof, mx, mz))
+        found_rows, found_cols = [], []
+        for a in range(2 * w + 1):
+            for b in range(2 * w + 1):
+                cols = np.broadcast_to(columns[None, :, a:a + mx, b:b + mz], (dof, dof, mx, mz))
+                keep = cols >= 0
+                found_rows.append(rows[keep])
+                found_cols.append(cols[keep])
+        return np.concatenate(found_rows), np.concatenate(found_cols)
 
     def _patch(self, x) -> np.ndarray:
         """This rank's patch (dof, mx + 2, mz + 2) of the global vector x."""
@@ -521,17 +648,43 @@ class BlockGrid:
         self.patches.rates(self._patch(x), self.low, self.high, self.out)
         f.setArray(self.out.transpose(2, 1, 0).ravel())
 
+    def block(self, data) -> np.ndarray:
+        """This rank's values in PETSc's order (the global vector's local part) of its block's
+        data (dof, mx, mz)."""
+        return np.ascontiguousarray(np.asarray(data, float).transpose(2, 1, 0)).ravel()
+
+    @property
+    def natural(self):
+        if self._natural is None:
+            self._natural = self.da.createNaturalVec()
+        return self._natural
+
     def scatter_in(self, y, x):
-        """The global vector x of the problem's vector y (the same on every rank)."""
+        """The global vector x of the problem's vector y (the whole vector, the same on every rank)."""
         start, end = self.natural.getOwnershipRange()
         nx, nz = self.shape
         self.natural.setArray(np.asarray(y, float).reshape(self.dof, nx, nz).transpose(2, 1, 0).ravel()[start:end])
         self.da.naturalToGlobal(self.natural, x, addv=self.PETSc.InsertMode.INSERT_VALUES)
 
+    def _whole(self, x, scatter, full) -> np.ndarray:
+        self.da.globalToNatural(x, self.natural, addv=self.PETSc.InsertMode.INSERT_VALUES)
+        scatter.scatter(self.natural, full, addv=self.PETSc.InsertMode.INSERT, mode=self.PETSc.ScatterMode.FORWARD)
+        nx, nz = self.shape
+        values = full.getArray(readonly=True)
+        out = np.empty(values.size)
+        if values.size:
+            out.reshape(self.dof, nx, nz)[...] = values.reshape(nz, nx, self.dof).transpose(2, 1, 0)
+        return out
+
     def gathered(self, x) -> np.ndarray:
         """The problem's vector of the global vector x, on every rank."""
-        self.da.globalToNatural(x, self.natural, addv=self.PETSc.InsertMode.INSERT_VALUES)
-        self._gather.scatter(self.natural, self._full, addv=self.PETSc.InsertMode.INSERT,
-                             mode=self.PETSc.ScatterMode.FORWARD)
-        nx, nz = self.shape
-        return np.array(self._full.getArray(readonly=True)).reshape(nz, nx, self.dof).transpose(2, 1, 0).ravel()
+        if self._all is None:
+            self._all = self.PETSc.Scatter.toAll(self.natural)
+        return self._whole(x, *self._all)
+
+    def to_root(self, x) -> np.ndarray:
+        """The problem's vector of the global vector x on rank 0 (what its outputs keep), an
+        empty array on the other ranks."""
+        if self._root is None:
+            self._root = self.PETSc.Scatter.toZero(self.natural)
+        return self._whole(x, *self._root)

@@ -179,12 +179,13 @@ def scheme_problem(pde, state, choice: Choice, rhs, stats: StepStatistics):
     return make_problem(pde, ordering.to_engine(state.data), ordering, spec, validity, patches), ordering
 
 
-def scheme_patches(pde, state, choice: Choice, perm):
+def scheme_patches(pde, state, choice: Choice, perm, grid=None):
     """The scheme's right-hand side on blocks of its grid (``pde.patches``) where the engine
-    distributes the grid (PETSc) in the scheme's own ordering, else None."""
+    distributes the grid (PETSc) in the scheme's own ordering, else None; of `state`'s grid, or
+    of `grid` (no whole state)."""
     if choice.engine != "petsc" or perm is not None or not hasattr(pde, "patches"):
         return None
-    patches = pde.patches(state)
+    patches = pde.patches(state) if grid is None else pde.patches(grid=grid)
     bounds = getattr(pde, "validity_bounds", None)
     if bounds is None or bounds() is None:
         return patches

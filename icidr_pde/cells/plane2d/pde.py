@@ -172,9 +172,15 @@ class ShearCell2DPDE(ShearCellBase):
             raise ValueError("`grid` must be a 2-D CartesianGrid([[0, L], [0, H]], [Nx, Nz], "
                              f"periodic=[True, False]) (use {type(self).__name__}.make_grid)")
 
-    def nodes(self, grid) -> np.ndarray:
-        """Cell centres, shape (Nx, Nz, 2): nodes[..., 0] = x, nodes[..., 1] = z."""
-        return grid.cell_coords
+    def nodes(self, grid, block=None) -> np.ndarray:
+        """Cell centres, shape (Nx, Nz, 2): nodes[..., 0] = x, nodes[..., 1] = z; of the cells
+        xs:xe, zs:ze alone where `block` is ((xs, xe), (zs, ze)) (a rank's block of a distributed
+        grid, without the whole grid's)."""
+        if block is None:
+            return grid.cell_coords
+        (xs, xe), (zs, ze) = block
+        x, z = grid.axes_coords
+        return np.stack(np.meshgrid(x[xs:xe], z[zs:ze], indexing="ij"), -1)
 
     def make_state(self, grid: CartesianGrid, phi, u, w) -> FieldCollection:
         """FieldCollection of phi, u, w, each a number, an array (Nx, Nz), a callable f(x, z) of
@@ -280,14 +286,16 @@ class ShearCell2DPDE(ShearCellBase):
 
         return pde_rhs
 
-    def patches(self, state: FieldCollection) -> Patches:
+    def patches(self, state: FieldCollection | None = None, *, grid=None) -> Patches:
         """The right-hand side on blocks of cells with one ghost layer (:class:`Patches`): the
-        compiled patch kernel of :meth:`make_rates`, the walls' ghost rows filled first."""
-        self.check_grid(state.grid)
-        nx, nz, hx, hz = self._spacing(state.grid)
+        compiled patch kernel of :meth:`make_rates`, the walls' ghost rows filled first. Of the
+        grid of `state`, or of `grid` (no state: a distributed run has none of the whole grid)."""
+        grid = state.grid if grid is None else grid
+        self.check_grid(grid)
+        nx, nz, hx, hz = self._spacing(grid)
         loops = self._loops()
         walls, patch_rates = loops.walls, loops.patch_rates
-        ghost = self.ghost_coefficients(state.grid)
+        ghost = self.ghost_coefficients(grid)
         upwind, params = self.advection == "upwind", self.material.params
 
         patch = _PatchJacobian(self._law(), params, upwind, hx, hz)

@@ -94,6 +94,11 @@ class CompiledGmres(LinearSolver):
         return f"GMRES + {self.preconditioner} preconditioner" if self.preconditioner else "GMRES"
 
 
+#: the PETSc engine's peak per unknown beyond the 2-D scheme's 2.5 kB a cell, all ranks together:
+#: 8.5-11 kB a cell measured at 512^2 and 1024^2 on 1-4 ranks (docs/distributed.md, memory per rank)
+PETSC_BYTES = (9_000.0 - 2_500.0) / 3
+
+
 class PetscGmres(LinearSolver):
     """PETSc's Newton-Krylov on the analytic sparse Jacobian (:mod:`..petsc`): GMRES preconditioned
     by block Jacobi with ILU in the blocks, its defaults; its options may change both."""
@@ -109,7 +114,6 @@ class PetscGmres(LinearSolver):
         return "PETSc TS bdf + SNES newtonls + KSP {} + PC {}".format(*self.petsc)
 
     def memory(self, n, method, mode, thin=False):
-        from .sparse_lu import SPARSE_LU_BYTES
-
-        # the sparse Jacobian and its factors, counted as SuperLU_MT's
-        return Memory(SPARSE_LU_BYTES * n, "SuperLU_MT's LU factors", repr(mode))
+        # all ranks together (each holds its own block): the matrix, its COO maps, the ILU blocks,
+        # the Krylov basis and the Jacobian's evaluation, beyond the scheme's estimate
+        return Memory(PETSC_BYTES * n, "PETSc's matrix, ILU blocks and Krylov basis, all ranks", repr(mode))
