@@ -439,7 +439,8 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
         if root:
             empty = np.empty((0,) + shape)
             light = dataclasses.replace(result, z=np.empty(0), phi=empty[:, 0], u=empty[:, 1], w=empty[:, 2],
-                                        final=type(result.final)(*np.empty((3, 0))), last_states=empty)
+                                        final=type(result.final)(*np.empty((3, 0))), last_states=empty,
+                                        summary=result.to_dict())
         light = broadcast(PETSc, comm, light)
         return result if root else light
 

@@ -54,6 +54,8 @@ class Result:
             (sqrt of the integral of (u - z/H)^2 + w^2 over the cell)
         not_written: outputs asked for that were not written, parameter -> why
             (e.g. {'save': 'No space left on device'}, {'movie': 'interrupted'})
+        summary: on the ranks other than 0 of a run distributed by blocks, whose fields are rank 0's
+            alone, rank 0's :meth:`to_dict` (None elsewhere: it is computed from the fields)
     """
 
     rheology: str
@@ -99,6 +101,7 @@ class Result:
     not_written: dict = field(default_factory=dict)
     last_times: np.ndarray = field(default_factory=lambda: np.empty(0))
     last_states: np.ndarray | None = None
+    summary: dict | None = None
 
     @property
     def max_w(self) -> np.ndarray:
@@ -118,6 +121,8 @@ class Result:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (the CLI's --json contract)."""
+        if self.summary is not None:
+            return dict(self.summary)
         out = {
             "rheology": self.rheology,
             "scene": self.scene,
