@@ -31,13 +31,21 @@ class XFourierGmres(Preconditioned):
 
             raise ParameterError("`jacobian`='fourier' needs a grid periodic in x (the 2-D cell); use 'amg' or "
                                  "'krylov'")
-        return super().jacobian_spec(pde, state, mode)
+        spec = super().jacobian_spec(pde, state, mode)
+        if getattr(pde, "patches", None) is None:
+            return spec
+        from dataclasses import replace
+
+        from .x_average import XAverage
+
+        # the average by blocks of x-columns: the whole Jacobian's ~3.2 kB a cell are never held
+        return replace(spec, jac=None, x_average=XAverage(pde.patches(state)))
 
     def preconditioner(self, problem):
         from .xfourier_inverse import xfourier_preconditioner
 
         jacobian = problem.jacobian
-        return xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights)
+        return xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights, jacobian.x_average)
 
     def jactimes(self, problem):
         from ..jacobian_vector import difference_jtimes
