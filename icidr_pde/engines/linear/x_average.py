@@ -3,15 +3,15 @@
 The x-Fourier preconditioner (:mod:`.xfourier_inverse`) needs only the coefficients of each coupling
 (field to field, z-row to z-row, x-offset) averaged over the cell's columns: O(Nz) numbers. The
 whole analytic sparse Jacobian, from which they were averaged, is ~670 bytes a cell, and its
-chain-rule products peak at ~3.2 kB a cell while it is built (docs/scaling.md, "Memory: where the
-serial default's bytes go"): at 2048^2 that alone is 13 GB. Here the Jacobian rows of one block of
+chain-rule products peak at ~3.2 kB a cell while it is built (docs/scaling.md, "Where the serial
+default's bytes go"): at 2048^2 that alone is 13 GB. Here the Jacobian rows of one block of
 x-columns at a time are built from the scheme's patch Jacobian (:class:`~icidr_pde.cells.plane2d.pde.Patches`,
 the rows a distributed engine builds for its block) and added into the average, so that what is
 held beside the run is one block's products, not the grid's.
 
 The sums are those of the whole Jacobian's average, term by term and in the same order (each
 coupling's terms by ascending x-column of the Jacobian's column, as the CSC walk of
-:func:`.xfourier_inverse.XFourierPreconditioner` adds them): the block's rows are those of the
+:func:`.xfourier_inverse.x_average` adds them): the block's rows are those of the
 whole grid's Jacobian, and each block contributes the columns x in [a, b), whose rows are the
 block's x in [a - 1, b + 1).
 """
@@ -25,12 +25,21 @@ from ...kernel_cache import numba_saves_may_fail
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 
-__all__ = ["BLOCK_CELLS", "XAverage"]
+__all__ = ["BLOCK_CELLS", "BLOCK_CELL_BYTES", "XAverage", "block_bytes"]
 
-#: the cells of one block of x-columns (rounded to whole columns, at least one): its chain-rule
-#: products are ~3.2 kB a cell while they are built, its patch operators (kept for the next
-#: average) ~1.7 kB: ~160 MB at this size, whatever the grid
+#: the cells of one block of x-columns (rounded to whole columns, at least one)
 BLOCK_CELLS = 2**15
+#: per cell of a block (its own columns and the two beside them whose rows it needs): the chain-rule
+#: products while they are built and the patch operators kept for the next average; measured, the
+#: peak RSS above the per-cell growth at 256^2 and 512^2 (~158 MB for blocks of ~33 000 cells:
+#: docs/scaling.md, the memory section), with a quarter to spare
+BLOCK_CELL_BYTES = 6_000.0
+
+
+def block_bytes(cells: int) -> float:
+    """The memory of one block of a grid of `cells` cells (whole x-columns of at most BLOCK_CELLS
+    cells, and their two neighbours: a quarter more where Nz <= BLOCK_CELLS / 8)."""
+    return BLOCK_CELL_BYTES * min(cells, 1.25 * BLOCK_CELLS)
 
 
 class XAverage:
