@@ -466,11 +466,13 @@ def _check_stiffness(problem, y0, t_end):
 
 
 def _compile_jacobian(problem) -> None:
-    """Call the compiled analytic Jacobian once at y0: its first call compiles it (seconds on an
-    empty cache), set-up time (compile_s) rather than the solve's (wall_s)."""
+    """Call the compiled analytic Jacobian (or its x-average, 'fourier') once at y0: its first call
+    compiles it (seconds on an empty cache), set-up time (compile_s) rather than the solve's (wall_s)."""
     spec, y0 = problem.jacobian, np.array(problem.y0)
     if spec.jac is not None:
         spec.jac(0.0, y0)
+    elif spec.x_average is not None:
+        spec.x_average(0.0, y0)
     elif spec.band_jac is not None and y0.size <= 3000:  # into a dense array: small grids only
         spec.band_jac(y0, np.zeros((y0.size, y0.size)))
 

@@ -72,7 +72,9 @@ class JacobianSpec:
     fields: the unknowns per cell of 'amg' (the blocks of its nodal aggregation; the unknowns are
     field-major), with `jac` the analytic sparse Jacobian its hierarchy is built from.
     shape: (fields, Nx, Nz) of the unknowns of 'fourier' (field-major, x periodic), with `jac` the
-    analytic sparse Jacobian whose x-average it inverts.
+    analytic sparse Jacobian whose x-average it inverts, or `x_average`: x_average(t, y) -> that
+    average (:class:`icidr_pde.engines.linear.x_average.XAverage`, by blocks of x-columns: the
+    whole Jacobian is never held) and `jac` None.
     """
 
     mode: str
@@ -85,6 +87,7 @@ class JacobianSpec:
     line_pattern: object = None
     fields: int | None = None
     shape: tuple[int, int, int] | None = None
+    x_average: object = None
 
 
 @dataclass

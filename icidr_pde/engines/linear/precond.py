@@ -28,7 +28,9 @@ def jacobian_precond(jac, build, weights=None):
 
     def setup(t, y, gamma, jok):
         if not jok or "inverse" not in saved:
-            saved["inverse"] = build(jac(t, np.array(y)), gamma)
+            J = jac(t, np.array(y))
+            saved.pop("inverse", None)  # the previous inverse's memory is free before the next is built
+            saved["inverse"] = build(J, gamma)
             return True
         saved["inverse"].at(gamma)
         return False

@@ -9,10 +9,11 @@ from .gmres import PetscGmres, Preconditioned
 
 __all__ = ["XFourierGmres", "PetscXFourier", "FOURIER_BYTES"]
 
-#: the x-Fourier preconditioner ('fourier'), per unknown beyond the scheme's estimate: the analytic
-#: Jacobian while it is averaged, the banded LU factors of the Nx / 2 + 1 wave numbers: 3.4 kB a
-#: 2-D cell, from the peak memory with and without it (docs/scaling.md, the memory section)
-FOURIER_BYTES = 3_400.0 / 3
+#: the x-Fourier preconditioner ('fourier'), per unknown beyond the scheme's estimate: the banded LU
+#: factors of the Nx / 2 + 1 wave numbers (complex: 417 bytes a cell, with 8 % to spare); one block
+#: of its x-average (:mod:`.x_average`) is counted apart (:meth:`XFourierGmres.memory`). The whole
+#: process grew by 1.55 kB a cell from 256^2 to 512^2 with it (docs/scaling.md, the memory section)
+FOURIER_BYTES = 450.0 / 3
 
 
 class XFourierGmres(Preconditioned):
@@ -25,7 +26,13 @@ class XFourierGmres(Preconditioned):
     what = "the x-average of the Jacobian, FFT in x"
     default = True
     bytes_per_unknown = FOURIER_BYTES
-    memory_note = "the analytic sparse Jacobian and the banded LU factors of the x-Fourier preconditioner"
+    memory_note = "the banded LU factors of the x-Fourier preconditioner and one block of its x-average"
+
+    def memory(self, n, method, mode, thin=False):
+        from .base import Memory
+        from .x_average import block_bytes
+
+        return Memory(self.bytes_per_unknown * n + block_bytes(n // 3), self.memory_note, repr(mode))
 
     def jacobian_spec(self, pde, state, mode):
         if not state.grid.periodic[0]:
@@ -33,13 +40,21 @@ class XFourierGmres(Preconditioned):
 
             raise ParameterError("`jacobian`='fourier' needs a grid periodic in x (the 2-D cell); use 'amg' or "
                                  "'krylov'")
-        return super().jacobian_spec(pde, state, mode)
+        spec = super().jacobian_spec(pde, state, mode)
+        if getattr(pde, "patches", None) is None:
+            return spec
+        from dataclasses import replace
+
+        from .x_average import XAverage
+
+        # the average by blocks of x-columns: the whole Jacobian's ~3.2 kB a cell are never held
+        return replace(spec, jac=None, x_average=XAverage(pde.patches(state)))
 
     def preconditioner(self, problem):
         from .xfourier_inverse import xfourier_preconditioner
 
         jacobian = problem.jacobian
-        return xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights)
+        return xfourier_preconditioner(jacobian.jac, jacobian.shape, jacobian.weights, jacobian.x_average)
 
     def jactimes(self, problem):
         from ..jacobian_vector import difference_jtimes

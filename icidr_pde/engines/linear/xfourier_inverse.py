@@ -55,6 +55,8 @@ class XFourierPreconditioner:
             (field * Nx + ix) * Nz + iz, x periodic
         shape: (fields, Nx, Nz)
         gamma: the step coefficient the factors are built for
+        averaged: instead of J, its (average, band, reach) (:func:`x_average`), e.g. computed by
+            blocks of x-columns without the whole J (:mod:`.x_average`)
 
     The coupling of unknown (f, ix, iz) to (g, ix + dx, iz + dz) becomes, averaged over ix, the
     coefficient of row q = fields * iz + f and band position q' - q (q' = fields * (iz + dz) + g)
@@ -62,13 +64,15 @@ class XFourierPreconditioner:
     factors and solves the banded systems.
     """
 
-    def __init__(self, J, shape, gamma: float):
+    def __init__(self, J, shape, gamma: float, averaged=None):
         fields, nx, nz = (int(s) for s in shape)
-        if J.shape != (fields * nx * nz,) * 2:
-            raise ParameterError(f"`J` must be {fields * nx * nz} x {fields * nx * nz} for `shape` {shape}; "
-                                 f"got {J.shape}")
+        if averaged is None:
+            if J.shape != (fields * nx * nz,) * 2:
+                raise ParameterError(f"`J` must be {fields * nx * nz} x {fields * nx * nz} for `shape` {shape}; "
+                                     f"got {J.shape}")
+            averaged = x_average(J, (fields, nx, nz))
         self.fields, self.nx, self.nz = fields, nx, nz
-        average, band, reach = x_average(J, (fields, nx, nz))
+        average, band, reach = averaged
         self.factors = XFourierFactors(average, nx, band, reach)
         self.gamma = None
         self.at(gamma)
@@ -222,15 +226,20 @@ def _band_solve(lu, reciprocal, pivots, kl, ku, b):
                 x[i] -= a[kd + i - j, j] * xj
 
 
-def xfourier_preconditioner(jac, shape, weights=None):
+def xfourier_preconditioner(jac, shape, weights=None, averaged=None):
     """CVODE's left preconditioner: :class:`XFourierPreconditioner` of the analytic sparse Jacobian.
 
     Args:
-        jac: the analytic sparse Jacobian jac(t, y), unknowns field-major
+        jac: the analytic sparse Jacobian jac(t, y), unknowns field-major (None with `averaged`)
         shape: (fields, Nx, Nz) of the unknowns
         weights: the mass weights c (c J = 0) of the conserved quantity, or None
+        averaged: averaged(t, y) -> (average, band, reach) of the Jacobian at y (:mod:`.x_average`:
+            by blocks of x-columns, without the whole J), or None: averaged from jac(t, y)
 
     The x-average is rebuilt when CVODE asks for a new Jacobian (jok false), the factors whenever
     gamma changes. With `weights` the output keeps c z = c r (module notes).
     """
+    if averaged is not None:
+        return jacobian_precond(averaged, lambda a, gamma: XFourierPreconditioner(None, shape, gamma, averaged=a),
+                                weights)
     return jacobian_precond(jac, lambda J, gamma: XFourierPreconditioner(J, shape, gamma), weights)

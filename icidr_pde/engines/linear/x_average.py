@@ -1,0 +1,106 @@
+"""The x-average of the 2-D cell's Jacobian, computed by blocks of x-columns.
+
+The x-Fourier preconditioner (:mod:`.xfourier_inverse`) needs only the coefficients of each coupling
+(field to field, z-row to z-row, x-offset) averaged over the cell's columns: O(Nz) numbers. The
+whole analytic sparse Jacobian, from which they were averaged, is ~670 bytes a cell, and its
+chain-rule products peak at ~3.2 kB a cell while it is built (docs/scaling.md, "Where the serial
+default's bytes go"): at 2048^2 that alone is 13 GB. Here the Jacobian rows of one block of
+x-columns at a time are built from the scheme's patch Jacobian (:class:`~icidr_pde.cells.plane2d.pde.Patches`,
+the rows a distributed engine builds for its block) and added into the average, so that what is
+held beside the run is one block's products, not the grid's.
+
+The sums are those of the whole Jacobian's average, term by term and in the same order (each
+coupling's terms by ascending x-column of the Jacobian's column, as the CSC walk of
+:func:`.xfourier_inverse.x_average` adds them): the block's rows are those of the
+whole grid's Jacobian, and each block contributes the columns x in [a, b), whose rows are the
+block's x in [a - 1, b + 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ...kernel_cache import numba_saves_may_fail
+
+numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
+
+__all__ = ["BLOCK_CELLS", "BLOCK_CELL_BYTES", "XAverage", "block_bytes"]
+
+#: the cells of one block of x-columns (rounded to whole columns, at least one)
+BLOCK_CELLS = 2**15
+#: per cell of a block (its own columns and the two beside them whose rows it needs): the chain-rule
+#: products while they are built and the patch operators kept for the next average; measured, the
+#: peak RSS above the per-cell growth at 256^2 and 512^2 (~158 MB for blocks of ~33 000 cells:
+#: docs/scaling.md, the memory section), with a quarter to spare
+BLOCK_CELL_BYTES = 6_000.0
+
+
+def block_bytes(cells: int) -> float:
+    """The memory of one block of a grid of `cells` cells (whole x-columns of at most BLOCK_CELLS
+    cells, and their two neighbours: a quarter more where Nz <= BLOCK_CELLS / 8)."""
+    return BLOCK_CELL_BYTES * min(cells, 1.25 * BLOCK_CELLS)
+
+
+class XAverage:
+    """average(t, y) -> (average, band, reach) of the Jacobian at the state y, averaged over x.
+
+    Args:
+        patches: the scheme's :class:`~icidr_pde.cells.plane2d.pde.Patches` (rates and Jacobian on
+            blocks of cells with ghost layers; x periodic, walls in z)
+        block_cells: the cells of one block (whole x-columns, at least one)
+
+    average (m (2 band + 1), 2 reach + 1), m = fields Nz: row q = fields iz + f, band position
+    q' - q + band (q' = fields (iz + dz) + g), x-offset dx + reach of the coupling of unknown
+    (f, ix, iz) to (g, ix + dx, iz + dz), divided by Nx and summed over ix; band and reach the
+    largest |q' - q| and |dx| of the couplings present. The unknowns are field-major
+    (field, x, z), the patches' state data flattened.
+    """
+
+    def __init__(self, patches, block_cells: int = BLOCK_CELLS):
+        self.patches = patches
+        self.fields = int(patches.dof)
+        self.nx, self.nz = (int(s) for s in patches.shape)
+        self.stencil = int(patches.stencil)
+        self.columns = max(1, min(self.nx, int(block_cells) // self.nz))
+
+    def __call__(self, t, y):
+        fields, nx, nz, width = self.fields, self.nx, self.nz, self.stencil
+        data = np.asarray(y, dtype=float).reshape(fields, nx, nz)
+        band_max = fields * (width + 1) - 1  # z-offsets up to the stencil's width
+        out = np.zeros((fields * nz, 2 * band_max + 1, 2 * width + 1))
+        reach = np.zeros(2, dtype=np.int64)
+        for a in range(0, nx, self.columns):
+            b = min(nx, a + self.columns)
+            # the rows of the columns [a, b) are those of x in [a - w, b + w), their patch x in [a - 2w, b + 2w)
+            rows = (b - a) + 2 * width
+            g = np.zeros((fields, rows + 2 * width, nz + 2 * width))
+            g[:, :, width:nz + width] = np.take(data, np.arange(a - 2 * width, b + 2 * width), axis=1, mode="wrap")
+            J = self.patches.jacobian(g, True, True).tocsc()  # rows (f, ix, iz), columns the patch's (g, px, pz)
+            _add_block(J.indptr, J.indices, J.data, fields, nx, nz, rows, width, band_max, out, reach)
+        band, dx = int(reach[0]), int(reach[1])
+        average = out[:, band_max - band:band_max + band + 1, width - dx:width + dx + 1]
+        return np.ascontiguousarray(average).reshape(fields * nz * (2 * band + 1), 2 * dx + 1), band, dx
+
+
+@njit(cache=True)
+def _add_block(indptr, indices, data, fields, nx, nz, rows, width, band_max, out, reach):
+    """out[q, band_max + q' - q, width + dx] += J / Nx over the block's CSC entries whose column
+    is one of the block's own x-columns (patch x in [2 width, rows)); reach = (largest |q' - q|,
+    largest |dx|) of those entries (module notes)."""
+    px, pz = rows + 2 * width, nz + 2 * width
+    for col in range(indptr.size - 1):
+        f_col, cell = divmod(col, px * pz)
+        x_col, z_pad = divmod(cell, pz)
+        if x_col < 2 * width or x_col >= rows or indptr[col] == indptr[col + 1]:
+            continue
+        z_col = z_pad - width  # a wall ghost's column is folded into the edge row's: empty
+        for e in range(indptr[col], indptr[col + 1]):
+            f_row, cell = divmod(indices[e], rows * nz)
+            x_row, z_row = divmod(cell, nz)
+            q = fields * z_row + f_row
+            offset = fields * z_col + f_col - q
+            dx = x_col - width - x_row
+            out[q, band_max + offset, width + dx] += data[e] / nx
+            reach[0] = max(reach[0], abs(offset))
+            reach[1] = max(reach[1], abs(dx))
