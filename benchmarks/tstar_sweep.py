@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     BASELINE.update(rtol=args.baseline_rtol, atol=args.baseline_rtol * 1e-3)
     if args.baseline:
-        Path(args.out).write_text(json.dumps(baseline(args.baseline)))
+        write_json(args.out, baseline(args.baseline), stamp=False)  # a child's hand-over, not a measurement
         return 0
     truth = json.loads(ACCURACY_FILE.read_text())
     cases = {"full": dict(project=FULL + ["--plot", "PLOT"], baseline=None),

@@ -193,6 +193,7 @@ class _FakeRun:
         self.discretization, self.N, self.t_star, self.blew_up = discretization, N, t_star, t_star is not None
         self.max_w_t = np.geomspace(1e-4, t_star or 10.0, 50)
         self.max_w_series = 0.05 * np.exp(self.max_w_t / (t_star or 1e3) * 10)
+        self.method, self.rtol = "BDF", 1e-6  # panel (b)'s label names how panel (a)'s run was computed
 
 
 def test_fig4_legend_explains_the_failure_marks_and_names_finite_volumes():

@@ -296,6 +296,7 @@ def test_ctrl_c_during_a_tstar_sweep_keeps_what_finished(tmp_path):
     cache, out = tmp_path / "cases", tmp_path / "tstar.json"
     proc = subprocess.Popen([sys.executable, "-m", "icidr_pde.cli", "tstar", "--rheology", "icidr",
                              "--discretization", "fd", "--N", "8,10,400", "--t-end", "20", "--jobs", "2",
+                             "--accuracy", "paper",  # scipy's BDF: N = 400 runs long enough to be stopped
                              "--cache", str(cache), "--json", str(out), "--no-progress"],
                             cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -349,7 +350,7 @@ def test_interrupted_case_of_a_serial_sweep_is_not_a_case_without_failure(tmp_pa
     monkeypatch.setattr(failure_time, "run", run_interrupting_the_second)
     cache, out = tmp_path / "cases", tmp_path / "tstar.json"
     status = cli.main(["tstar", "--rheology", "icidr", "--discretization", "fd", "--N", "8,12", "--t-end", "2",
-                       "--jobs", "1", "--cache", str(cache), "--json", str(out), "--no-progress"])
+                       "--accuracy", "paper", "--jobs", "1", "--cache", str(cache), "--json", str(out), "--no-progress"])
     err = capsys.readouterr().err
     assert status == 130, err
     written = json.loads(out.read_text())["discretizations"]["fd"]["t_star"]
