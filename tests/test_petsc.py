@@ -435,8 +435,11 @@ def test_signal_under_mpiexec_keeps_what_was_computed(tmp_path, sent):
     interrupted one (Open MPI's mpiexec sends SIGTERM to the ranks for either signal)."""
     t_end = 200.0
     env = dict(_mpi_env(), OMPI_MCA_odls_base_sigkill_timeout="3")  # SIGTERM to SIGKILL: 1 s by default
+    # rtol 1e-9: thousands of steps (about 10 s), so that the signal lands inside the integration (at
+    # the default tolerance the x-Fourier preconditioner takes 48^2 to t = 200 in under a second)
     proc, status = _cli_on_ranks(tmp_path, 2, ["run", "--engine", "petsc", "--scene", "bump2d", "--N", "48",
-                                               "--t-end", str(t_end), "--json", "out.json"], env=env)
+                                               "--t-end", str(t_end), "--rtol", "1e-9", "--atol", "1e-12",
+                                               "--json", "out.json"], env=env)
     seen, started = [], threading.Event()
 
     def read_progress():  # rank 0's progress bar: 'integrating (...): 3%| t = 5.12/200 [...]'
