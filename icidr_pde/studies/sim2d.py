@@ -126,7 +126,8 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
     if case["dim"] == 2:
         r = run("mui", "bump2d", (n, n), t_end, times, series_times=[], **{**_solver_2d(settings), **settings})
         return r.t_star, r.reason, None, str(r)
-    one_d = {k: v for k, v in settings.items() if k != "engine"}  # the 1-D runs: the study's CVODE
+    # the 1-D runs: the study's CVODE with the fd scheme's own Jacobian (engine and jacobian are the 2-D runs')
+    one_d = {k: v for k, v in settings.items() if k not in ("engine", "jacobian")}
     r = run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[], **one_d)
     return r.t_star, r.reason, None if r.blew_up else float(np.max(np.abs(r.final[2]))), str(r)
 
