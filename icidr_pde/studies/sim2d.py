@@ -30,7 +30,7 @@ from ..outputs import write_json
 from .case_cache import run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
-           "observed_orders", "mode_growth", "predicted_growth", "study_command", "SETTINGS", "SOLVER_2D",
+           "observed_orders", "mode_growth", "predicted_growth", "study_command", "combine_studies", "SETTINGS", "SOLVER_2D",
            "SIZES", "TSTAR_SIZES"]
 
 TIMES = ("0.5", "1", "2", "5", "10")
@@ -150,6 +150,44 @@ def tstar_study(sizes=TSTAR_SIZES, t_end=10.0, path=DATA / "tstar.json", *, jobs
         print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
                "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
+    write_json(payload, path)
+    return payload
+
+
+def combine_studies(parts, path) -> dict:
+    """One study's JSON from the JSONs of its grids run apart (`parts`: payloads or their files, all
+    convergence or all tstar, with the same settings and times), as the study would have written
+    them run together: grids in increasing N, the observed orders over all of them, the command
+    of all the sizes writing `path`; written to `path`."""
+    import json
+
+    parts = [json.loads(pathlib.Path(p).read_text()) if not isinstance(p, dict) else p for p in parts]
+    if not parts:
+        raise ValueError("`parts` must name at least one study JSON; got none")
+    first = parts[0]
+    same = ("rheology", "settings", "times") if "runs" in first else ("rheology", "settings", "t_end")
+    for other in parts[1:]:
+        for key in same:
+            if other.get(key) != first.get(key):
+                raise ValueError(f"`parts` must be grids of one study: {key} {first.get(key)!r} against "
+                                 f"{other.get(key)!r}")
+    settings = first["settings"]
+    if "runs" in first:
+        runs = {}
+        for part in parts:
+            runs.update(part["runs"])
+        sizes = sorted(int(n) for n in runs)
+        times = first["times"]
+        orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
+        default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind"
+                               else "convergence.json")
+        payload = {**first, "sizes": sizes, "runs": {str(n): runs[str(n)] for n in sizes}, "observed_orders": orders,
+                   "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
+    else:
+        rows = {row["N"]: row for part in parts for row in part["rows"]}
+        sizes = sorted(rows)
+        payload = {**first, "rows": [rows[n] for n in sizes],
+                   "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
     write_json(payload, path)
     return payload
 
