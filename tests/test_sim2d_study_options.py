@@ -135,3 +135,19 @@ def test_bad_settings_are_refused_in_one_line_before_any_run(argv, option, tmp_p
         errors[0]
     assert "iCIDR bump2d" not in captured.out and "mu(I) bump2d" not in captured.out  # no run started
     assert not json_path.exists()
+
+
+def test_grids_run_apart_combine_into_the_study_run_together(tmp_path):
+    """combine_studies: the JSON of 8^2 and 16^2 run apart is the JSON of both run together (orders,
+    command) but the wall times; parts of different settings are refused."""
+    times = ("0.05", "0.1")
+    together = sim2d.convergence_study((8, 16, 32), times, path=tmp_path / "c.json")
+    parts = [sim2d.convergence_study((n,), times, path=tmp_path / f"c{n}.json") for n in (32, 8, 16)]
+    combined = sim2d.combine_studies([tmp_path / "c32.json", parts[1], tmp_path / "c16.json"], tmp_path / "c.json")
+    assert _without_wall(combined.pop("runs")) == _without_wall(together.pop("runs"))
+    assert combined == together and json.loads((tmp_path / "c.json").read_text())["sizes"] == [8, 16, 32]
+    rows = [sim2d.tstar_study((n,), 0.1, path=tmp_path / f"t{n}.json") for n in (12, 8)]
+    assert sim2d.combine_studies(rows, tmp_path / "t.json") == sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t.json")
+    other = sim2d.convergence_study((8,), times, path=tmp_path / "o.json", rtol=1e-6)
+    with pytest.raises(ValueError, match="`parts` must be grids of one study: settings"):
+        sim2d.combine_studies([parts[0], other], tmp_path / "x.json")
