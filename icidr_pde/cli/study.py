@@ -3,7 +3,8 @@ committed under data/ (each study is a function of :mod:`icidr_pde.studies`; thi
 its options).
 
 * ``study sim2d convergence|tstar|growth|tables``: the 2-D cell (:mod:`icidr_pde.studies.sim2d`,
-  data/sim2d, docs/sim2d.md);
+  data/sim2d, docs/sim2d.md), convergence and tstar at the integrator settings given (``--rtol``,
+  ``--atol``, ``--jacobian``; default the study's);
 * ``study grid-convergence``: errors against a fine run and the observed orders
   (:func:`icidr_pde.studies.grid_convergence.convergence_study`, docs/results.md);
 * ``study references [CASE ...]``: the converged references of the speed-accuracy study
@@ -90,11 +91,20 @@ def _sim2d(args) -> int:
     from ..studies import sim2d
 
     if args.part == "tables":
+        missing = [name for name in ("convergence.json", "tstar.json", "mode_growth.json")
+                   if not (sim2d.DATA / name).is_file()]
+        if missing:  # the committed studies, relative to the repository's root
+            raise ValueError(f"`tables` reads the studies in {sim2d.DATA}/ of the folder it runs in (the "
+                             f"repository's root); got no {', '.join(missing)} there")
         print(sim2d.convergence_table(json.loads((sim2d.DATA / "convergence.json").read_text())))
         print()
         print(sim2d.tstar_table(json.loads((sim2d.DATA / "tstar.json").read_text())))
         print()
         print(sim2d.growth_table(json.loads((sim2d.DATA / "mode_growth.json").read_text())))
+        for name, table in (("tstar_large.json", sim2d.tstar_table), ("convergence_large.json", sim2d.convergence_table)):
+            if (sim2d.DATA / name).is_file():  # the grids beyond 128^2, where committed (docs/sim2d.md)
+                print(f"\n{sim2d.DATA / name}:\n")
+                print(table(json.loads((sim2d.DATA / name).read_text())))
         return 0
     from ..outputs import check_outputs
     from .common import check_engine
