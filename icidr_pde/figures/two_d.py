@@ -365,6 +365,7 @@ def tstar2d(runs):
     top = max(r["max_w"][t] for r in conv["runs"].values() for t in conv["times"])
     ax.set(xlabel="N ($N^2$ cells)", ylabel="max|w|", title="(b) iCIDR on bump2d: max|w|(t) against N; *: recomputed",
            ylim=(0, 1.45 * top))
+    ax.set_yticks([y for y in ax.get_yticks() if 0 <= y <= 1.1 * top])  # none under the legend
     _plain_ticks(ax, [*sizes, *big_sizes])
     ax.tick_params(axis="x", labelsize=7)
     ax.legend(fontsize=7, ncol=3, loc="upper center")
@@ -399,6 +400,7 @@ def tstar2d(runs):
     ax.set(xlabel=f"h = H/N (N = {coarse} against 2N)", ylabel="|q(N) - q(2N)|",
            title="(c) iCIDR: successive differences shrink with h",
            ylim=(0.5 * low, high * (high / low) ** 0.8))  # room above the lines for the legend
+    ax.set_yticks([y for y in ax.get_yticks() if 0.5 * low <= y <= 2 * high])
     _plain_ticks(ax, sorted(all_h, reverse=True), "{:.3g}")
     ax.tick_params(axis="x", labelsize=7)
     ax.invert_xaxis()
