@@ -11,6 +11,12 @@ made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
 ``icidr-pde study sim2d tables`` -- the tables of docs/sim2d.md from those files.
 
+convergence and tstar take the integrator settings (``--rtol``, ``--atol``, ``--jacobian``; default
+:data:`SETTINGS` and :data:`SOLVER_2D`, which computed the committed files); the grids beyond 128^2
+run on the stable 2-D default (data/sim2d/convergence_large.json, tstar_large.json: docs/sim2d.md,
+"Grids beyond 128²"). Each JSON's "command" reruns it (:func:`study_command`); grids run apart
+become one study's JSON with :func:`combine_studies`.
+
 The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
 Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path). The runs of
