@@ -153,12 +153,14 @@ def test_a_2d_study_rerun_from_its_cache_runs_nothing_and_gives_the_same_numbers
     from icidr_pde.studies import sim2d
 
     plain = getattr(sim2d, study)(**args, path=tmp_path / "plain.json")
-    first = getattr(sim2d, study)(**args, path=tmp_path / "first.json", cache=tmp_path / "cache")
-    assert _without_wall(first) == _without_wall(plain)  # the uncached study's numbers
+    first = getattr(sim2d, study)(**args, path=tmp_path / "cached.json", cache=tmp_path / "cache")
+    # the uncached study's numbers (its command names its own --json)
+    assert _without_wall(first) == {**_without_wall(plain), "command": first["command"]}
+    written = json.loads((tmp_path / "cached.json").read_text())
     monkeypatch.setattr(api, "run", _no_run)
-    again = getattr(sim2d, study)(**args, path=tmp_path / "again.json", cache=tmp_path / "cache")
+    again = getattr(sim2d, study)(**args, path=tmp_path / "cached.json", cache=tmp_path / "cache")
     assert again == first
-    assert json.loads((tmp_path / "again.json").read_text()) == json.loads((tmp_path / "first.json").read_text())
+    assert json.loads((tmp_path / "cached.json").read_text()) == written
 
 
 def test_grid_convergence_rerun_from_its_cache_runs_nothing_and_gives_the_same_numbers(tmp_path, monkeypatch,

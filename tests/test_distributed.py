@@ -157,12 +157,13 @@ def test_grid_convergence_as_tasks_is_the_serial_study_bit_for_bit(client, tmp_p
 def test_the_2d_studies_as_tasks_are_the_serial_studies_bit_for_bit(client, tmp_path):
     from icidr_pde.studies import sim2d
 
-    serial = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c1.json")
-    on_dask = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c2.json", client=client)
+    # one path: the JSON's command names it
+    serial = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c.json")
+    on_dask = sim2d.convergence_study((8, 16), ("0.05", "0.1"), path=tmp_path / "c.json", client=client)
     assert _without_wall(on_dask.pop("runs")) == _without_wall(serial.pop("runs"))
     assert on_dask == serial
-    serial = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t1.json")
-    on_dask = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t2.json", client=client)
+    serial = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t.json")
+    on_dask = sim2d.tstar_study((8, 12), 0.1, path=tmp_path / "t.json", client=client)
     assert on_dask == serial and [r["N"] for r in on_dask["rows"]] == [8, 12]
 
 

@@ -339,6 +339,11 @@ def test_sim2d_tables_are_the_studies_tables():
                          (sim2d.growth_table, "mode_growth")):
         table = render(data(f"sim2d/{name}.json")).strip()
         assert table in text, f"docs/sim2d.md: the {name} table is not what data/sim2d/{name}.json gives"
+    for name, render in (("tstar_large", sim2d.tstar_table), ("convergence_large", sim2d.convergence_table)):
+        if (DATA / "sim2d" / f"{name}.json").is_file():  # the grids beyond 128^2, once committed
+            table = render(data(f"sim2d/{name}.json")).strip()
+            assert table in text, (f"docs/sim2d.md: the {name} table is not what data/sim2d/{name}.json gives "
+                                   "(`icidr-pde study sim2d tables` prints it)")
     t_star_64 = next(r["t_star_2d"] for r in data("sim2d/tstar.json")["rows"] if r["N"] == 64)
     assert agrees(re.search(r"fails at t\* ≈ ([\d.]+)", text).group(1), t_star_64)
 
@@ -371,6 +376,13 @@ def test_gallery_numbers_that_quote_committed_data_are_that_data():
     figures = gallery()["figures"]
     committed = {str(r["N"]): r["t_star_2d"] for r in data("sim2d/tstar.json")["rows"]}
     assert figures["tstar2d"]["t_star_2d"] == committed
+    large = DATA / "sim2d" / "tstar_large.json"  # the grids beyond 128^2 where committed, else none drawn
+    assert figures["tstar2d"]["large_t_star_2d"] == {str(r["N"]): r["t_star_2d"] for r in (
+        data("sim2d/tstar_large.json")["rows"] if large.is_file() else []) if r["t_star_2d"] is not None}, (
+        "docs/figures: tstar2d is not drawn from data/sim2d/tstar_large.json: icidr-pde figures --only tstar2d")
+    large = DATA / "sim2d" / "convergence_large.json"
+    assert figures["tstar2d"]["large_max_w"] == (
+        {n: run["max_w"] for n, run in data("sim2d/convergence_large.json")["runs"].items()} if large.is_file() else {})
     assert figures["tstar2d"]["t_star_1d_fails_from_N"] == min(
         r["N"] for r in data("sim2d/tstar.json")["rows"] if r["t_star_1d"] is not None)
     assert figures["fig4"]["cheb_t_star_N201_data"] == tstar_sweep(TSTAR_STATED, "cheb")[201]
@@ -392,7 +404,8 @@ CHECKED = {"chebyshev.md": ("### t* against the linear solver and the Krylov tol
                           "(`--sizes 32 48 64 96 --rhs-sizes --json", "The right-hand side alone at the initial state"),
            "results.md": ("data/tstar/mui_shear_fd_BDF_rtol1e-6_atol1e-9.json;", "**Grid convergence**"),
            "sim2d.md": ("`icidr-pde study sim2d tstar`", "**max_w**", "**max_phi_dev**", "**l2_velocity**",
-                        "Central advection:", "Upwind advection:", "`icidr-pde study sim2d growth`")}
+                        "Central advection:", "Upwind advection:", "`icidr-pde study sim2d growth`",
+                        "(data/sim2d/tstar_large.json)")}
 #: "*Dated record*: `command`[ how it ran], YYYY-MM-DD[ time], machine and load[; data file]"
 RECORD = re.compile(r"^\*Dated record\*: `(?P<command>[^`]+)`[^,`]*, (?P<date>\d{4}-\d{2}-\d{2})(?: [^,]*)?, "
                     r"(?P<machine>.*machine.*)$")

@@ -153,3 +153,103 @@ def test_the_plot_of_a_2d_run_shows_its_last_fields(tmp_path):
     np.testing.assert_array_equal(images[0].get_array(), result.w[-1].T)
     np.testing.assert_allclose(images[1].get_array(), (result.phi[-1] - result.scene_params["phi0"]).T)
     np.testing.assert_array_equal(fig.axes[2].lines[0].get_ydata(), result.max_w_series)
+
+
+# --- tstar2d beyond 128^2: the committed large-grid studies, drawn where they exist ---------------
+
+
+def _large_folder(tmp_path, with_large=True):
+    """A data folder with the committed sim2d studies and, `with_large`, large-grid studies made from
+    them: the committed convergence grids 16-128 relabelled 256-2048, two t* rows at 256 and 512."""
+    import json
+    import shutil
+
+    from icidr_pde.figures.runs import DATA
+
+    (tmp_path / "sim2d").mkdir()
+    for name in ("tstar.json", "convergence.json"):
+        shutil.copy(DATA / "sim2d" / name, tmp_path / "sim2d" / name)
+    if not with_large:
+        return tmp_path, None, None
+    settings = {"method": "CVODE", "rtol": 1e-5, "atol": 1e-8, "jacobian": "fourier"}
+    conv = json.loads((DATA / "sim2d" / "convergence.json").read_text())
+    relabel = {str(n): str(16 * n) for n in conv["sizes"]}
+    conv_large = {**conv, "settings": settings, "sizes": [16 * n for n in conv["sizes"]],
+                  "runs": {relabel[n]: run for n, run in conv["runs"].items()}}
+    tstar_large = {"scene": "bump2d", "rheology": "mui", "t_end": 10.0, "settings": settings,
+                   "rows": [{"N": 256, "t_star_2d": 0.0287, "reason_2d": "x", "t_star_1d": 0.12, "reason_1d": "x",
+                             "max_w_1d_end": None},
+                            {"N": 512, "t_star_2d": 0.0177, "reason_2d": "x", "t_star_1d": 0.033, "reason_1d": "x",
+                             "max_w_1d_end": None}]}
+    (tmp_path / "sim2d" / "convergence_large.json").write_text(json.dumps(conv_large))
+    (tmp_path / "sim2d" / "tstar_large.json").write_text(json.dumps(tstar_large))
+    return tmp_path, conv_large, tstar_large
+
+
+def _draw_tstar2d(drawn, folder, monkeypatch):
+    """tstar2d on the data of `folder`, its small fresh studies taken from the gallery's (recorded:
+    the sizes every study was asked for)."""
+    from icidr_pde.figures import two_d
+    from icidr_pde.studies import sim2d
+
+    fresh, asked = drawn[1]._results["sim2d-fresh"], []
+
+    def study(part):
+        def run_it(sizes, *args, **kwargs):
+            asked.extend(sizes)
+            return fresh[part]
+        return run_it
+
+    monkeypatch.setattr(two_d, "DATA", folder)
+    monkeypatch.setattr(sim2d, "tstar_study", study("tstar"))
+    monkeypatch.setattr(sim2d, "convergence_study", study("convergence"))
+    fig, numbers = two_d.tstar2d(RunCache(draft=True))
+    return fig, numbers, asked
+
+
+def test_tstar2d_draws_the_large_grids_beside_the_committed_ones(drawn, tmp_path, monkeypatch):
+    folder, conv_large, tstar_large = _large_folder(tmp_path)
+    fig, n, asked = _draw_tstar2d(drawn, folder, monkeypatch)
+    assert asked and max(asked) <= 128  # the gallery runs none of the large grids
+    assert n["large_t_star_2d"] == {256: 0.0287, 512: 0.0177} and n["large_t_star_1d"] == {256: 0.12, 512: 0.033}
+    assert n["large_t_star_2d_falls"]
+    assert n["large_max_w"] == {int(k): run["max_w"] for k, run in conv_large["runs"].items()}
+    heading = FIGURES["tstar2d"].heading(n)
+    assert "256²-512²" in heading and "256²-2048²" in heading and "rtol 1e-05" in heading, heading
+    # (a): the large t* as their own line, after the committed ones
+    (a, b, c) = fig.axes[:3]
+    [line] = [l for l in a.get_lines() if l.get_label().startswith("2-D, 256²-512²")]
+    assert list(line.get_xdata()) == [256, 512] and list(line.get_ydata()) == [0.0287, 0.0177]
+    # (b): max|w| at 256-2048 for every time
+    big = [l for l in b.get_lines() if list(l.get_xdata()) == [256, 512, 1024, 2048]]
+    assert len(big) == len(conv_large["times"])
+    # (c): the differences of each family alone: |q(N) - q(2N)| within 16-128 and within 256-2048
+    sizes = conv_large["sizes"]
+    want = [abs(conv_large["runs"][str(p)]["max_w"]["1"] - conv_large["runs"][str(q)]["max_w"]["1"])
+            for p, q in zip(sizes, sizes[1:])]
+    assert list(n["large_successive_differences"]["max_w"]["1"].values()) == want
+    xs = {round(float(x), 12) for l in c.get_lines() if len(l.get_xdata()) and l.get_linestyle() in ("-", "--")
+          and l.get_label() not in ("order 1", "order 2") for x in l.get_xdata()}
+    assert xs == {round(30.0 / m, 12) for m in (16, 32, 64, 256, 512, 1024)}  # no pair 128-256 across families
+    assert any(list(l.get_ydata()) == want for l in c.get_lines())
+
+
+def test_tstar2d_without_the_large_files_draws_what_it_has_and_says_so(drawn, tmp_path, monkeypatch):
+    folder, _, _ = _large_folder(tmp_path, with_large=False)
+    fig, n, asked = _draw_tstar2d(drawn, folder, monkeypatch)
+    assert max(asked) <= 128
+    assert n["large_t_star_2d"] == {} and n["large_max_w"] == {} and n["large_successive_differences"] == {}
+    assert "no data/sim2d/*_large.json" in FIGURES["tstar2d"].heading(n)
+    assert all(max(l.get_xdata(), default=0) <= 128 for l in fig.axes[0].get_lines())
+
+
+def test_tstar2d_numbers_are_the_committed_large_studies_or_none(drawn):
+    """The gallery's drawing reads data/sim2d/*_large.json as they are in the repository."""
+    import json
+
+    from icidr_pde.figures.runs import DATA
+
+    n = drawn[2]["tstar2d"]
+    path = DATA / "sim2d" / "tstar_large.json"
+    rows = json.loads(path.read_text())["rows"] if path.is_file() else []
+    assert n["large_t_star_2d"] == {r["N"]: r["t_star_2d"] for r in rows if r["t_star_2d"] is not None}

@@ -3,7 +3,8 @@ committed under data/ (each study is a function of :mod:`icidr_pde.studies`; thi
 its options).
 
 * ``study sim2d convergence|tstar|growth|tables``: the 2-D cell (:mod:`icidr_pde.studies.sim2d`,
-  data/sim2d, docs/sim2d.md);
+  data/sim2d, docs/sim2d.md), convergence and tstar at the integrator settings given (``--rtol``,
+  ``--atol``, ``--jacobian``; default the study's);
 * ``study grid-convergence``: errors against a fine run and the observed orders
   (:func:`icidr_pde.studies.grid_convergence.convergence_study`, docs/results.md);
 * ``study references [CASE ...]``: the converged references of the speed-accuracy study
@@ -28,6 +29,7 @@ TSTAR_REFERENCES = ("tstar-fd", "tstar-cheb")
 
 def add_parser(subparsers):
     """Add ``study`` with ``sim2d``, ``grid-convergence`` and ``references``."""
+    from ..engines.choose import CHOICES_2D
     from ..scenes import SCENES
 
     p = subparsers.add_parser("study", help="the studies behind docs/: 2-D cell, grid convergence, converged references",
@@ -44,6 +46,17 @@ def add_parser(subparsers):
     s.add_argument("--engine", choices=["petsc"], default=None,
                    help="convergence, tstar: the 2-D runs on the PETSc engine (runs under mpiexec: "
                         "docs/distributed.md) (default: the study's CVODE and GMRES)")
+    # the studies' defaults named, not imported: the study module brings numpy and the run path
+    s.add_argument("--rtol", type=number, default=None,
+                   help="convergence, tstar: CVODE's relative tolerance (default: the study's, 1e-07: "
+                        "studies.sim2d.SETTINGS)")
+    s.add_argument("--atol", type=number, default=None,
+                   help="convergence, tstar: CVODE's absolute tolerance (default: the study's, 1e-10: "
+                        "studies.sim2d.SETTINGS)")
+    s.add_argument("--jacobian", choices=CHOICES_2D["CVODE"], default=None,
+                   help="convergence, tstar: the linear solver of the 2-D CVODE runs, as `run --jacobian` "
+                        "(default: the study's, 'krylov': GMRES alone, studies.sim2d.SOLVER_2D; 'fourier' is the "
+                        "2-D default of `run`: GMRES preconditioned by the x-Fourier inverse)")
     s.add_argument("--json", default=None, help="write the study's JSON here (default: its file in data/sim2d)")
     add_cluster_options(s, "the study's runs")
     add_cache_option(s, "run")
@@ -78,18 +91,37 @@ def _sim2d(args) -> int:
     from ..studies import sim2d
 
     if args.part == "tables":
+        missing = [name for name in ("convergence.json", "tstar.json", "mode_growth.json")
+                   if not (sim2d.DATA / name).is_file()]
+        if missing:  # the committed studies, relative to the repository's root
+            raise ValueError(f"`tables` reads the studies in {sim2d.DATA}/ of the folder it runs in (the "
+                             f"repository's root); got no {', '.join(missing)} there")
         print(sim2d.convergence_table(json.loads((sim2d.DATA / "convergence.json").read_text())))
         print()
         print(sim2d.tstar_table(json.loads((sim2d.DATA / "tstar.json").read_text())))
         print()
         print(sim2d.growth_table(json.loads((sim2d.DATA / "mode_growth.json").read_text())))
+        for name, table in (("tstar_large.json", sim2d.tstar_table), ("convergence_large.json", sim2d.convergence_table)):
+            if (sim2d.DATA / name).is_file():  # the grids beyond 128^2, where committed (docs/sim2d.md)
+                print(f"\n{sim2d.DATA / name}:\n")
+                print(table(json.loads((sim2d.DATA / name).read_text())))
         return 0
     from ..outputs import check_outputs
     from .common import check_engine
 
-    if args.engine and args.part == "growth":
-        raise ValueError(f"`--engine` applies to the convergence and tstar parts; got --engine {args.engine} "
-                         "with growth")
+    for option in ("engine", "rtol", "atol", "jacobian"):
+        if getattr(args, option) is not None and args.part == "growth":
+            raise ValueError(f"`--{option}` applies to the convergence and tstar parts; got --{option} "
+                             f"{getattr(args, option)} with growth")
+    if args.engine and args.jacobian:  # its Newton systems are sparse matrices, its preconditioner its own
+        raise ValueError(f"`--jacobian` chooses the linear solver of the CVODE runs; the PETSc engine has its own: "
+                         f"got --jacobian {args.jacobian} with --engine {args.engine}")
+    tolerances = {k: getattr(args, k) for k in ("rtol", "atol") if getattr(args, k) is not None}
+    if tolerances:
+        from ..engines.base import check_tolerances
+        from ..studies.sim2d import SETTINGS
+
+        check_tolerances(**{**{k: SETTINGS[k] for k in ("rtol", "atol")}, **tolerances})
     check_engine(args.engine)
     check_outputs({"--json": args.json})
     check_cache_option(args)
@@ -100,6 +132,9 @@ def _sim2d(args) -> int:
         sizes.update(path=args.json)
     if args.engine:
         sizes.update(engine=args.engine)
+    sizes.update(tolerances)
+    if args.jacobian:
+        sizes.update(jacobian=args.jacobian)
     studies = {"convergence": lambda **kw: sim2d.convergence_study(**sizes, **kw),
                "tstar": lambda **kw: sim2d.tstar_study(**sizes, **kw),
                "growth": lambda **kw: sim2d.growth_study(**({"path": args.json} if args.json else {}), **kw)}

@@ -14,7 +14,8 @@ from .registry import register_figure
 from .runs import DATA
 
 __all__ = ["BUMP2D_FRAMES", "BUMP2D_LAST", "BUMP2D_N", "CONVERGENCE2D_FRESH", "STEADY_SHEAR_2D", "TSTAR2D_FRESH",
-           "bump2d", "bump2d_pair", "closed_form_ill_posed_interval", "polar2d", "spectrum_fraction", "tstar2d"]
+           "LARGE_2D", "bump2d", "bump2d_pair", "closed_form_ill_posed_interval", "polar2d", "settings_label",
+           "spectrum_fraction", "tstar2d"]
 
 
 STEADY_SHEAR_2D = dict(phi0=0.78, velocity_gradient=(0.0, 1.0 / 30.0, 0.0, 0.0))  # u = z/H, H = 30: grad u = [[0, 1/H], [0, 0]]
@@ -260,16 +261,56 @@ def _plain_ticks(ax, values, fmt="{:g}"):
     ax.xaxis.set_minor_locator(pyplot().NullLocator())
 
 
+#: the 2-D studies beyond 128^2 (docs/sim2d.md, "Grids beyond 128²"), drawn where committed: these grids
+#: take minutes to hours each, so the gallery reads them and never runs them
+LARGE_2D = {"tstar": Path("sim2d") / "tstar_large.json", "convergence": Path("sim2d") / "convergence_large.json"}
+#: the linear solvers of the 2-D CVODE runs, as a legend names them (keys: engines.choose.CHOICES_2D["CVODE"])
+_SOLVER_LABELS = {"fourier": "GMRES + x-Fourier", "krylov": "GMRES alone", "amg": "GMRES + AMG", "sparse": "sparse LU"}
+
+
+def _large_studies() -> dict:
+    """The committed studies beyond 128^2 that exist (``{"tstar": payload, "convergence": payload}``,
+    either missing where its file is)."""
+    return {part: json.loads((DATA / name).read_text()) for part, name in LARGE_2D.items() if (DATA / name).is_file()}
+
+
+def settings_label(settings: dict) -> str:
+    """A study's integrator settings in a few words: "CVODE rtol 1e-05, atol 1e-08, GMRES + x-Fourier"."""
+    solver = settings.get("jacobian", "krylov") if settings.get("engine") != "petsc" else "PETSc"
+    return (f"{settings['method']} rtol {settings['rtol']:g}, atol {settings['atol']:g}, "
+            f"{_SOLVER_LABELS.get(solver, solver)}")
+
+
+def _measure(study: dict, n: int, q: str, t: str) -> float:
+    """Measure `q` at time `t` of a convergence study's grid `n`; NaN where that run did not reach `t`."""
+    value = study["runs"][str(n)][q].get(t)
+    return np.nan if value is None else value
+
+
+def _grids_text(sizes) -> str:
+    sizes = sorted(sizes)
+    return "none" if not sizes else f"{sizes[0]}²" if len(sizes) == 1 else f"{sizes[0]}²-{sizes[-1]}²"
+
+
 @register_figure("tstar2d", "2-D cell: mu(I),Phi(I) t*(N) on bump2d falls under refinement while the x-independent "
-                 "1-D run decays up to N = 64; iCIDR's max|w| converges (committed study + a fresh run on small grids)",
+                 "1-D run decays up to N = 64; iCIDR's max|w| converges (committed study + a fresh run on small grids; "
+                 "beyond 128²: {large_grids})",
                  "not in the paper: the 2-D analogue of fig 4(b) and of figs 6-7's grid agreement. Grids up to 128^2 "
                  "are expensive, so the lines are the committed `icidr-pde study sim2d tstar` and "
-                 "`... convergence` (data/sim2d/*.json); the stars are recomputed by the same study code here",
-                 dims="2d", source="data/sim2d/tstar.json, data/sim2d/convergence.json + computed")
+                 "`... convergence` (data/sim2d/*.json, CVODE rtol 1e-7, GMRES alone); the stars are recomputed by "
+                 "the same study code here. The grids beyond 128² (diamonds, dashed: data/sim2d/tstar_large.json and "
+                 "convergence_large.json, drawn where committed, never run here) are the same studies on the stable "
+                 "2-D default, CVODE rtol 1e-5, atol 1e-8, GMRES + x-Fourier, whose time error is about 2-4e-4 "
+                 "relative (docs/scaling.md) against the far smaller one of rtol 1e-7: so panel (c) takes "
+                 "differences within one settings family only (the two families are two series, no difference "
+                 "across them)",
+                 dims="2d", source="data/sim2d/tstar.json, data/sim2d/convergence.json, data/sim2d/tstar_large.json "
+                                   "and convergence_large.json where committed + computed")
 def tstar2d(runs):
     plt = pyplot()
     tstar = json.loads((DATA / "sim2d" / "tstar.json").read_text())
     conv = json.loads((DATA / "sim2d" / "convergence.json").read_text())
+    large = _large_studies()
     fresh = _fresh_studies(runs)
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6))
     ax = axes[0]
@@ -285,37 +326,88 @@ def tstar2d(runs):
               label=f"1-D: no failure by t = {t_end:g} (decays)")
     fr = fresh["tstar"]["rows"]
     ax.loglog([r["N"] for r in fr], [r["t_star_2d"] for r in fr], "*", color="k", ms=12, label="2-D recomputed here")
-    ax.set(xlabel="N", ylabel="t*", title="(a) mu(I),Phi(I): t* of bump2d against N", ylim=(0.05, 2 * t_end))
-    _plain_ticks(ax, N)
     ax.legend(fontsize=7, loc="lower left")
+    ax.add_artist(ax.get_legend())  # the large grids' own legend, above the lines, keeps this one
+    large_rows = large["tstar"]["rows"] if "tstar" in large else []
+    large_t2 = {r["N"]: r["t_star_2d"] for r in large_rows if r["t_star_2d"] is not None}
+    large_t1 = {r["N"]: r["t_star_1d"] for r in large_rows if r["t_star_1d"] is not None}
+    if large_t2:
+        ax.loglog(list(large_t2), list(large_t2.values()), "D--", color="tab:red", mfc="none", ms=6,
+                  label=f"2-D, {_grids_text(large_t2)}: {settings_label(large['tstar']['settings'])}")
+    if large_t1:
+        ax.loglog(list(large_t1), list(large_t1.values()), "D--", color="tab:purple", mfc="none", ms=5,
+                  label="1-D at those N, same settings")
+    shown = [v for v in (*t2, *t1, *large_t2.values(), *large_t1.values()) if np.isfinite(v)]
+    ax.set(xlabel="N", ylabel="t*", title="(a) mu(I),Phi(I): t* of bump2d against N",
+           ylim=(min(0.05, 0.5 * min(shown)), (8 if large_rows else 2) * t_end))
+    _plain_ticks(ax, sorted({*N.tolist(), *(r["N"] for r in large_rows)}))
+    ax.tick_params(axis="x", labelsize=7)
+    if large_rows:
+        ax.legend(handles=ax.get_lines()[4:], fontsize=7, loc="upper right")
     committed = {r["N"]: r for r in rows}
     rel = [abs(r["t_star_2d"] - committed[r["N"]]["t_star_2d"]) / committed[r["N"]]["t_star_2d"]
            for r in fr if r["N"] in committed and r["t_star_2d"] is not None]
     one_d_fresh_decays = all(r["t_star_1d"] is None for r in fr)
     # iCIDR: max|w| at each time against N, and the successive differences (grids doubling)
     sizes = conv["sizes"]
+    big = large.get("convergence")
+    big_sizes = big["sizes"] if big else []
     ax = axes[1]
     for t, c in zip(conv["times"], line_colors(len(conv["times"]))):
         ax.semilogx(sizes, [conv["runs"][str(n)]["max_w"][t] for n in sizes], "o-", color=c, label=f"t = {t}")
         fs = fresh["convergence"]["sizes"]
         ax.semilogx(fs, [fresh["convergence"]["runs"][str(n)]["max_w"][t] for n in fs], "*", color="k", ms=9)
-    ax.set(xlabel="N ($N^2$ cells)", ylabel="max|w|", title="(b) iCIDR on bump2d: max|w|(t) against N; *: recomputed")
-    _plain_ticks(ax, sizes)
-    ax.legend(fontsize=7, ncol=2)
+        if big and t in big["times"]:
+            ax.semilogx(big_sizes, [_measure(big, n, "max_w", t) for n in big_sizes], "D--", color=c, mfc="none",
+                        ms=5)
+    if big:
+        ax.plot([], [], "D--", color="gray", mfc="none", label=f"{_grids_text(big_sizes)}: {settings_label(big['settings'])}")
+    top = max(r["max_w"][t] for r in conv["runs"].values() for t in conv["times"])
+    ax.set(xlabel="N ($N^2$ cells)", ylabel="max|w|", title="(b) iCIDR on bump2d: max|w|(t) against N; *: recomputed",
+           ylim=(0, 1.45 * top))
+    ax.set_yticks([y for y in ax.get_yticks() if 0 <= y <= 1.1 * top])  # none under the legend
+    _plain_ticks(ax, [*sizes, *big_sizes])
+    ax.tick_params(axis="x", labelsize=7)
+    ax.legend(fontsize=7, ncol=3, loc="upper center")
     ax = axes[2]
+
+    def differences(study, q, t):
+        """|q(N) - q(2N)| of one study's grids against h = H/N of the coarser (one settings family)."""
+        ns = study["sizes"]
+        return (np.array([30.0 / n for n in ns[:-1]]),
+                [abs(_measure(study, a, q, t) - _measure(study, b, q, t)) for a, b in zip(ns, ns[1:])])
+
     h = np.array([30.0 / n for n in sizes[:-1]])
-    for q, marker in (("max_w", "o"), ("max_phi_dev", "s"), ("l2_velocity", "^")):
-        for t, ls in (("1", "-"), ("10", "--")):
-            diff = [abs(conv["runs"][str(a)][q][t] - conv["runs"][str(b)][q][t]) for a, b in zip(sizes, sizes[1:])]
-            ax.loglog(h, diff, marker + ls, ms=4, label=f"{q}, t = {t}")
-    ax.loglog(h, 0.5 * conv["runs"][str(sizes[0])]["max_w"]["1"] * h / h[0], "k:", label="order 1 (upwinding)")
-    ax.set(xlabel="h = H/N (N = 16, 32, 64 against 2N)", ylabel="|q(N) - q(2N)|",
-           title="(c) iCIDR: successive differences shrink with h")
-    _plain_ticks(ax, h, "{:.3g}")
+    series = [(q, marker, t, ls) for q, marker in (("max_w", "o"), ("max_phi_dev", "s"), ("l2_velocity", "^"))
+              for t, ls in (("1", "-"), ("10", "--"))]
+    large_differences = {}
+    for (q, marker, t, ls), c in zip(series, plt.rcParams["axes.prop_cycle"].by_key()["color"]):
+        ax.loglog(h, differences(conv, q, t)[1], marker + ls, color=c, ms=4, label=f"{q}, t = {t}")
+        if big and len(big_sizes) > 1 and t in big["times"]:
+            big_h, diff = differences(big, q, t)
+            ax.loglog(big_h, diff, marker + ls, color=c, mfc="none", ms=4)
+            large_differences.setdefault(q, {})[t] = {n: d for n, d in zip(big_sizes, diff) if np.isfinite(d)}
+    all_h = np.array([*h, *(30.0 / n for n in big_sizes[:-1])])
+    ax.loglog(all_h, 0.5 * conv["runs"][str(sizes[0])]["max_w"]["1"] * all_h / h[0], "k:", label="order 1")
+    ax.loglog(all_h, 0.5 * conv["runs"][str(sizes[0])]["max_w"]["1"] * (all_h / h[0]) ** 2, "k-.", label="order 2")
+    if large_differences:  # the two settings families, named
+        ax.plot([], [], "o", color="gray", label=f"filled: {_grids_text(sizes)}, {settings_label(conv['settings'])}")
+        ax.plot([], [], "o", color="gray", mfc="none",
+                label=f"hollow: {_grids_text(big_sizes)}, {settings_label(big['settings'])}")
+    coarse = ", ".join(str(n) for n in [*sizes[:-1], *big_sizes[:-1]])
+    drawn = [y for line in ax.get_lines() for y in line.get_ydata() if y > 0]
+    low, high = min(drawn), max(drawn)
+    ax.set(xlabel=f"h = H/N (N = {coarse} against 2N)", ylabel="|q(N) - q(2N)|",
+           title="(c) iCIDR: successive differences shrink with h",
+           ylim=(0.5 * low, high * (high / low) ** 0.8))  # room above the lines for the legend
+    ax.set_yticks([y for y in ax.get_yticks() if 0.5 * low <= y <= 2 * high])
+    _plain_ticks(ax, sorted(all_h, reverse=True), "{:.3g}")
+    ax.tick_params(axis="x", labelsize=7)
     ax.invert_xaxis()
-    ax.legend(fontsize=6, ncol=2)
+    ax.legend(fontsize=6, ncol=2, loc="upper right")
     fig.tight_layout()
     finest = conv["observed_orders"]
+    large_orders = big["observed_orders"] if big else {}
     return fig, {"t_star_2d": dict(zip(N.tolist(), t2.tolist())), "t_star_1d_fails_from_N": int(N[~decays].min())
                  if (~decays).any() else None, "t_star_2d_falls": bool(np.all(np.diff(t2) < 0)),
                  "fresh_t_star_2d": {r["N"]: r["t_star_2d"] for r in fr},
@@ -323,4 +415,14 @@ def tstar2d(runs):
                  "fresh_1d_decays": one_d_fresh_decays,
                  "icidr_observed_orders_finest": {q: finest[q][t][-1] for q in finest for t in ("10",)},
                  "icidr_fresh_max_w": {n: fresh["convergence"]["runs"][str(n)]["max_w"] for n in
-                                       fresh["convergence"]["sizes"]}}
+                                       fresh["convergence"]["sizes"]},
+                 "large_grids": ("; ".join(f"{label} {_grids_text(s)} ({settings_label(large[part]['settings'])})"
+                                           for part, label, s in (("tstar", "t*", [r["N"] for r in large_rows]),
+                                                                  ("convergence", "convergence", big_sizes)) if s)
+                                 or "no data/sim2d/*_large.json committed"),
+                 "large_t_star_2d": large_t2, "large_t_star_1d": large_t1,
+                 "large_t_star_2d_falls": bool(np.all(np.diff(list(large_t2.values())) < 0)) if large_t2 else None,
+                 "large_max_w": {n: big["runs"][str(n)]["max_w"] for n in big_sizes},
+                 "large_successive_differences": large_differences,
+                 "large_observed_orders_finest": {q: large_orders[q]["10"][-1] for q in large_orders
+                                                  if large_orders[q]["10"]}}

@@ -11,6 +11,12 @@ made x-independent (w = eps ((z - H/2)/ell) exp(-(z - H/2)^2/ell^2)) at N = Nz
 growth rate against the symbol of :mod:`stability.directional` (data/sim2d/mode_growth.json);
 ``icidr-pde study sim2d tables`` -- the tables of docs/sim2d.md from those files.
 
+convergence and tstar take the integrator settings (``--rtol``, ``--atol``, ``--jacobian``; default
+:data:`SETTINGS` and :data:`SOLVER_2D`, which computed the committed files); the grids beyond 128^2
+run on the stable 2-D default (data/sim2d/convergence_large.json, tstar_large.json: docs/sim2d.md,
+"Grids beyond 128²"). Each JSON's "command" reruns it (:func:`study_command`); grids run apart
+become one study's JSON with :func:`combine_studies`.
+
 The field images and the movie of docs/sim2d.md are drawn by :mod:`icidr_pde.figures.sim2d_fields`.
 
 Every run goes through :func:`icidr_pde.api.run` (one case builder, one run path). The runs of
@@ -30,10 +36,12 @@ from ..outputs import write_json
 from .case_cache import run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
-           "observed_orders", "mode_growth", "predicted_growth", "SETTINGS", "SOLVER_2D"]
+           "observed_orders", "mode_growth", "predicted_growth", "study_command", "combine_studies", "SETTINGS", "SOLVER_2D",
+           "SIZES", "TSTAR_SIZES"]
 
 TIMES = ("0.5", "1", "2", "5", "10")
 SIZES = (16, 32, 64, 128)
+TSTAR_SIZES = (16, 24, 32, 48, 64, 96, 128)
 QUANTITIES = ("max_w", "max_phi_dev", "l2_velocity")
 DATA = pathlib.Path("data") / "sim2d"
 #: integrator settings of the studies (CVODE, matrix-free GMRES; tolerances well below the grid errors)
@@ -48,6 +56,24 @@ def _solver_2d(settings: dict) -> dict:
     """The linear solver of a 2-D run of the studies: :data:`SOLVER_2D`, or the PETSc engine's own
     (its Newton systems are sparse matrices: ``engine="petsc"`` in the settings)."""
     return {} if settings.get("engine") == "petsc" else SOLVER_2D
+
+
+def study_command(part: str, settings: dict, sizes, default_sizes, path, default_path) -> str:
+    """The ``icidr-pde study sim2d PART`` line that reruns a study: ``--sizes`` where not the
+    study's, the settings that differ from :data:`SETTINGS` and :data:`SOLVER_2D` as their options
+    (``--advection``, ``--engine``, ``--rtol``, ``--atol``, ``--jacobian``), ``--json`` where `path`
+    is not where the command writes by default (`default_path`)."""
+    words = ["icidr-pde study sim2d", part]
+    if tuple(sizes) != tuple(default_sizes):
+        words += ["--sizes", *map(str, sizes)]
+    words += [f"--{key} {settings[key]}" for key in ("advection", "engine") if key in settings]
+    # repr: the tolerance as the run had it, to the last digit
+    words += [f"--{key} {settings[key]!r}" for key in ("rtol", "atol") if settings[key] != SETTINGS[key]]
+    if settings.get("jacobian", SOLVER_2D["jacobian"]) != SOLVER_2D["jacobian"]:
+        words.append(f"--jacobian {settings['jacobian']}")
+    if pathlib.Path(path) != pathlib.Path(default_path):
+        words.append(f"--json {path}")
+    return " ".join(words)
 
 
 def observed_orders(values: list[float]) -> list[float | None]:
@@ -86,11 +112,10 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
         runs[str(n)] = fields
         print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
     orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
-    advection = f" --advection {settings['advection']}" if "advection" in settings else ""
-    engine = f" --engine {settings['engine']}" if "engine" in settings else ""
+    default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind" else "convergence.json")
     payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
                "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": "icidr-pde study sim2d convergence" + advection + engine}
+               "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
     write_json(payload, path)
     return payload
 
@@ -113,7 +138,7 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
     return r.t_star, r.reason, None if r.blew_up else float(np.max(np.abs(r.final[2]))), str(r)
 
 
-def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "tstar.json", *, jobs=1, client=None,
+def tstar_study(sizes=TSTAR_SIZES, t_end=10.0, path=DATA / "tstar.json", *, jobs=1, client=None,
                 progress=False, cache=None, **settings) -> dict:
     """mu(I),Phi(I) on bump2d (2-D) and its x-independent perturbation (1-D fd) at N = Nz.
 
@@ -129,9 +154,46 @@ def tstar_study(sizes=(16, 24, 32, 48, 64, 96, 128), t_end=10.0, path=DATA / "ts
         rows.append({"N": n, "t_star_2d": t2, "reason_2d": reason2, "t_star_1d": t1,
                      "reason_1d": reason1, "max_w_1d_end": max_w1})
         print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
-    engine = f" --engine {settings['engine']}" if "engine" in settings else ""
     payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
-               "command": "icidr-pde study sim2d tstar" + engine}
+               "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
+    write_json(payload, path)
+    return payload
+
+
+def combine_studies(parts, path) -> dict:
+    """One study's JSON from the JSONs of its grids run apart (`parts`: payloads or their files, all
+    convergence or all tstar, with the same settings and times), as the study would have written
+    them run together: grids in increasing N, the observed orders over all of them, the command
+    of all the sizes writing `path`; written to `path`."""
+    import json
+
+    parts = [json.loads(pathlib.Path(p).read_text()) if not isinstance(p, dict) else p for p in parts]
+    if not parts:
+        raise ValueError("`parts` must name at least one study JSON; got none")
+    first = parts[0]
+    same = ("rheology", "settings", "times") if "runs" in first else ("rheology", "settings", "t_end")
+    for other in parts[1:]:
+        for key in same:
+            if other.get(key) != first.get(key):
+                raise ValueError(f"`parts` must be grids of one study: {key} {first.get(key)!r} against "
+                                 f"{other.get(key)!r}")
+    settings = first["settings"]
+    if "runs" in first:
+        runs = {}
+        for part in parts:
+            runs.update(part["runs"])
+        sizes = sorted(int(n) for n in runs)
+        times = first["times"]
+        orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
+        default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind"
+                               else "convergence.json")
+        payload = {**first, "sizes": sizes, "runs": {str(n): runs[str(n)] for n in sizes}, "observed_orders": orders,
+                   "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
+    else:
+        rows = {row["N"]: row for part in parts for row in part["rows"]}
+        sizes = sorted(rows)
+        payload = {**first, "rows": [rows[n] for n in sizes],
+                   "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
     write_json(payload, path)
     return payload
 
