@@ -207,7 +207,7 @@ def rank_costs(N: int, P: int, n: int, lin_per_newton: float) -> dict:
     packing around the transposes and its band solves, and GMRES's vector work per iteration (PETSc's
     classical Gram-Schmidt: j + 1 dot products and axpys of 3n values at the mean Krylov
     dimension j). The serial implementation (engines/linear/xfourier_inverse.py) at these sizes."""
-    from icidr_pde.engines.linear import xfourier_inverse as xf
+    from icidr_pde.engines.linear import x_average as xa, xfourier_inverse as xf
 
     nz = n // N
     nzm = max(nz, 4)  # the scheme's grid has 4 rows at least: a thinner slab is timed at 4, scaled by its rows
@@ -217,10 +217,10 @@ def rank_costs(N: int, P: int, n: int, lin_per_newton: float) -> dict:
     jac = _best(lambda: patches.jacobian(g, False, False), repeat=3)
     J = pde.make_jacobian(state)(0.0, state.data.ravel()).tocsc()
     reach = np.zeros(2, dtype=np.int64)
-    xf._reach(J.indptr, J.indices, 3, N, nzm, reach)
+    xa.columns_reach(J.indptr, J.indices, 3, N, nzm, reach)
     band, dx = int(reach[0]), int(reach[1])
     average = np.zeros((3 * nzm, 2 * band + 1, 2 * dx + 1))
-    xavg = _best(lambda: xf._x_average(J.indptr, J.indices, J.data, 3, N, nzm, band, dx, average), repeat=9)
+    xavg = _best(lambda: xa.columns_average(J.indptr, J.indices, J.data, 3, N, nzm, average), repeat=9)
     rhs, jac, xavg = ([t * nz / nzm for t in pair] for pair in (rhs, jac, xavg))
     # the band systems of the whole z (3N unknowns) for this rank's wave numbers: the preconditioner of an
     # nxk x N grid has nxk/2 + 1 of them

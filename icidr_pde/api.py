@@ -384,7 +384,8 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
     initial field value over the ranks."""
     import dataclasses
 
-    from .engines.petsc import _petsc, block_problem, broadcast, reduce_max
+    from .engines.petsc import _petsc, block_problem
+    from .mpi_ranks import broadcast, reduce_max
     from .engines.stiff import check_memory, scheme_patches
     from .validation import invalid_state, nonfinite_rates
 
@@ -414,7 +415,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
     solver = choice.solver
     split = solver.proc_sizes(comm.size) if getattr(solver, "shell", None) is not None else None  # the PC's split
     problem, blocks = block_problem(PETSc, patches, case.initial_block, check, comm, split)
-    scale = reduce_max(PETSc, comm, float(np.max(np.abs(problem.y0))) if problem.y0.size else 0.0)
+    scale = reduce_max(float(np.max(np.abs(problem.y0))) if problem.y0.size else 0.0)
     check_atol(settings["atol"], [scale], settings["atol_asked"])
     root = comm.rank == 0
     y0 = np.array(case.initial, dtype=float).ravel() if root else np.empty(0)
@@ -430,7 +431,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
         invalid = check(y0)
         with np.errstate(all="ignore"):
             reason = f"initial state invalid: {invalid}" if invalid else nonfinite_rates(fields(whole_rates), 0.0)
-    reason = broadcast(PETSc, comm, reason)
+    reason = broadcast(reason)
 
     def share(result):
         if comm.size == 1:
@@ -441,7 +442,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
             light = dataclasses.replace(result, z=np.empty(0), phi=empty[:, 0], u=empty[:, 1], w=empty[:, 2],
                                         final=type(result.final)(*np.empty((3, 0))), last_states=empty,
                                         summary=result.to_dict())
-        light = broadcast(PETSc, comm, light)
+        light = broadcast(light)
         return result if root else light
 
     def chi(data):

@@ -6,7 +6,8 @@ rank 0 alone prints (progress, results, errors) and writes the outputs, the othe
 nothing. The rules, all kept here:
 
 - *who is rank 0*: the rank the launcher put in the environment (:func:`launcher_rank`), readable
-  before MPI starts (argparse's errors come first) and the same as MPI's COMM_WORLD rank;
+  before MPI starts (argparse's errors come first) and the same as MPI's COMM_WORLD rank; once
+  PETSc is started, COMM_WORLD's rank (:func:`rank`);
 - *rank 0 speaks*: :func:`root_speaks` sends the other ranks' standard output and error to
   ``os.devnull`` for the command (an error that escapes it is still shown: the streams are back
   before the interpreter prints a traceback);
@@ -17,7 +18,13 @@ nothing. The rules, all kept here:
   (an output's folder) is made by rank 0 and its verdict agreed (:func:`same_verdict`), the
   cases a study takes from its cache are those every rank found (:func:`everywhere`), and the
   command's exit status is the largest of the ranks' (:func:`agree`), so that a write that
-  failed on rank 0 (4) or an interrupt (130, 143) is every rank's status;
+  failed on rank 0 (4) or an interrupt (130, 143) is every rank's status; what rank 0 alone
+  knows reaches the others by :func:`broadcast`, a bound of the ranks' numbers by
+  :func:`reduce_max`;
+- *an uncaught exception on one rank ends every rank*: the others would wait for it in their next
+  collective, and it in MPI_Finalize for them. Where the ranks start (here, or the PETSc engine),
+  :func:`abort_on_uncaught` installs a ``sys.excepthook`` that prints the traceback as Python
+  does and calls MPI_Abort on COMM_WORLD (mpi4py's ``python -m mpi4py`` does the same);
 - *signals at agreed points*: SIGINT and SIGTERM (mpiexec sends them to every rank, each in its
   own place) are noted, not raised where they land (:func:`defer`, :func:`noting_signals`): a rank
   leaving alone would leave the others waiting in its collectives. Every rank raises the largest
@@ -26,9 +33,11 @@ nothing. The rules, all kept here:
   where the serial path keeps what was computed.
 
 The ranks talk through PETSc's COMM_WORLD (petsc4py: the MPI the engine runs on; mpi4py is not
-needed), started here when the launcher says there are several processes. Without a launcher,
-with one process, or where PETSc cannot start (petsc4py missing, another MPI's launcher), every
-function here is that of a single process: it speaks, writes and agrees with itself.
+needed), started here when the launcher says there are several processes. Once PETSc is started
+(here or by the engine), its COMM_WORLD says how many ranks agree, whatever the launcher's
+variables say (a launcher that sets none of those read here). Without a launcher, with one
+process, or where PETSc cannot start (petsc4py missing, another MPI's launcher), every function
+here is that of a single process: it speaks, writes and agrees with itself.
 """
 
 from __future__ import annotations
@@ -36,13 +45,14 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import pickle
 import signal
 import sys
 import threading
 
-__all__ = ["RANK_VARIABLES", "launcher_rank", "launched", "speaks", "writes_here", "ranks", "root_speaks",
-           "gathered", "agree", "everywhere", "same_verdict", "defer", "pending", "deliver", "noting_signals",
-           "at_agreed_point", "SIGNALS"]
+__all__ = ["RANK_VARIABLES", "launcher_rank", "launched", "speaks", "writes_here", "ranks", "rank", "root_speaks",
+           "gathered", "broadcast", "reduce_max", "agree", "everywhere", "same_verdict", "defer", "pending", "deliver",
+           "noting_signals", "at_agreed_point", "abort_on_uncaught", "SIGNALS"]
 
 #: the signals that stop a run and keep what it computed
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -79,30 +89,114 @@ def speaks() -> bool:
 
 def writes_here() -> bool:
     """Whether this process installs the files it writes (rank 0 alone)."""
-    return launcher_rank() == 0
+    return rank() == 0
+
+
+def _world():
+    """petsc4py's PETSc with MPI started, where this process is one of several ranks of PETSc's
+    COMM_WORLD; else None (one process, no petsc4py, or another MPI's launcher). Once PETSc is
+    started (here or by the engine) its communicator says, whatever the launcher's variables say:
+    a launcher that sets none of those read here still has its ranks agree."""
+    PETSc = sys.modules.get("petsc4py.PETSc")  # imported: PETSc and MPI are started
+    if PETSc is not None:
+        if PETSc.COMM_WORLD.size < 2:
+            return None
+        abort_on_uncaught()
+        return PETSc
+    return _started_here()
 
 
 @functools.cache
-def _world():
-    """petsc4py's PETSc with MPI started, where the launcher started several processes that PETSc
-    sees as one COMM_WORLD; else None (one process, no petsc4py, or another MPI's launcher)."""
+def _started_here():
+    """_world() where PETSc is not started yet: it is started here where the launcher says there
+    are several processes."""
     if launched() < 2:
         return None
     from . import loaded_mpi
 
-    if loaded_mpi.loaded() and "petsc4py.PETSc" not in sys.modules:  # another MPI here: PETSc's would abort
+    if loaded_mpi.loaded():  # another MPI here: PETSc's would abort
         return None
     try:
         from petsc4py import PETSc
     except ImportError:  # the PETSc engine says why, in one line, if the command asks for it
         return None
+    abort_on_uncaught()
     return PETSc if PETSc.COMM_WORLD.size > 1 else None
+
+
+def abort_on_uncaught() -> None:
+    """From now on, an exception that reaches the top of this process prints its traceback (the
+    hook that was there, Python's own) and, where PETSc runs with several ranks, ends every rank:
+    MPI_Abort on COMM_WORLD, status 1 (130 for KeyboardInterrupt). Installed once."""
+    if getattr(sys.excepthook, "ends_every_rank", False):
+        return
+    previous = sys.excepthook
+
+    def hook(kind, value, traceback):
+        previous(kind, value, traceback)
+        PETSc = sys.modules.get("petsc4py.PETSc")
+        if PETSc is None or PETSc.Sys.isFinalized() or PETSc.COMM_WORLD.size < 2:
+            return
+        for stream in (sys.stdout, sys.stderr):  # MPI_Abort ends the process without Python's flush
+            with contextlib.suppress(Exception):
+                stream.flush()
+        _mpi_abort(PETSc, 130 if issubclass(kind, KeyboardInterrupt) else 1)
+
+    hook.ends_every_rank = True
+    sys.excepthook = hook
+
+
+def _mpi_abort(PETSc, code: int) -> None:
+    """MPI_Abort(COMM_WORLD, code) of PETSc's MPI (petsc4py has no abort; mpi4py is not required):
+    the function looked up from petsc4py's extension, whose libraries hold PETSc's MPI. Where it
+    cannot be found, the process ends with `code` and the launcher ends the others (Open MPI's
+    mpiexec and MPICH's Hydra do; Slurm's srun with --kill-on-bad-exit)."""
+    import ctypes
+
+    try:
+        mpi = ctypes.CDLL(PETSc.__file__)
+        comm = PETSc.COMM_WORLD.fortran
+        try:  # Open MPI: a C handle is a pointer, from the Fortran integer
+            f2c = mpi.MPI_Comm_f2c
+            f2c.restype, f2c.argtypes = ctypes.c_void_p, [ctypes.c_int]
+            mpi.MPI_Abort.argtypes = [ctypes.c_void_p, ctypes.c_int]
+            comm = f2c(comm)
+        except AttributeError:  # MPICH: MPI_Comm_f2c is a macro, the C handle the Fortran integer
+            mpi.MPI_Abort.argtypes = [ctypes.c_int, ctypes.c_int]
+        mpi.MPI_Abort(comm, code)
+    finally:
+        os._exit(code)
 
 
 def ranks() -> int:
     """The number of ranks that agree (1: this process alone)."""
     world = _world()
     return 1 if world is None else world.COMM_WORLD.size
+
+
+def rank() -> int:
+    """This process's rank: PETSc's COMM_WORLD's where PETSc is started with several ranks, else
+    the launcher's (:func:`launcher_rank`). Does not start MPI."""
+    PETSc = sys.modules.get("petsc4py.PETSc")
+    if PETSc is not None and PETSc.COMM_WORLD.size > 1:
+        return PETSc.COMM_WORLD.rank
+    return launcher_rank()
+
+
+def _to_all(PETSc, values):
+    """Every rank's `values` (float, any number on each rank), rank after rank, on every rank
+    (collective): one vector of theirs scattered to all."""
+    import numpy as np
+
+    mine = PETSc.Vec().createMPI((values.size, None), comm=PETSc.COMM_WORLD)
+    mine.setArray(values)
+    scatter, full = PETSc.Scatter.toAll(mine)
+    try:
+        scatter.scatter(mine, full, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return np.array(full.getArray(readonly=True))
+    finally:
+        for obj in (scatter, full, mine):
+            obj.destroy()
 
 
 def gathered(values):
@@ -116,15 +210,26 @@ def gathered(values):
         return values[None, :]
     if values.size == 0:
         return np.empty((PETSc.COMM_WORLD.size, 0))
-    mine = PETSc.Vec().createMPI((values.size, None), comm=PETSc.COMM_WORLD)
-    mine.setArray(values)
-    scatter, full = PETSc.Scatter.toAll(mine)
-    try:
-        scatter.scatter(mine, full, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        return np.array(full.getArray(readonly=True)).reshape(PETSc.COMM_WORLD.size, values.size)
-    finally:
-        for obj in (scatter, full, mine):
-            obj.destroy()
+    return _to_all(PETSc, values).reshape(PETSc.COMM_WORLD.size, values.size)
+
+
+def broadcast(obj):
+    """Rank 0's `obj` (picklable) on every rank (collective; the other ranks' `obj` is not read):
+    its pickle's bytes, one per value of a vector that rank 0 alone holds, scattered to all
+    (petsc4py has no broadcast of objects; mpi4py is not required)."""
+    import numpy as np
+
+    PETSc = _world()
+    if PETSc is None:
+        return obj
+    first = PETSc.COMM_WORLD.rank == 0
+    data = np.frombuffer(pickle.dumps(obj), np.uint8) if first else np.empty(0, np.uint8)
+    return pickle.loads(_to_all(PETSc, data.astype(float)).astype(np.uint8).tobytes())
+
+
+def reduce_max(value: float) -> float:
+    """The largest of the ranks' `value`, on every rank (collective)."""
+    return float(gathered([value]).max())
 
 
 def agree(status: int) -> int:
@@ -178,8 +283,9 @@ _NOTED = {"signal": 0, "delivering": False}
 
 
 def _several() -> bool:
-    """Whether this process is one of several ranks that agree (known once MPI started here)."""
-    return _world.cache_info().currsize > 0 and _world() is not None
+    """Whether this process is one of several ranks that agree (known once MPI is started: not
+    started here, as from a signal handler)."""
+    return "petsc4py.PETSc" in sys.modules and _world() is not None
 
 
 def defer(signum: int) -> bool:

@@ -43,7 +43,7 @@ from .base import Engine, Problem
 from ..cvode_settings import A_STABLE_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 
-__all__ = ["PetscEngine", "BlockGrid", "block_problem", "broadcast", "reduce_max", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
+__all__ = ["PetscEngine", "BlockGrid", "block_problem", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
 #: the engine's defaults: PETSc's BDF (order 2, adaptive step), Newton, GMRES preconditioned by
 #: block Jacobi with ILU(0) blocks (one block per rank; on one rank ILU(0)): on iCIDR bump2d
@@ -93,6 +93,7 @@ def _petsc():
     if PETSc.COMM_WORLD.size == 1 and launched > 1:
         raise ImportError(f"this process is one of {launched} started by an mpiexec of another MPI than PETSc's, "
                           f"so each would run the whole grid alone: start them with {mpiexec()}")
+    mpi_ranks.abort_on_uncaught()  # an exception on one rank ends them all, not only that one
     return PETSc
 
 
@@ -429,8 +430,8 @@ class PetscEngine(Engine):
                 return self.t, self._gathered(self._good), why
             if self._invalid_anywhere():  # the problem's check says why, on the gathered state
                 y = self._gathered(self.x)
-                why = self.problem.check(y) if not self.blocks else broadcast(
-                    self.PETSc, self.comm, self.problem.check(y) if self.comm.rank == 0 else None)
+                why = self.problem.check(y) if not self.blocks else mpi_ranks.broadcast(
+                    self.problem.check(y) if self.comm.rank == 0 else None)
                 if why:
                     return float(ts.getTime()), y, why
             self.t = float(ts.getTime())
@@ -496,30 +497,6 @@ class PetscEngine(Engine):
 
 #: a signal's number weighs this much in the per-step reduction of (signal, invalid state)
 SIGNAL_WEIGHT = 64
-
-
-def broadcast(PETSc, comm, obj):
-    """Rank 0's `obj` (picklable) on every rank: its pickle's bytes, one per value of a vector of
-    rank 0's, scattered to all (petsc4py has no broadcast of objects; mpi4py is not required)."""
-    import pickle
-
-    first = comm.rank == 0
-    data = np.frombuffer(pickle.dumps(obj), np.uint8) if first else np.empty(0, np.uint8)
-    size = PETSc.Vec().createMPI((1, None), comm=comm)
-    size.setArray([data.size])
-    n = int(size.max()[1])
-    values = PETSc.Vec().createMPI((n if first else 0, n), comm=comm)
-    values.setArray(data.astype(float))
-    scatter, every = PETSc.Scatter.toAll(values)
-    scatter.scatter(values, every, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    return pickle.loads(every.getArray(readonly=True).astype(np.uint8).tobytes())
-
-
-def reduce_max(PETSc, comm, value: float) -> float:
-    """The largest of the ranks' `value` on every rank."""
-    each = PETSc.Vec().createMPI((1, None), comm=comm)
-    each.setArray([value])
-    return float(each.max()[1])
 
 
 def block_problem(PETSc, patches, initial_block, check, comm=None, proc_sizes=None):

@@ -41,6 +41,7 @@ from scipy.linalg import lapack
 from ...kernel_cache import numba_saves_may_fail
 from ...validation import ParameterError
 from .precond import jacobian_precond
+from .x_average import columns_average, columns_reach
 
 numba_saves_may_fail()  # a full disk under the numba cache costs a recompilation, not the run
 
@@ -160,46 +161,16 @@ class XFourierFactors:
 def x_average(J, shape):
     """(average, band, reach) of the sparse Jacobian J of field-major unknowns of `shape` (fields,
     Nx, Nz): the coefficients of each coupling averaged over the columns x, as
-    :class:`XFourierFactors` takes them."""
+    :class:`XFourierFactors` takes them (:func:`.x_average.columns_average`)."""
     fields, nx, nz = shape
     J = sparse.csc_matrix(J)
     reach = np.zeros(2, dtype=np.int64)
-    _reach(J.indptr, J.indices, fields, nx, nz, reach)
+    columns_reach(J.indptr, J.indices, fields, nx, nz, reach)
     band, dx = int(reach[0]), int(reach[1])
     m = fields * nz
     average = np.zeros((m, 2 * band + 1, 2 * dx + 1))
-    _x_average(J.indptr, J.indices, J.data, fields, nx, nz, band, dx, average)
+    columns_average(J.indptr, J.indices, J.data, fields, nx, nz, average)
     return average.reshape(m * (2 * band + 1), 2 * dx + 1), band, dx
-
-
-@njit(cache=True)
-def _coupling(row, col, fields, nx, nz):
-    """(q, q' - q, dx) of the coupling of unknown `row` to unknown `col` (class notes)."""
-    f_row, cell = divmod(row, nx * nz)
-    x_row, z_row = divmod(cell, nz)
-    f_col, cell = divmod(col, nx * nz)
-    x_col, z_col = divmod(cell, nz)
-    q = fields * z_row + f_row
-    return q, fields * z_col + f_col - q, (x_col - x_row + nx // 2) % nx - nx // 2
-
-
-@njit(cache=True)
-def _reach(indptr, indices, fields, nx, nz, out):
-    """out = (largest |band offset| along z, largest |x offset|) of the CSC pattern's couplings."""
-    for col in range(indptr.size - 1):
-        for e in range(indptr[col], indptr[col + 1]):
-            _, band, dx = _coupling(indices[e], col, fields, nx, nz)
-            out[0] = max(out[0], abs(band))
-            out[1] = max(out[1], abs(dx))
-
-
-@njit(cache=True)
-def _x_average(indptr, indices, data, fields, nx, nz, band, reach, out):
-    """out[q, band + q' - q, reach + dx] += J / Nx over the CSC entries (module and class notes)."""
-    for col in range(indptr.size - 1):
-        for e in range(indptr[col], indptr[col + 1]):
-            q, offset, dx = _coupling(indices[e], col, fields, nx, nz)
-            out[q, band + offset, reach + dx] += data[e] / nx
 
 
 @njit(cache=True, parallel=True)

@@ -9,8 +9,8 @@ distributed here is how its data reaches it:
   x-average and its FFT in x are local. PETSc's numbering of the DMDA is then the natural one
   (z, x, field), rank after rank.
 * The averaged coefficients: each rank averages its own rows of the preconditioning matrix
-  (PETSc's shift I - J of the assembled Jacobian) over x; the small arrays of all ranks are
-  gathered on every rank (m (2 band + 1) (2 reach + 1) numbers for m = 3 Nz unknowns of a
+  (PETSc's shift I - J of the assembled Jacobian) over x (:func:`.x_average.rows_average`); the
+  small arrays of all ranks are gathered on every rank (m (2 band + 1) (2 reach + 1) numbers for m = 3 Nz unknowns of a
   column), where a new Jacobian was assembled. Between Jacobians only the shift changes: its
   change is read from the matrix's diagonal (one reduction), and the banded systems are
   factored again, not averaged, where it moved by more than :data:`LAG`.
@@ -32,12 +32,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from numba import njit, set_num_threads
+from numba import set_num_threads
 
-from ...kernel_cache import numba_saves_may_fail
+from .x_average import rows_average
 from .xfourier_inverse import XFourierFactors
-
-numba_saves_may_fail()
 
 __all__ = ["XFourierShell", "LAG"]
 
@@ -125,8 +123,8 @@ class XFourierShell:
         indptr, indices, data = P.getValuesCSR()
         start = P.getOwnershipRange()[0]
         self.local_average[...] = 0.0
-        outside = _x_average_rows(indptr, indices, data, start, self.dof, self.nx, self.dof * self.zs, self.band,
-                                  self.reach, self.local_average)
+        outside = rows_average(indptr, indices, data, start, self.dof, self.nx, self.dof * self.zs,
+                               self.local_average)
         if outside:
             raise ValueError(f"{outside} couplings of the matrix reach beyond the stencil the x-Fourier "
                              f"preconditioner was set up for (band {self.band}, x-offsets {self.reach})")
@@ -151,26 +149,3 @@ class XFourierShell:
                                mode=PETSc.ScatterMode.REVERSE)
         spectrum = self.spectrum.getArray(readonly=True).view(np.complex128).reshape(shape[0], -1, self.dof)
         np.fft.irfft(spectrum, n=self.nx, axis=1, out=y.getArray().reshape(shape))
-
-
-@njit(cache=True)
-def _x_average_rows(indptr, indices, data, start, dof, nx, first_q, band, reach, out):
-    """out[q - first_q, band + q' - q, reach + dx] += P / Nx over the CSR rows of this rank (global
-    row `start` + i), unknowns numbered (z, x, field) with `dof` fields (q = dof z + field, as
-    :func:`~.xfourier_inverse.x_average`'s rows); returns the number of couplings outside the band."""
-    outside = 0
-    for i in range(indptr.size - 1):
-        row = start + i
-        z_row, rest = divmod(row, nx * dof)
-        x_row, f_row = divmod(rest, dof)
-        q = dof * z_row + f_row
-        for e in range(indptr[i], indptr[i + 1]):
-            z_col, rest = divmod(indices[e], nx * dof)
-            x_col, f_col = divmod(rest, dof)
-            offset = dof * z_col + f_col - q
-            dx = (x_col - x_row + nx // 2) % nx - nx // 2
-            if abs(offset) > band or abs(dx) > reach:
-                outside += 1
-                continue
-            out[q - first_q, band + offset, reach + dx] += data[e] / nx
-    return outside
