@@ -64,6 +64,11 @@ BLOCK_PCS = ("bjacobi", "asm")
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
 
+#: PETSc's BLAS threads per rank where the environment sets none (PETSc reads these variables
+#: itself when it starts; docs/distributed.md measures the difference)
+BLAS_THREADS = 1
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
+
 #: what launchers tell each process of the ranks they started (MPICH's Hydra, Open MPI)
 LAUNCHER_SIZES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE")
 
@@ -86,6 +91,12 @@ def _petsc():
         raise ImportError(f"the PETSc engine cannot start in a process that has run {other}, and PETSc's "
                           "MPI is another: run it in a process of its own")
     try:
+        if "petsc4py.PETSc" not in sys.modules and not any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+            import petsc4py
+
+            # PETSc's vector operations call OpenBLAS, whose own thread count (one per core) took
+            # about 10x their time on a loaded machine, and on P ranks would put P threads on each core
+            petsc4py.init(["-blas_num_threads", str(BLAS_THREADS)])
         from petsc4py import PETSc
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
@@ -219,7 +230,7 @@ class PetscEngine(Engine):
             mine = (rows >= start) & (rows < end)
         # this rank's pattern entries as row * n + col, sorted (before PETSc, which may overwrite
         # the index arrays it is given: MatSetPreallocationCOO on MPIAIJ does)
-        self._keys = np.unique(rows[mine].astype(np.int64) * n + cols[mine])
+        self._keys = _sorted_unique(rows[mine].astype(np.int64) * n + cols[mine])
         self.J.setPreallocationCOO((self._keys // n).astype(self.PETSc.IntType),
                                    (self._keys % n).astype(self.PETSc.IntType))
         self._n = n
@@ -260,6 +271,9 @@ class PetscEngine(Engine):
         ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
         F = self.x.duplicate()
         fun = problem.fun
+        # the shell preconditioner needs no assembled shift I - J: the Newton matrix is then a shell
+        # (NewtonMatrix) that keeps J as assembled at its evaluation, TS's shift and scale as numbers
+        newton = self._newton_matrix() if self._shell is not None and pc_type == "python" else None
         rows = slice(*self.x.getOwnershipRange())
 
         if self.grid is not None:
@@ -279,12 +293,17 @@ class PetscEngine(Engine):
                 else:
                     Jt = sparse.coo_matrix(problem.jacobian.jac(t, self._gathered(x)))
                     self._values = self._pattern_values(self.order[Jt.row], self.order[Jt.col], Jt.data)
-            P.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+                if newton is not None:
+                    self.J.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            if newton is None:
+                P.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            else:
+                newton.getPythonContext().restore()  # J again, which TS scales and shifts next
             if J.handle != P.handle:  # -snes_mf_operator: J is the matrix-free product of the current state
                 J.assemble()
 
         ts.setRHSFunction(rhs, F)
-        ts.setRHSJacobian(jacobian, self.J, self.J)
+        ts.setRHSJacobian(jacobian, *(2 * (self.J if newton is None else newton,)))
         ts.setTime(t0)
         self.time_scale = problem.time_scale(t0) if self.grid is None else self._time_scale(t0)
         ts.setTimeStep(first_step if first_step is not None else self.time_scale)
@@ -295,10 +314,11 @@ class PetscEngine(Engine):
         ts.setMaxSNESFailures(-1)  # a failed Newton solve halves the step; the minimum step ends it
         ts.setErrorIfStepFails(False)
         ts.setSolution(self.x)
-        if not db.hasName("ts_adapt_dt_min"):  # relative to the fastest time scale, as on CVODE
-            db.setValue("ts_adapt_dt_min", MIN_STEP_FRACTION * self.time_scale)
-        if np.isfinite(max_step) and not db.hasName("ts_adapt_dt_max"):
-            db.setValue("ts_adapt_dt_max", max_step)
+        # this run's step limits, on its own TS (not the options database, which the next run in this
+        # process would inherit); -ts_adapt_dt_min and -ts_adapt_dt_max, read below, override them
+        # the minimum relative to the fastest time scale, as on CVODE
+        ts.setStepLimits(MIN_STEP_FRACTION * self.time_scale,
+                         max_step if np.isfinite(max_step) else ts.getStepLimits()[1])
         ts.setFromOptions()
         pc = ts.getSNES().getKSP().getPC()
         if pc.getType() == "python" and self._shell is not None:
@@ -308,6 +328,15 @@ class PetscEngine(Engine):
         ts.setUp()
         self._keep_mass(ts.getSNES())
         return ts
+
+    def _newton_matrix(self):
+        """A matrix of type 'python' of this rank's rows: :class:`NewtonMatrix` of the assembled J."""
+        rows = self.J.getLocalSize()[0]
+        size = ((rows, self._n), (rows, self._n))
+        M = self.PETSc.Mat().createPython(size, NewtonMatrix(self.J), comm=self.comm)
+        M.setUp()
+        M.assemble()  # (TS scales and shifts only an assembled matrix)
+        return M
 
     def _time_scale(self, t0) -> float:
         """The problem's :meth:`~.base.Problem.time_scale` on a grid of blocks, to the same
@@ -406,9 +435,8 @@ class PetscEngine(Engine):
             mine = (pos < self._keys.size) & (self._keys[np.minimum(pos, self._keys.size - 1)] == keys)
             self._last_keys, self._map = keys, (pos[mine], mine)
         pos, mine = self._map
-        values = np.zeros(self._keys.size)
-        np.add.at(values, pos, data[mine])
-        return values
+        # summed in the order of the entries, as np.add.at sums them, at a fraction of its cost
+        return np.bincount(pos, weights=data[mine], minlength=self._keys.size)
 
     def advance(self, t_end):
         with mpi_ranks.noting_signals():
@@ -536,6 +564,48 @@ def block_problem(PETSc, patches, initial_block, check, comm=None, proc_sizes=No
     grid = BlockGrid(PETSc, patches, comm or PETSc.COMM_WORLD, proc_sizes)
     y0 = grid.block(initial_block(grid.ranges))
     return Problem(y0=y0, fun=None, jacobian=JacobianSpec("sparse"), check=check, patches=grid), grid
+
+
+class NewtonMatrix:
+    """petsc4py's context of a matrix of type 'python': TS's Newton matrix, weight J + diagonal I,
+    with J the assembled Jacobian of f (an AIJ matrix, its values set once per evaluation) and
+    TS's scale and shift kept as the two numbers. TS forms each Newton system's matrix from J by
+    MatScale(-1) and MatShift(shift): on an assembled shift I - J that is a pass over every entry,
+    after the Jacobian's values were set again (TS scaled them), at every Newton system; here
+    it is two multiplications. Its products and diagonal are J's, weighted and shifted; the
+    x-Fourier shell reads the numbers and averages J itself (:mod:`.linear.xfourier_shell`)."""
+
+    def __init__(self, jacobian):
+        self.jacobian = jacobian
+        self.weight, self.diagonal = 1.0, 0.0
+
+    def restore(self):
+        """The matrix is J again (as TS's Jacobian callback leaves it)."""
+        self.weight, self.diagonal = 1.0, 0.0
+
+    def scale(self, mat, alpha):
+        self.weight *= alpha
+        self.diagonal *= alpha
+
+    def shift(self, mat, alpha):
+        self.diagonal += alpha
+
+    def mult(self, mat, x, y):
+        self.jacobian.mult(x, y)
+        y.scale(self.weight)
+        y.axpy(self.diagonal, x)
+
+    def getDiagonal(self, mat, d):
+        self.jacobian.getDiagonal(d)
+        d.scale(self.weight)
+        d.shift(self.diagonal)
+
+
+def _sorted_unique(keys) -> np.ndarray:
+    """np.unique(keys) by one sort in place: numpy's unique (a hash table, then the sort) took
+    several times as long on the millions of a Jacobian's pattern."""
+    keys.sort()
+    return keys[np.concatenate(([True], keys[1:] != keys[:-1]))] if keys.size else keys
 
 
 def _reason_name(PETSc, reason) -> str:
