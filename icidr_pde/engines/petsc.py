@@ -36,12 +36,16 @@ import os
 import sys
 
 import numpy as np
+from numba import njit
 
 from .. import loaded_mpi, mpi_ranks
+from ..kernel_cache import numba_saves_may_fail
 from ..validation import ParameterError
 from .base import Engine, Problem
 from ..cvode_settings import A_STABLE_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
+
+numba_saves_may_fail()
 
 __all__ = ["PetscEngine", "BlockGrid", "block_problem", "broadcast", "reduce_max", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
@@ -211,29 +215,46 @@ class PetscEngine(Engine):
 
     def _pattern(self, sparsity, n):
         """The AIJ matrix with the Jacobian's pattern, its rows distributed as the state vector's,
-        this rank's rows preallocated by COO: on a grid of blocks the pattern of its own cells'
-        rows (:meth:`BlockGrid.pattern`), else this rank's rows of the problem's `sparsity` (in
-        the engine's ordering: `self.order` maps the problem's unknowns to PETSc's)."""
+        this rank's rows preallocated by COO: on a grid of blocks the stencil's slots of its own
+        cells' rows (:meth:`BlockGrid.stencil_pattern`: each Jacobian's values are placed by
+        arithmetic, :meth:`BlockGrid.jacobian_slots`), else this rank's rows of the problem's
+        `sparsity` (in the engine's ordering: `self.order` maps the problem's unknowns to
+        PETSc's), each Jacobian's entries found in it by :meth:`_pattern_values`."""
+        from scipy import sparse
+
         start, end = self.x.getOwnershipRange()
         self.J = self.PETSc.Mat().create(comm=self.comm)
         self.J.setSizes([(end - start, n), (end - start, n)])
         self.J.setType(self.PETSc.Mat.Type.AIJ)
         self.J.setUp()
+        self._n = n
         if self.grid is not None and self.grid.has_jacobian:
-            rows, cols = self.grid.pattern()
-            mine = slice(None)
-        else:
-            from scipy import sparse
-
-            P = sparse.coo_matrix(sparsity)
-            rows, cols = self.order[P.row], self.order[P.col]
-            mine = (rows >= start) & (rows < end)
+            rows, cols = self.grid.stencil_pattern()
+            self.J.setPreallocationCOO(rows.astype(self.PETSc.IntType), cols.astype(self.PETSc.IntType))
+            self._keys = None  # found where asked (the property)
+            return
+        P = sparse.coo_matrix(sparsity)
+        rows, cols = self.order[P.row], self.order[P.col]
+        mine = (rows >= start) & (rows < end)
         # this rank's pattern entries as row * n + col, sorted (before PETSc, which may overwrite
         # the index arrays it is given: MatSetPreallocationCOO on MPIAIJ does)
         self._keys = _sorted_unique(rows[mine].astype(np.int64) * n + cols[mine])
         self.J.setPreallocationCOO((self._keys // n).astype(self.PETSc.IntType),
                                    (self._keys % n).astype(self.PETSc.IntType))
-        self._n = n
+
+    @property
+    def _keys(self) -> np.ndarray:
+        """This rank's pattern entries as row * n + col, sorted (on a grid of blocks built where
+        asked: a run places its values by the stencil's slots and needs none)."""
+        if self._sorted_keys is None:
+            rows, cols = self.grid.stencil_pattern()
+            inside = cols >= 0
+            return _sorted_unique(rows[inside].astype(np.int64) * self._n + cols[inside])
+        return self._sorted_keys
+
+    @_keys.setter
+    def _keys(self, keys):
+        self._sorted_keys = keys
 
     def _gathered(self, vec) -> np.ndarray:
         """The whole vector in the problem's ordering (the states kept at outputs, an invalid
@@ -289,7 +310,7 @@ class PetscEngine(Engine):
                 if self._shell is not None:
                     self._shell.new_jacobian()
                 if self.grid is not None and self.grid.has_jacobian:
-                    self._values = self._pattern_values(*self.grid.jacobian_rows(x))
+                    self._values = self.grid.jacobian_slots(x)
                 else:
                     Jt = sparse.coo_matrix(problem.jacobian.jac(t, self._gathered(x)))
                     self._values = self._pattern_values(self.order[Jt.row], self.order[Jt.col], Jt.data)
@@ -601,6 +622,28 @@ class NewtonMatrix:
         d.shift(self.diagonal)
 
 
+@njit(cache=True)
+def _stencil_slots(indptr, indices, data, mx, mz, gx, gz, side, dof, out):
+    """out[slot] += each entry of the patch Jacobian (CSR: rows the block's own unknowns (field,
+    i, j), columns the ghosted patch's (field', gi, gj)), slot ((row side + gi - i) side + gj -
+    j) dof + field' (:meth:`BlockGrid.stencil_pattern`); returns the number of entries beyond
+    the stencil."""
+    outside = 0
+    for r in range(indptr.size - 1):
+        i = (r // mz) % mx
+        j = r % mz
+        for e in range(indptr[r], indptr[r + 1]):
+            c = indices[e]
+            field = c // (gx * gz)
+            a = (c // gz) % gx - i
+            b = c % gz - j
+            if a < 0 or a >= side or b < 0 or b >= side:
+                outside += 1
+                continue
+            out[((r * side + a) * side + b) * dof + field] += data[e]
+    return outside
+
+
 def _sorted_unique(keys) -> np.ndarray:
     """np.unique(keys) by one sort in place: numpy's unique (a hash table, then the sort) took
     several times as long on the millions of a Jacobian's pattern."""
@@ -704,6 +747,31 @@ class BlockGrid:
         self.da.globalToLocal(x, self.local, addv=self.PETSc.InsertMode.INSERT_VALUES)
         gx, gz = self.ghosted
         return np.ascontiguousarray(self.local.getArray(readonly=True).reshape(gz, gx, self.dof).transpose(2, 1, 0))
+
+    def stencil_pattern(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) in PETSc's ordering, one slot per (own unknown, x-offset, z-offset, field of
+        the column) of the stencil, the unknowns in the order of :attr:`rows`: the pattern of
+        :meth:`pattern` laid out so that an entry's slot is arithmetic (:meth:`jacobian_slots`),
+        not searched; a slot beyond a wall has column -1 (PETSc's COO leaves it out)."""
+        dof, w = self.dof, self.width
+        (mx, mz), (gx, gz) = self.owned, self.ghosted
+        side = 2 * w + 1
+        windows = np.lib.stride_tricks.sliding_window_view(self.columns.reshape(dof, gx, gz), (side, side),
+                                                           axis=(1, 2))  # [field', i, j, a, b]
+        cols = np.broadcast_to(windows.transpose(1, 2, 3, 4, 0)[None], (dof, mx, mz, side, side, dof))
+        rows = np.broadcast_to(self.rows.reshape(dof, mx, mz, 1, 1, 1), cols.shape)
+        return rows.ravel(), cols.ravel()
+
+    def jacobian_slots(self, x) -> np.ndarray:
+        """The Jacobian rows of this rank's cells (:meth:`jacobian_rows`) as values of the slots of
+        :meth:`stencil_pattern`, entries of one slot summed in their order."""
+        Jp = self.patches.jacobian(self._patch(x), self.low, self.high).tocsr()
+        (mx, mz), (gx, gz) = self.owned, self.ghosted
+        out = np.zeros(self.rows.size * (2 * self.width + 1) ** 2 * self.dof)
+        outside = _stencil_slots(Jp.indptr, Jp.indices, Jp.data, mx, mz, gx, gz, 2 * self.width + 1, self.dof, out)
+        if outside:
+            raise ValueError(f"{outside} couplings of the patch Jacobian reach beyond the stencil of width {self.width}")
+        return out
 
     def jacobian_rows(self, x):
         """(rows, cols, values) in PETSc's ordering: the Jacobian rows of this rank's cells,
