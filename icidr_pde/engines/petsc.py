@@ -784,7 +784,8 @@ class BlockGrid:
     def rates(self, x, f):
         """f = the scheme's rates of the global vector x, each rank on its own block."""
         self.patches.rates(self._patch(x), self.low, self.high, self.out)
-        f.setArray(self.out.transpose(2, 1, 0).ravel())
+        mx, mz = self.owned
+        f.getArray().reshape(mz, mx, self.dof)[...] = self.out.transpose(2, 1, 0)  # one copy, into f's own memory
 
     def block(self, data) -> np.ndarray:
         """This rank's values in PETSc's order (the global vector's local part) of its block's
