@@ -22,7 +22,10 @@ interpreter and thread settings, and states each PETSc line's whole process agai
 also stated against the grid-converged value, where data/sim2d/richardson.json has it (the
 Richardson extrapolation of max|w| and the l2 velocity at t = 10, central advection): a PETSc
 line and the serial default at the same N and tolerances have the same grid error, so their
-errors against it should agree to the time error. ``uptime`` is printed before every line.
+errors against it should agree to the time error. ``uptime`` is printed before every line, and
+each line's JSON record keeps the load averages before and after it (``load_before``,
+``load_after``): on a shared machine the wall times measure the load as much as the code, the
+process CPU times much less.
 
 The launcher is the mpiexec of PETSc's own MPI (``engines.petsc.mpiexec()``), not the first on
 PATH. ``--code DIR`` (repeatable) runs another checkout (PYTHONPATH=DIR), e.g. the code before a change
@@ -166,8 +169,10 @@ def main() -> None:
         base, baseline = None, None
         if args.serial:
             print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
+            load = os.getloadavg()
             baseline = serial(N, args.t_end)
-            lines.append(dict(baseline, N=N, code=str(ROOT), engine="serial default"))
+            lines.append(dict(baseline, N=N, code=str(ROOT), engine="serial default", load_before=load,
+                              load_after=os.getloadavg()))
             print(f"N={N}^2 serial default ({baseline['linear_solver']}, {baseline['method']}): process "
                   f"{baseline['process_s']:.1f} s, solve {baseline['wall_s']:.1f} s, {baseline['steps']} steps, "
                   f"process CPU {baseline['cpu_s']:.1f} s, peak RSS {baseline['rss_mib']:.0f} MiB; "
@@ -176,8 +181,9 @@ def main() -> None:
         for code in codes:
             for ranks in args.ranks:
                 print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
+                load = os.getloadavg()
                 r = one(code, ranks, N, args.t_end)
-                lines.append(dict(r, N=N, code=code, engine="petsc"))
+                lines.append(dict(r, N=N, code=code, engine="petsc", load_before=load, load_after=os.getloadavg()))
                 base = base or r
                 against = "" if baseline is None else (
                     f", {r['process_s'] / baseline['process_s']:.2f}x the serial default's process, max|w| "

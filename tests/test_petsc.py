@@ -118,6 +118,54 @@ def test_linear_system_against_its_exponential():
 
 
 @needs_petsc
+def test_a_second_run_in_one_process_takes_its_own_step_limits():
+    """The minimum step is the run's (a fraction of its fastest time scale), set on its own TS: a
+    second run in the same process, of another time scale, has its own, and the options
+    database keeps none of the first run's."""
+    from icidr_pde.engines.petsc import PetscEngine, _petsc
+    from icidr_pde.time_scale import MIN_STEP_FRACTION
+
+    db = _petsc().Options()
+    limits = []
+    for n in (40, 80):  # the fastest time scale falls as 1/n^2
+        engine = PetscEngine("PETSC-BDF", _laplacian_problem(n)[0], 0.0, rtol=1e-8, atol=1e-10, max_step=0.5 / n)
+        assert engine.advance(0.01) is None
+        limits.append((engine.ts.getStepLimits(), engine.time_scale, n))
+        assert not db.hasName("ts_adapt_dt_min") and not db.hasName("ts_adapt_dt_max")
+    assert limits[0][1] > 3 * limits[1][1]
+    for (dt_min, dt_max), scale, n in limits:
+        assert dt_min == MIN_STEP_FRACTION * scale and dt_max == 0.5 / n
+
+
+BLAS_THREADS_SCRIPT = """
+import json, sys
+from icidr_pde.engines.petsc import _petsc
+from icidr_pde.studies.parallel import blas_threads
+before = blas_threads()
+_petsc()
+print(json.dumps({name: n for name, n in blas_threads().items() if name not in before}))
+"""
+
+
+@needs_petsc
+@pytest.mark.parametrize("variable, expected", [(None, 1), ("2", 2)])
+def test_petscs_blas_takes_one_thread_unless_the_environment_says(variable, expected):
+    """PETSc's OpenBLAS (the library it loads, not numpy's) runs one thread where neither
+    OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set, and the count the environment sets where it
+    is (as PETSc reads it)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    if variable is not None:
+        env["OPENBLAS_NUM_THREADS"] = variable
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    out = subprocess.run([sys.executable, "-c", BLAS_THREADS_SCRIPT], env=env, capture_output=True, text=True,
+                         check=True, timeout=300).stdout
+    loaded = json.loads(out.strip().splitlines()[-1])
+    if not loaded:
+        pytest.skip("PETSc loads no OpenBLAS of its own here")
+    assert set(loaded.values()) == {expected}, loaded
+
+
+@needs_petsc
 def test_blow_up_returns_the_last_good_state():
     """y' = y^2 from y(0) = 1 blows up at t = 1: the run stops there as a value, not an exception."""
     from scipy import sparse

@@ -48,13 +48,15 @@ def _state(pde, grid, x_dependent):
                           0.01 * np.sin(np.pi * z / 30))
 
 
-def shell_errors(rheology, shape, x_dependent):
+def shell_errors(rheology, shape, x_dependent, newton=False):
     """On this rank: for each shift a of SHIFTS (one set-up after another, as TS shifts the same
     values), max |P^-1 (a I - J) v - v| / max |v| over the ranks, v random, J the Jacobian
-    assembled from the DMDA's blocks, P the shell preconditioner of a I - J."""
+    assembled from the DMDA's blocks, P the shell preconditioner of a I - J. `newton`: the matrix
+    a I - J is the engine's Newton matrix (J assembled, TS's scale -1 and shift a given to it as
+    numbers), its product checked against the assembled a I - J's."""
     from icidr_pde.cells.plane2d.pde import ShearCell2DPDE
     from icidr_pde.engines.linear.xfourier import PetscXFourier
-    from icidr_pde.engines.petsc import BlockGrid, _petsc
+    from icidr_pde.engines.petsc import BlockGrid, NewtonMatrix, _petsc
 
     PETSc = _petsc()
     comm = PETSc.COMM_WORLD
@@ -80,7 +82,14 @@ def shell_errors(rheology, shape, x_dependent):
     pc = PETSc.PC().create(comm=comm)
     pc.setType("python")
     pc.setPythonContext(solver.shell(PETSc, blocks))
-    pc.setOperators(M, M)
+    if newton:
+        J = M.duplicate(copy=True)
+        J.scale(-1.0)
+        context = NewtonMatrix(J)
+        N = PETSc.Mat().createPython(((end - start, n), (end - start, n)), context, comm=comm)
+        N.setUp()
+        N.assemble()
+    pc.setOperators(*(2 * (N if newton else M,)))
     v = x.duplicate()
     blocks.scatter_in(np.random.default_rng(3).standard_normal(n), v)
     b, z = v.duplicate(), v.duplicate()
@@ -88,8 +97,16 @@ def shell_errors(rheology, shape, x_dependent):
     for a in SHIFTS:
         M.shift(a - shifted)
         shifted = a
+        if newton:  # as TS: J again, then its scale and shift
+            context.restore()
+            N.scale(-1.0)
+            N.shift(a)
+            N.mult(v, z)
         pc.setUp()
         M.mult(v, b)
+        if newton:
+            z.axpy(-1.0, b)
+            assert z.norm(PETSc.NormType.INFINITY) <= 1e-13 * b.norm(PETSc.NormType.INFINITY)
         pc.apply(b, z)
         z.axpy(-1.0, v)
         errors.append(z.norm(PETSc.NormType.INFINITY) / v.norm(PETSc.NormType.INFINITY))
@@ -103,6 +120,17 @@ def test_exact_inverse_on_a_state_independent_of_x(rheology):
     """nx = 12, nz = 10: at every shift, the shell preconditioner inverts a I - J to round-off; the
     values are averaged once and factored at each shift."""
     errors, averages, factors = shell_errors(rheology, (12, 10), x_dependent=False)
+    assert max(errors) < 1e-12, errors
+    assert (averages, factors) == (1, len(SHIFTS))
+
+
+@needs_petsc
+@pytest.mark.parametrize("rheology", ["icidr", "mui"])
+def test_exact_inverse_of_the_engines_newton_matrix(rheology):
+    """The engine's Newton matrix (J assembled, TS's scale and shift as numbers) multiplies as the
+    assembled a I - J does, and the shell preconditioner set up from it inverts it to round-off:
+    J averaged once, factored at each shift (state independent of x, nx = 12, nz = 10)."""
+    errors, averages, factors = shell_errors(rheology, (12, 10), x_dependent=False, newton=True)
     assert max(errors) < 1e-12, errors
     assert (averages, factors) == (1, len(SHIFTS))
 

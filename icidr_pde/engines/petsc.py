@@ -36,12 +36,16 @@ import os
 import sys
 
 import numpy as np
+from numba import njit
 
 from .. import loaded_mpi, mpi_ranks
+from ..kernel_cache import numba_saves_may_fail
 from ..validation import ParameterError
 from .base import Engine, Problem
 from ..cvode_settings import A_STABLE_ORDER
 from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
+
+numba_saves_may_fail()
 
 __all__ = ["PetscEngine", "BlockGrid", "block_problem", "DEFAULTS", "PETSC_MISSING", "linear_solver_name", "rank", "mpiexec"]
 
@@ -63,6 +67,11 @@ BLOCK_PCS = ("bjacobi", "asm")
 #: the scheme's Jacobian of f is re-evaluated after this many steps, or after a rejected step or a
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
+
+#: PETSc's BLAS threads per rank where the environment sets none (PETSc reads these variables
+#: itself when it starts; docs/distributed.md measures the difference)
+BLAS_THREADS = 1
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
 
 #: what launchers tell each process of the ranks they started (MPICH's Hydra, Open MPI)
 LAUNCHER_SIZES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE")
@@ -86,6 +95,12 @@ def _petsc():
         raise ImportError(f"the PETSc engine cannot start in a process that has run {other}, and PETSc's "
                           "MPI is another: run it in a process of its own")
     try:
+        if "petsc4py.PETSc" not in sys.modules and not any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+            import petsc4py
+
+            # PETSc's vector operations call OpenBLAS, whose own thread count (one per core) took
+            # about 10x their time on a loaded machine, and on P ranks would put P threads on each core
+            petsc4py.init(["-blas_num_threads", str(BLAS_THREADS)])
         from petsc4py import PETSc
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
@@ -201,29 +216,46 @@ class PetscEngine(Engine):
 
     def _pattern(self, sparsity, n):
         """The AIJ matrix with the Jacobian's pattern, its rows distributed as the state vector's,
-        this rank's rows preallocated by COO: on a grid of blocks the pattern of its own cells'
-        rows (:meth:`BlockGrid.pattern`), else this rank's rows of the problem's `sparsity` (in
-        the engine's ordering: `self.order` maps the problem's unknowns to PETSc's)."""
+        this rank's rows preallocated by COO: on a grid of blocks the stencil's slots of its own
+        cells' rows (:meth:`BlockGrid.stencil_pattern`: each Jacobian's values are placed by
+        arithmetic, :meth:`BlockGrid.jacobian_slots`), else this rank's rows of the problem's
+        `sparsity` (in the engine's ordering: `self.order` maps the problem's unknowns to
+        PETSc's), each Jacobian's entries found in it by :meth:`_pattern_values`."""
+        from scipy import sparse
+
         start, end = self.x.getOwnershipRange()
         self.J = self.PETSc.Mat().create(comm=self.comm)
         self.J.setSizes([(end - start, n), (end - start, n)])
         self.J.setType(self.PETSc.Mat.Type.AIJ)
         self.J.setUp()
+        self._n = n
         if self.grid is not None and self.grid.has_jacobian:
-            rows, cols = self.grid.pattern()
-            mine = slice(None)
-        else:
-            from scipy import sparse
-
-            P = sparse.coo_matrix(sparsity)
-            rows, cols = self.order[P.row], self.order[P.col]
-            mine = (rows >= start) & (rows < end)
+            rows, cols = self.grid.stencil_pattern()
+            self.J.setPreallocationCOO(rows.astype(self.PETSc.IntType), cols.astype(self.PETSc.IntType))
+            self._keys = None  # found where asked (the property)
+            return
+        P = sparse.coo_matrix(sparsity)
+        rows, cols = self.order[P.row], self.order[P.col]
+        mine = (rows >= start) & (rows < end)
         # this rank's pattern entries as row * n + col, sorted (before PETSc, which may overwrite
         # the index arrays it is given: MatSetPreallocationCOO on MPIAIJ does)
-        self._keys = np.unique(rows[mine].astype(np.int64) * n + cols[mine])
+        self._keys = _sorted_unique(rows[mine].astype(np.int64) * n + cols[mine])
         self.J.setPreallocationCOO((self._keys // n).astype(self.PETSc.IntType),
                                    (self._keys % n).astype(self.PETSc.IntType))
-        self._n = n
+
+    @property
+    def _keys(self) -> np.ndarray:
+        """This rank's pattern entries as row * n + col, sorted (on a grid of blocks built where
+        asked: a run places its values by the stencil's slots and needs none)."""
+        if self._sorted_keys is None:
+            rows, cols = self.grid.stencil_pattern()
+            inside = cols >= 0
+            return _sorted_unique(rows[inside].astype(np.int64) * self._n + cols[inside])
+        return self._sorted_keys
+
+    @_keys.setter
+    def _keys(self, keys):
+        self._sorted_keys = keys
 
     def _gathered(self, vec) -> np.ndarray:
         """The whole vector in the problem's ordering (the states kept at outputs, an invalid
@@ -261,6 +293,9 @@ class PetscEngine(Engine):
         ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
         F = self.x.duplicate()
         fun = problem.fun
+        # the shell preconditioner needs no assembled shift I - J: the Newton matrix is then a shell
+        # (NewtonMatrix) that keeps J as assembled at its evaluation, TS's shift and scale as numbers
+        newton = self._newton_matrix() if self._shell is not None and pc_type == "python" else None
         rows = slice(*self.x.getOwnershipRange())
 
         if self.grid is not None:
@@ -276,16 +311,21 @@ class PetscEngine(Engine):
                 if self._shell is not None:
                     self._shell.new_jacobian()
                 if self.grid is not None and self.grid.has_jacobian:
-                    self._values = self._pattern_values(*self.grid.jacobian_rows(x))
+                    self._values = self.grid.jacobian_slots(x)
                 else:
                     Jt = sparse.coo_matrix(problem.jacobian.jac(t, self._gathered(x)))
                     self._values = self._pattern_values(self.order[Jt.row], self.order[Jt.col], Jt.data)
-            P.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+                if newton is not None:
+                    self.J.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            if newton is None:
+                P.setValuesCOO(self._values, addv=PETSc.InsertMode.INSERT_VALUES)
+            else:
+                newton.getPythonContext().restore()  # J again, which TS scales and shifts next
             if J.handle != P.handle:  # -snes_mf_operator: J is the matrix-free product of the current state
                 J.assemble()
 
         ts.setRHSFunction(rhs, F)
-        ts.setRHSJacobian(jacobian, self.J, self.J)
+        ts.setRHSJacobian(jacobian, *(2 * (self.J if newton is None else newton,)))
         ts.setTime(t0)
         self.time_scale = problem.time_scale(t0) if self.grid is None else self._time_scale(t0)
         ts.setTimeStep(first_step if first_step is not None else self.time_scale)
@@ -296,10 +336,11 @@ class PetscEngine(Engine):
         ts.setMaxSNESFailures(-1)  # a failed Newton solve halves the step; the minimum step ends it
         ts.setErrorIfStepFails(False)
         ts.setSolution(self.x)
-        if not db.hasName("ts_adapt_dt_min"):  # relative to the fastest time scale, as on CVODE
-            db.setValue("ts_adapt_dt_min", MIN_STEP_FRACTION * self.time_scale)
-        if np.isfinite(max_step) and not db.hasName("ts_adapt_dt_max"):
-            db.setValue("ts_adapt_dt_max", max_step)
+        # this run's step limits, on its own TS (not the options database, which the next run in this
+        # process would inherit); -ts_adapt_dt_min and -ts_adapt_dt_max, read below, override them
+        # the minimum relative to the fastest time scale, as on CVODE
+        ts.setStepLimits(MIN_STEP_FRACTION * self.time_scale,
+                         max_step if np.isfinite(max_step) else ts.getStepLimits()[1])
         ts.setFromOptions()
         pc = ts.getSNES().getKSP().getPC()
         if pc.getType() == "python" and self._shell is not None:
@@ -309,6 +350,15 @@ class PetscEngine(Engine):
         ts.setUp()
         self._keep_mass(ts.getSNES())
         return ts
+
+    def _newton_matrix(self):
+        """A matrix of type 'python' of this rank's rows: :class:`NewtonMatrix` of the assembled J."""
+        rows = self.J.getLocalSize()[0]
+        size = ((rows, self._n), (rows, self._n))
+        M = self.PETSc.Mat().createPython(size, NewtonMatrix(self.J), comm=self.comm)
+        M.setUp()
+        M.assemble()  # (TS scales and shifts only an assembled matrix)
+        return M
 
     def _time_scale(self, t0) -> float:
         """The problem's :meth:`~.base.Problem.time_scale` on a grid of blocks, to the same
@@ -407,9 +457,8 @@ class PetscEngine(Engine):
             mine = (pos < self._keys.size) & (self._keys[np.minimum(pos, self._keys.size - 1)] == keys)
             self._last_keys, self._map = keys, (pos[mine], mine)
         pos, mine = self._map
-        values = np.zeros(self._keys.size)
-        np.add.at(values, pos, data[mine])
-        return values
+        # summed in the order of the entries, as np.add.at sums them, at a fraction of its cost
+        return np.bincount(pos, weights=data[mine], minlength=self._keys.size)
 
     def advance(self, t_end):
         with mpi_ranks.noting_signals():
@@ -515,6 +564,70 @@ def block_problem(PETSc, patches, initial_block, check, comm=None, proc_sizes=No
     return Problem(y0=y0, fun=None, jacobian=JacobianSpec("sparse"), check=check, patches=grid), grid
 
 
+class NewtonMatrix:
+    """petsc4py's context of a matrix of type 'python': TS's Newton matrix, weight J + diagonal I,
+    with J the assembled Jacobian of f (an AIJ matrix, its values set once per evaluation) and
+    TS's scale and shift kept as the two numbers. TS forms each Newton system's matrix from J by
+    MatScale(-1) and MatShift(shift): on an assembled shift I - J that is a pass over every entry,
+    after the Jacobian's values were set again (TS scaled them), at every Newton system; here
+    it is two multiplications. Its products and diagonal are J's, weighted and shifted; the
+    x-Fourier shell reads the numbers and averages J itself (:mod:`.linear.xfourier_shell`)."""
+
+    def __init__(self, jacobian):
+        self.jacobian = jacobian
+        self.weight, self.diagonal = 1.0, 0.0
+
+    def restore(self):
+        """The matrix is J again (as TS's Jacobian callback leaves it)."""
+        self.weight, self.diagonal = 1.0, 0.0
+
+    def scale(self, mat, alpha):
+        self.weight *= alpha
+        self.diagonal *= alpha
+
+    def shift(self, mat, alpha):
+        self.diagonal += alpha
+
+    def mult(self, mat, x, y):
+        self.jacobian.mult(x, y)
+        y.scale(self.weight)
+        y.axpy(self.diagonal, x)
+
+    def getDiagonal(self, mat, d):
+        self.jacobian.getDiagonal(d)
+        d.scale(self.weight)
+        d.shift(self.diagonal)
+
+
+@njit(cache=True)
+def _stencil_slots(indptr, indices, data, mx, mz, gx, gz, side, dof, out):
+    """out[slot] += each entry of the patch Jacobian (CSR: rows the block's own unknowns (field,
+    i, j), columns the ghosted patch's (field', gi, gj)), slot ((row side + gi - i) side + gj -
+    j) dof + field' (:meth:`BlockGrid.stencil_pattern`); returns the number of entries beyond
+    the stencil."""
+    outside = 0
+    for r in range(indptr.size - 1):
+        i = (r // mz) % mx
+        j = r % mz
+        for e in range(indptr[r], indptr[r + 1]):
+            c = indices[e]
+            field = c // (gx * gz)
+            a = (c // gz) % gx - i
+            b = c % gz - j
+            if a < 0 or a >= side or b < 0 or b >= side:
+                outside += 1
+                continue
+            out[((r * side + a) * side + b) * dof + field] += data[e]
+    return outside
+
+
+def _sorted_unique(keys) -> np.ndarray:
+    """np.unique(keys) by one sort in place: numpy's unique (a hash table, then the sort) took
+    several times as long on the millions of a Jacobian's pattern."""
+    keys.sort()
+    return keys[np.concatenate(([True], keys[1:] != keys[:-1]))] if keys.size else keys
+
+
 def _reason_name(PETSc, reason) -> str:
     names = {v: k for k, v in vars(PETSc.TS.ConvergedReason).items() if isinstance(v, int)}
     return names.get(reason, str(reason))
@@ -612,6 +725,31 @@ class BlockGrid:
         gx, gz = self.ghosted
         return np.ascontiguousarray(self.local.getArray(readonly=True).reshape(gz, gx, self.dof).transpose(2, 1, 0))
 
+    def stencil_pattern(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) in PETSc's ordering, one slot per (own unknown, x-offset, z-offset, field of
+        the column) of the stencil, the unknowns in the order of :attr:`rows`: the pattern of
+        :meth:`pattern` laid out so that an entry's slot is arithmetic (:meth:`jacobian_slots`),
+        not searched; a slot beyond a wall has column -1 (PETSc's COO leaves it out)."""
+        dof, w = self.dof, self.width
+        (mx, mz), (gx, gz) = self.owned, self.ghosted
+        side = 2 * w + 1
+        windows = np.lib.stride_tricks.sliding_window_view(self.columns.reshape(dof, gx, gz), (side, side),
+                                                           axis=(1, 2))  # [field', i, j, a, b]
+        cols = np.broadcast_to(windows.transpose(1, 2, 3, 4, 0)[None], (dof, mx, mz, side, side, dof))
+        rows = np.broadcast_to(self.rows.reshape(dof, mx, mz, 1, 1, 1), cols.shape)
+        return rows.ravel(), cols.ravel()
+
+    def jacobian_slots(self, x) -> np.ndarray:
+        """The Jacobian rows of this rank's cells (:meth:`jacobian_rows`) as values of the slots of
+        :meth:`stencil_pattern`, entries of one slot summed in their order."""
+        Jp = self.patches.jacobian(self._patch(x), self.low, self.high).tocsr()
+        (mx, mz), (gx, gz) = self.owned, self.ghosted
+        out = np.zeros(self.rows.size * (2 * self.width + 1) ** 2 * self.dof)
+        outside = _stencil_slots(Jp.indptr, Jp.indices, Jp.data, mx, mz, gx, gz, 2 * self.width + 1, self.dof, out)
+        if outside:
+            raise ValueError(f"{outside} couplings of the patch Jacobian reach beyond the stencil of width {self.width}")
+        return out
+
     def jacobian_rows(self, x):
         """(rows, cols, values) in PETSc's ordering: the Jacobian rows of this rank's cells,
         from its patch alone."""
@@ -623,7 +761,8 @@ class BlockGrid:
     def rates(self, x, f):
         """f = the scheme's rates of the global vector x, each rank on its own block."""
         self.patches.rates(self._patch(x), self.low, self.high, self.out)
-        f.setArray(self.out.transpose(2, 1, 0).ravel())
+        mx, mz = self.owned
+        f.getArray().reshape(mz, mx, self.dof)[...] = self.out.transpose(2, 1, 0)  # one copy, into f's own memory
 
     def block(self, data) -> np.ndarray:
         """This rank's values in PETSc's order (the global vector's local part) of its block's

@@ -13,7 +13,9 @@ distributed here is how its data reaches it:
   small arrays of all ranks are gathered on every rank (m (2 band + 1) (2 reach + 1) numbers for m = 3 Nz unknowns of a
   column), where a new Jacobian was assembled. Between Jacobians only the shift changes: its
   change is read from the matrix's diagonal (one reduction), and the banded systems are
-  factored again, not averaged, where it moved by more than :data:`LAG`.
+  factored again, not averaged, where it moved by more than :data:`LAG`. The engine's Newton
+  matrix (:class:`~icidr_pde.engines.petsc.NewtonMatrix`) gives its shift and scale as numbers
+  and J assembled apart: J's rows are averaged, and the shift added to the factors.
 * The solve: the real FFT in x of each rank's rows; one transpose to wave-number slabs (each rank
   then holds all z of its own wave numbers, Nx / 2 + 1 of them shared as evenly as they go)
   and the banded solves there; the transpose back and the inverse FFT. The transposes are one
@@ -56,7 +58,8 @@ class XFourierShell:
         stencil: the box stencil's width (the couplings reach that many cells each way)
 
     :meth:`new_jacobian` says that the matrix's values are new (not only its shift): the next
-    set-up averages them again.
+    set-up averages them again. The matrix is an assembled one (its shift read from its diagonal)
+    or the engine's Newton matrix of type 'python' (its shift and scale given as numbers).
     """
 
     def __init__(self, PETSc, da, stencil: int):
@@ -92,6 +95,7 @@ class XFourierShell:
         self.m, self.per_row = dof * nz, per_row
         self.factors, self.fresh, self._diagonal, self._averaged = None, True, None, None
         self.averaged_mean = self.factored_change = None
+        self.jacobian_mean = self.factored_weight = self.factored_mean = None
         self.n_averages = self.n_factors = 0
 
     def new_jacobian(self):
@@ -100,6 +104,10 @@ class XFourierShell:
 
     def setUp(self, pc):
         _, P = pc.getOperators()
+        newton = P.getPythonContext() if P.getType() == self.PETSc.Mat.Type.PYTHON else None
+        if newton is not None:
+            self._set_up_newton(newton)
+            return
         if self._diagonal is None:
             self._diagonal = P.createVecLeft()
         P.getDiagonal(self._diagonal)
@@ -115,6 +123,28 @@ class XFourierShell:
                 return  # the factors of a nearby shift precondition as well
         self.factors.factor(1.0, change)  # (the shift's change) I + (the average as averaged)
         self.factored_change = change
+        self.n_factors += 1
+
+    def _set_up_newton(self, newton):
+        """As :meth:`setUp`, P the engine's Newton matrix (weight J + diagonal I, the two numbers
+        and the assembled J: :class:`~icidr_pde.engines.petsc.NewtonMatrix`): J averaged where new,
+        the factors of weight (the average) + diagonal I, kept while the mean of the diagonal
+        stays within :data:`LAG` of theirs."""
+        J = newton.jacobian
+        averaged = self.fresh or self.factors is None
+        if averaged:
+            self._average(J)
+            if self._diagonal is None:
+                self._diagonal = J.createVecLeft()
+            J.getDiagonal(self._diagonal)
+            self.jacobian_mean = self._diagonal.sum() / self._diagonal.getSize()
+        weight, diagonal = newton.weight, newton.diagonal
+        mean = weight * self.jacobian_mean + diagonal
+        if not averaged and weight == self.factored_weight and abs(mean - self.factored_mean) <= LAG * abs(
+                self.factored_mean):
+            return  # the factors of a nearby shift precondition as well
+        self.factors.factor(weight, diagonal)
+        self.factored_weight, self.factored_mean = weight, mean
         self.n_factors += 1
 
     def _average(self, P):
