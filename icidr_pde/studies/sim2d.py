@@ -111,13 +111,18 @@ def convergence_study(sizes=SIZES, times=TIMES, path=DATA / "convergence.json", 
                                                       init_here=False)):
         runs[str(n)] = fields
         print(f"iCIDR bump2d {n}x{n}: {summary}", flush=True)
-    orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
-    default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind" else "convergence.json")
-    payload = {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
-               "settings": settings, "runs": runs, "observed_orders": orders,
-               "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
+    payload = _convergence_payload(sizes, times, settings, runs, path)
     write_json(payload, path)
     return payload
+
+
+def _convergence_payload(sizes, times, settings: dict, runs: dict, path) -> dict:
+    """The convergence study's JSON: its runs by grid, the observed orders over `sizes`, the command."""
+    orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
+    default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind" else "convergence.json")
+    return {"scene": "bump2d", "rheology": "icidr", "sizes": list(sizes), "times": list(times),
+            "settings": settings, "runs": {str(n): runs[str(n)] for n in sizes}, "observed_orders": orders,
+            "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
 
 
 def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]:
@@ -154,10 +159,15 @@ def tstar_study(sizes=TSTAR_SIZES, t_end=10.0, path=DATA / "tstar.json", *, jobs
         rows.append({"N": n, "t_star_2d": t2, "reason_2d": reason2, "t_star_1d": t1,
                      "reason_1d": reason1, "max_w_1d_end": max_w1})
         print(f"mu(I) bump2d N = {n}: 2-D {s2}; 1-D {s1}", flush=True)
-    payload = {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
-               "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
+    payload = _tstar_payload(sizes, t_end, settings, rows, path)
     write_json(payload, path)
     return payload
+
+
+def _tstar_payload(sizes, t_end: float, settings: dict, rows: list[dict], path) -> dict:
+    """The t* study's JSON: its rows (in the order of `sizes`) and the command."""
+    return {"scene": "bump2d", "rheology": "mui", "t_end": t_end, "settings": settings, "rows": rows,
+            "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
 
 
 def combine_studies(parts, path) -> dict:
@@ -177,23 +187,14 @@ def combine_studies(parts, path) -> dict:
             if other.get(key) != first.get(key):
                 raise ValueError(f"`parts` must be grids of one study: {key} {first.get(key)!r} against "
                                  f"{other.get(key)!r}")
-    settings = first["settings"]
     if "runs" in first:
-        runs = {}
-        for part in parts:
-            runs.update(part["runs"])
+        runs = {n: run for part in parts for n, run in part["runs"].items()}
         sizes = sorted(int(n) for n in runs)
-        times = first["times"]
-        orders = {q: {t: observed_orders([runs[str(n)][q][t] for n in sizes]) for t in times} for q in QUANTITIES}
-        default_path = DATA / ("convergence_upwind.json" if settings.get("advection") == "upwind"
-                               else "convergence.json")
-        payload = {**first, "sizes": sizes, "runs": {str(n): runs[str(n)] for n in sizes}, "observed_orders": orders,
-                   "command": study_command("convergence", settings, sizes, SIZES, path, default_path)}
+        payload = _convergence_payload(sizes, first["times"], first["settings"], runs, path)
     else:
         rows = {row["N"]: row for part in parts for row in part["rows"]}
         sizes = sorted(rows)
-        payload = {**first, "rows": [rows[n] for n in sizes],
-                   "command": study_command("tstar", settings, sizes, TSTAR_SIZES, path, DATA / "tstar.json")}
+        payload = _tstar_payload(sizes, first["t_end"], first["settings"], [rows[n] for n in sizes], path)
     write_json(payload, path)
     return payload
 
