@@ -247,7 +247,9 @@ def _run(case, choice: Choice, settings, t_end, times, *, accuracy, progress, se
     NativeUnavailable before any work where its library cannot be built or the run is too stiff
     for it."""
     from .engines import engine_class
+    from .heap import keep_freed_arrays
 
+    keep_freed_arrays()  # a step's grid-sized arrays reused, not faulted in again (heap.py)
     set_up = (_native_set_up if choice.engine == "native" else _blocks_set_up if _on_blocks(case, choice)
               else _scheme_set_up)
     if set_up is not _blocks_set_up:  # there each rank checks its own block (no rank holds the whole state)
