@@ -73,9 +73,6 @@ JAC_MAX_AGE = 20
 BLAS_THREADS = 1
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
 
-#: what launchers tell each process of the ranks they started (MPICH's Hydra, Open MPI)
-LAUNCHER_SIZES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE")
-
 PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
 
@@ -104,10 +101,11 @@ def _petsc():
         from petsc4py import PETSc
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
-    launched = max(int(os.environ.get(name, "1") or 1) for name in LAUNCHER_SIZES)
+    launched = mpi_ranks.launched()
     if PETSc.COMM_WORLD.size == 1 and launched > 1:
-        raise ImportError(f"this process is one of {launched} started by an mpiexec of another MPI than PETSc's, "
-                          f"so each would run the whole grid alone: start them with {mpiexec()}")
+        raise ImportError(f"this process is one of {launched} started by the mpiexec of another MPI than PETSc's "
+                          "(or by srun without the --mpi plugin of PETSc's MPI), so each would run the whole grid "
+                          f"alone: start them with {mpiexec()}")
     mpi_ranks.abort_on_uncaught()  # an exception on one rank ends them all, not only that one
     return PETSc
 
