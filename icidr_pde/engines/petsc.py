@@ -374,15 +374,10 @@ class PetscEngine(Engine):
         def norm(y):
             probe.setArray(y)
             whole = grid.to_root(probe)
-            return self._from_root(float(np.linalg.norm(whole)) if self.comm.rank == 0 else 0.0)
+            return mpi_ranks.broadcast(float(np.linalg.norm(whole)) if self.comm.rank == 0 else None)
 
         return fastest_time_scale(rates, t0, np.array(x.getArray(readonly=True)), norm=norm,
                                   index=grid.problem_index())
-
-    def _from_root(self, value: float) -> float:
-        """Rank 0's number on every rank (a reduction by max of it and -inf elsewhere: exact)."""
-        self._flags.setArray([value if self.comm.rank == 0 else -np.inf])
-        return float(self._flags.max()[1])
 
     def _mass_weights(self):
         """The mass weights c (c J = 0: the scheme conserves c . y) as a vector of the state's
