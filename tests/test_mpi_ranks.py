@@ -12,7 +12,8 @@ left in it.
 Against independent truth: under a launcher whose variables mpi_ranks does not read (here Open
 MPI's, with the names it reads replaced by one that is not set), once PETSc is started the ranks
 still agree through its COMM_WORLD: how many they are, who is rank 0 (who writes), rank 0's
-object on every rank, the largest number and status; a run of the PETSc engine gives rank 1 the
+object on every rank, the largest number and status, and the command line's exit status (rank 0
+alone fails to write its output: 4 on both ranks); a run of the PETSc engine gives rank 1 the
 same result as rank 0. An uncaught exception on one rank ends every rank with a non-zero status,
 well within the time a rank waiting for it in a collective would otherwise wait forever.
 
@@ -193,3 +194,41 @@ def test_a_task_of_srun_whose_mpi_petsc_does_not_join_is_refused_in_one_line(tmp
         assert run.stderr == ""
     assert run.stdout == "" and not (tmp_path / "r.json").exists()
 
+
+CLI_UNKNOWN_LAUNCHER_SCRIPT = """
+import errno, sys
+from icidr_pde import mpi_ranks, outputs
+from icidr_pde.cli import main
+
+# a launcher mpi_ranks does not know: none of the variables it reads is set
+mpi_ranks.RANK_VARIABLES = mpi_ranks.SIZE_VARIABLES = ("ICIDR_PDE_TEST_UNSET_LAUNCHER_VARIABLE",)
+
+
+def full(tmp, path, **kwargs):  # the disk rank 0 writes to is full (rank 0 alone installs files)
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+outputs.install = full
+status = main(sys.argv[2:])
+from petsc4py import PETSc
+
+with open(f"{sys.argv[1]}.{PETSc.COMM_WORLD.rank}", "w") as f:
+    f.write(str(status))
+"""
+
+
+@needs_petsc
+@needs_mpiexec
+def test_the_ranks_exit_statuses_agree_under_a_launcher_not_recognised(tmp_path):
+    """The PETSc engine's run on 2 ranks of a launcher whose variables mpi_ranks does not read,
+    rank 0 alone failing to write the JSON: 4 on rank 0, and 4 on rank 1 too, which wrote nothing
+    (its own status would be 0): the ranks agree once PETSc's COMM_WORLD says there are 2."""
+    script = tmp_path / "cli_unknown_launcher.py"
+    script.write_text(CLI_UNKNOWN_LAUNCHER_SCRIPT)
+    status = tmp_path / "status"
+    proc = subprocess.run([MPIEXEC, "-n", "2", sys.executable, str(script), str(status), "run", "--engine", "petsc",
+                           "--scene", "bump2d", "--N", "8", "--t-end", "0.01", "--no-progress", "--json",
+                           str(tmp_path / "r.json")], env=_mpi_env(), timeout=600, capture_output=True, text=True)
+    assert [(tmp_path / f"status.{r}").read_text() for r in (0, 1)] == ["4", "4"], proc.stderr[-3000:]
+    assert "could not write --json" in proc.stderr and "No space left on device" in proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "r.json").exists()
