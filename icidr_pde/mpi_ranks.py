@@ -57,9 +57,20 @@ __all__ = ["RANK_VARIABLES", "launcher_rank", "launched", "speaks", "writes_here
 #: the signals that stop a run and keep what it computed
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun)
+#: the rank an MPI launcher gives this process (Open MPI, MPICH/Hydra, PMIx, Slurm's srun), the
+#: first set read, in the order of SIZE_VARIABLES (a rank and a number of one launcher)
 RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID")
-#: the number of processes it started (srun: the job step's tasks)
+#: the number of processes it started, the first set read (:func:`launched`). What each launcher
+#: sets: Open MPI's mpiexec OMPI_COMM_WORLD_SIZE (and PMIX_RANK; PMIx has no variable of the size);
+#: MPICH's Hydra PMI_SIZE; Slurm's srun SLURM_STEP_NUM_TASKS for every task, with PMI_SIZE (the
+#: same number) under --mpi=pmi2, PMIX_RANK under --mpi=pmix, no MPI variable under --mpi=none.
+#: The MPI launcher's variable comes before Slurm's because Slurm's are leftovers wherever an
+#: mpiexec runs inside a Slurm step (an `srun --pty` shell) or starts its daemons through srun
+#: (Open MPI's and Hydra's across the nodes of an allocation: a step of one task per node), and
+#: the first set, not the largest, because a leftover's number may be the larger. SLURM_NTASKS is
+#: not read: a batch script, one process, has the job's tasks there. A leftover variable of an
+#: MPI read before the launcher's own (Open MPI's around MPICH's mpiexec) would still win: once
+#: PETSc is started, its COMM_WORLD says how many ranks agree (:func:`ranks`), whatever this says.
 SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS")
 
 
@@ -78,7 +89,10 @@ def launcher_rank() -> int:
 
 
 def launched() -> int:
-    """How many processes the launcher started (1 outside one)."""
+    """How many processes the launcher that started this one started (1 outside one), read before
+    MPI is started: the first of :data:`SIZE_VARIABLES` that is set. It decides whether MPI is
+    started here, and the PETSc engine refuses a run of one rank where it says several (their
+    launcher's processes do not see each other)."""
     return max(_first_number(SIZE_VARIABLES) or 1, 1)
 
 

@@ -82,12 +82,14 @@ def main(argv=None) -> int:
     """Run ``icidr-pde ARGV`` (default: this process's arguments); its exit status.
 
     Under an MPI launcher every rank runs the command, rank 0 alone prints and writes, and every
-    rank exits with the largest status of the ranks (:mod:`icidr_pde.mpi_ranks`)."""
+    rank exits with the largest status of the ranks (:mod:`icidr_pde.mpi_ranks`): wherever the
+    command runs on several ranks as mpi_ranks decides it (PETSc's COMM_WORLD once PETSc is
+    started, also under a launcher whose variables it does not read)."""
     from .. import mpi_ranks
 
     with mpi_ranks.root_speaks():
         status = _main(argv)
-        return mpi_ranks.agree(status) if mpi_ranks.launched() > 1 else status
+        return mpi_ranks.agree(status) if mpi_ranks.ranks() > 1 else status
 
 
 def _main(argv=None) -> int:

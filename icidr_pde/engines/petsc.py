@@ -73,9 +73,6 @@ JAC_MAX_AGE = 20
 BLAS_THREADS = 1
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
 
-#: what launchers tell each process of the ranks they started (MPICH's Hydra, Open MPI)
-LAUNCHER_SIZES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE")
-
 PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
 
@@ -104,10 +101,11 @@ def _petsc():
         from petsc4py import PETSc
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
-    launched = max(int(os.environ.get(name, "1") or 1) for name in LAUNCHER_SIZES)
+    launched = mpi_ranks.launched()
     if PETSc.COMM_WORLD.size == 1 and launched > 1:
-        raise ImportError(f"this process is one of {launched} started by an mpiexec of another MPI than PETSc's, "
-                          f"so each would run the whole grid alone: start them with {mpiexec()}")
+        raise ImportError(f"this process is one of {launched} started by the mpiexec of another MPI than PETSc's "
+                          "(or by srun without the --mpi plugin of PETSc's MPI), so each would run the whole grid "
+                          f"alone: start them with {mpiexec()}")
     mpi_ranks.abort_on_uncaught()  # an exception on one rank ends them all, not only that one
     return PETSc
 
@@ -376,15 +374,10 @@ class PetscEngine(Engine):
         def norm(y):
             probe.setArray(y)
             whole = grid.to_root(probe)
-            return self._from_root(float(np.linalg.norm(whole)) if self.comm.rank == 0 else 0.0)
+            return mpi_ranks.broadcast(float(np.linalg.norm(whole)) if self.comm.rank == 0 else None)
 
         return fastest_time_scale(rates, t0, np.array(x.getArray(readonly=True)), norm=norm,
                                   index=grid.problem_index())
-
-    def _from_root(self, value: float) -> float:
-        """Rank 0's number on every rank (a reduction by max of it and -inf elsewhere: exact)."""
-        self._flags.setArray([value if self.comm.rank == 0 else -np.inf])
-        return float(self._flags.max()[1])
 
     def _mass_weights(self):
         """The mass weights c (c J = 0: the scheme conserves c . y) as a vector of the state's
