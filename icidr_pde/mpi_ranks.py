@@ -131,11 +131,32 @@ def _started_here():
     if loaded_mpi.loaded():  # another MPI here: PETSc's would abort
         return None
     try:
-        from petsc4py import PETSc
+        PETSc = start_petsc()
     except ImportError:  # the PETSc engine says why, in one line, if the command asks for it
         return None
     abort_on_uncaught()
     return PETSc if PETSc.COMM_WORLD.size > 1 else None
+
+
+#: PETSc's BLAS threads per rank where the environment sets none (PETSc reads these variables
+#: itself when it starts; docs/distributed.md measures the difference)
+BLAS_THREADS = 1
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def start_petsc():
+    """petsc4py's PETSc, started (MPI_Init and PETSc's options) by whoever asks first: here, the
+    engine or a study; ImportError without petsc4py. Its options are set only at the start: PETSc's
+    BLAS on :data:`BLAS_THREADS` thread where the environment names no count (its vector
+    operations call OpenBLAS, whose own count, one thread per core, took about 10x their time on
+    a loaded machine, and on P ranks would put P threads on each core)."""
+    if "petsc4py.PETSc" not in sys.modules and not any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+        import petsc4py
+
+        petsc4py.init(["-blas_num_threads", str(BLAS_THREADS)])
+    from petsc4py import PETSc
+
+    return PETSc
 
 
 def abort_on_uncaught() -> None:

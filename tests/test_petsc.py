@@ -139,25 +139,28 @@ def test_a_second_run_in_one_process_takes_its_own_step_limits():
 
 BLAS_THREADS_SCRIPT = """
 import json, sys
+from icidr_pde import mpi_ranks
 from icidr_pde.engines.petsc import _petsc
 from icidr_pde.studies.parallel import blas_threads
 before = blas_threads()
-_petsc()
+_petsc() if sys.argv[1] == "engine" else mpi_ranks.start_petsc()
 print(json.dumps({name: n for name, n in blas_threads().items() if name not in before}))
 """
 
 
 @needs_petsc
+@pytest.mark.parametrize("starter", ["engine", "ranks"])
 @pytest.mark.parametrize("variable, expected", [(None, 1), ("2", 2)])
-def test_petscs_blas_takes_one_thread_unless_the_environment_says(variable, expected):
+def test_petscs_blas_takes_one_thread_unless_the_environment_says(variable, expected, starter):
     """PETSc's OpenBLAS (the library it loads, not numpy's) runs one thread where neither
     OPENBLAS_NUM_THREADS nor OMP_NUM_THREADS is set, and the count the environment sets where it
-    is (as PETSc reads it)."""
+    is (as PETSc reads it); whoever starts PETSc first: the engine, or mpi_ranks for the ranks'
+    agreement (a study's output folder checked before its first run)."""
     env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
     if variable is not None:
         env["OPENBLAS_NUM_THREADS"] = variable
     env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
-    out = subprocess.run([sys.executable, "-c", BLAS_THREADS_SCRIPT], env=env, capture_output=True, text=True,
+    out = subprocess.run([sys.executable, "-c", BLAS_THREADS_SCRIPT, starter], env=env, capture_output=True, text=True,
                          check=True, timeout=300).stdout
     loaded = json.loads(out.strip().splitlines()[-1])
     if not loaded:

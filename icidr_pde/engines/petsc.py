@@ -68,11 +68,6 @@ BLOCK_PCS = ("bjacobi", "asm")
 #: failed Newton solve (as CVODE does); in between TS forms shift I - J from the kept values
 JAC_MAX_AGE = 20
 
-#: PETSc's BLAS threads per rank where the environment sets none (PETSc reads these variables
-#: itself when it starts; docs/distributed.md measures the difference)
-BLAS_THREADS = 1
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
-
 PETSC_MISSING = ("the PETSc engine needs petsc4py: pip install -e \".[petsc]\" "
                  "(PETSc builds from source once, docs/distributed.md)")
 
@@ -92,13 +87,7 @@ def _petsc():
         raise ImportError(f"the PETSc engine cannot start in a process that has run {other}, and PETSc's "
                           "MPI is another: run it in a process of its own")
     try:
-        if "petsc4py.PETSc" not in sys.modules and not any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
-            import petsc4py
-
-            # PETSc's vector operations call OpenBLAS, whose own thread count (one per core) took
-            # about 10x their time on a loaded machine, and on P ranks would put P threads on each core
-            petsc4py.init(["-blas_num_threads", str(BLAS_THREADS)])
-        from petsc4py import PETSc
+        PETSc = mpi_ranks.start_petsc()
     except ImportError as err:
         raise ImportError(PETSC_MISSING) from err
     launched = mpi_ranks.launched()
