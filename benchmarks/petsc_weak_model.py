@@ -633,6 +633,28 @@ def xfourier_model(kept: dict, latency: float, node_bandwidth: float, ranks_per_
     return rows, per_step
 
 
+def bandwidth_needed(kept: dict, latency: float, ranks_per_node: int, transpose_bytes: float, target: float = 0.5,
+                     P: int = 256) -> dict:
+    """The bandwidth per rank (bytes/s) at which the model's calibrated weak efficiency at P ranks
+    reaches `target`, per cells per rank (bisection in the node's bandwidth, the rest of the
+    network as assumed); None where even a network without bandwidth cost does not reach it."""
+    out = {}
+    for n in sorted({c["cells_per_rank"] for c in kept["rank_costs"]}):
+        def efficiency(bandwidth):
+            rows, _ = xfourier_model(kept, latency, bandwidth * ranks_per_node, ranks_per_node, transpose_bytes)
+            return next(r["efficiency_calibrated"] for r in rows if r["cells_per_rank"] == n and r["P"] == P)
+
+        low, high = 1e6, 1e15  # bytes/s per rank
+        if efficiency(high) < target:
+            out[n] = None
+            continue
+        for _ in range(60):
+            middle = math.sqrt(low * high)
+            low, high = (middle, high) if efficiency(middle) < target else (low, middle)
+        out[n] = high
+    return out
+
+
 def xfourier_main(args) -> None:
     """The model of the x-Fourier preconditioner on PETSc over P = 64, 256, 1024 ranks at 64^2,
     128^2 and 256^2 cells per rank (the grid sqrt(P n) a side, split in z-slabs of all x).
@@ -732,12 +754,24 @@ def xfourier_main(args) -> None:
               f"{(' (' + r['alltoall'] + ')') if r['alltoall'] else ''} | {r['reductions_s'] * 1e3:.2f} ms | "
               f"{r['step_s'] * 1e3:.1f} ms | {r['efficiency']:.2f} | {r['compute_share']:.2f} | "
               f"{r['step_calibrated_s'] * 1e3:.1f} ms | {r['efficiency_calibrated']:.2f} |")
+    needed = {}
+    for size in sorted({args.transpose_bytes_per_cell, TRANSPOSE_BYTES_PER_CELL, TRANSPOSE_BYTES_PER_CELL / 2},
+                       reverse=True):
+        needed[f"{size:g}"] = bandwidth_needed(kept, args.latency, args.ranks_per_node, size)
+        print(f"bandwidth per rank for a calibrated weak efficiency of 0.5 at 256 ranks, {size:g} bytes per cell a "
+              f"transpose, latency {args.latency * 1e6:g} us: " + ", ".join(
+                  f"{math.isqrt(n)}^2 cells per rank " + ("not reached at any bandwidth" if b is None else
+                                                          f"{b / 1e9:.2f} GB/s ({b * args.ranks_per_node / 1e9:.0f} "
+                                                          f"GB/s a node of {args.ranks_per_node})")
+                  for n, b in needed[f"{size:g}"].items()))
     assumptions = {"latency_s": args.latency, "node_bandwidth_bytes_per_s": args.node_bandwidth,
                    "ranks_per_node": args.ranks_per_node, "transpose_bytes_per_cell": args.transpose_bytes_per_cell}
     if args.measured and not args.json:  # the model again: the kept measurement's file stays as it was
         return
     write_json(args.json or str(ROOT / "data" / "benchmarks" / "petsc_weak_model.json"),
                {"measured": kept, "assumptions": assumptions, "model": rows, "model_check_1_rank": check,
+                "bandwidth_per_rank_for_half_at_256": {size: {str(n): b for n, b in by_n.items()}
+                                                       for size, by_n in needed.items()},
                 "counts_per_step": {k: {"value": v[0], "at_N": v[1], "exponent": v[2]} for k, v in per_step.items()}})
 
 
