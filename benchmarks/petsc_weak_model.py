@@ -696,8 +696,9 @@ def xfourier_main(args) -> None:
         kept = json.loads(pathlib.Path(args.measured).read_text())
         kept = kept.get("measured", kept)
         if "engine" not in kept:
-            raise SystemExit(f"--measured: {args.measured} holds no runs of the PETSc engine (a measurement of "
-                             f"this benchmark before they were made); measure again without --measured")
+            print(f"--measured: {args.measured} holds no runs of the PETSc engine (a measurement of this benchmark "
+                  f"before they were made); measure again without --measured", file=sys.stderr)
+            sys.exit(2)
         print(f"measured: {args.measured} ({kept['uptime']})")
     else:
         print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
