@@ -3,8 +3,9 @@
 ``--pc xfourier`` (the default): the engine with the x-Fourier preconditioner distributed as a
 shell PC (z-slabs; each application a local x-FFT, one all-to-all transpose to wave-number slabs,
 the banded solves of its wave numbers over all z, the transpose back; :func:`xfourier_main`, its
-docstring says what is measured and what is assumed). ``--pc "bjacobi/ILU(0)" gamg``: the model
-of the engine's PETSc preconditioners, measured as below.
+docstring says what is measured and what is assumed: the counts per step and the calibration
+are the PETSc engine's own). ``--pc "bjacobi/ILU(0)" gamg``: the model of the engine's PETSc
+preconditioners, measured as below.
 
 Not a measurement of many ranks (this machine has 2 cores): it measures, as whole ``mpiexec``
 processes (benchmarks/petsc_ranks.py's child, PETSc's log), iCIDR bump2d to t_end
@@ -48,6 +49,8 @@ that grid size's fit. The table is a model; only its inputs are measurements.
     nice -n 10 python benchmarks/petsc_weak_model.py                     # x-Fourier: measures, models, writes
                                                                           # data/benchmarks/petsc_weak_model.json
     python benchmarks/petsc_weak_model.py --measured data/benchmarks/petsc_weak_model.json  # the model again
+    python benchmarks/petsc_weak_model.py --measured data/benchmarks/petsc_weak_model.json --transpose-bytes-per-cell 12
+                                          # the transposes in single precision (--node-bandwidth, --ranks-per-node too)
     nice -n 10 python benchmarks/petsc_weak_model.py --pc "bjacobi/ILU(0)" gamg [--t-end 1] [--cells-per-rank 4096] [--json M.json]
     python benchmarks/petsc_weak_model.py --pc "bjacobi/ILU(0)" gamg --measured M.json [--cells-per-rank 16384]
 
@@ -60,6 +63,7 @@ import math
 import os
 import pathlib
 import sys
+import time
 
 import numpy as np
 
@@ -229,20 +233,21 @@ def rank_costs(N: int, P: int, n: int, lin_per_newton: float) -> dict:
     pd, ps, _, _ = _slab(nxk, N)
     Jk = pd.make_jacobian(ps)(0.0, ps.data.ravel())
     pre = xf.XFourierPreconditioner(Jk, (3, nxk, N), 0.05)
-    systems = pre.lu.shape[0]
+    factors = pre.factors
+    systems = factors.lu.shape[0]
     gammas = iter(np.linspace(0.05, 0.06, 1000))
     factor = _best(lambda: pre.at(next(gammas)), repeat=7)
     factor = tuple(t * modes / systems for t in factor)
     m = 3 * N
     columns = (np.random.default_rng(0).standard_normal((modes, m)) + 0j)
-    lu, rec, piv = pre.lu[:modes], pre.reciprocal[:modes], pre.pivots[:modes]
+    lu, rec, piv = factors.lu[:modes], factors.reciprocal[:modes], factors.pivots[:modes]
     if modes > systems:
         raise ValueError(f"{modes} wave numbers asked of {systems} factored")
     work = columns.copy()
 
     def band_solve():
         work[:] = columns
-        xf._band_solve(lu, rec, piv, pre.kl, pre.ku, work)
+        xf._band_solve(lu, rec, piv, factors.kl, factors.ku, work)
 
     band_s = _best(band_solve, repeat=11, number=3)
     slab = np.random.default_rng(1).standard_normal((3, N, nzm))
@@ -267,7 +272,7 @@ def rank_costs(N: int, P: int, n: int, lin_per_newton: float) -> dict:
     vec = _best(gram_schmidt, repeat=11, number=5)
     return {"N": N, "P": P, "cells_per_rank": n, "slab": [N, nz], "wave_numbers": modes, "band": band,
             "rhs_s": rhs, "jac_s": jac, "xavg_s": xavg, "factor_s": factor, "band_solve_s": band_s, "fft_s": fft,
-            "gram_schmidt_s": vec, "krylov_dimension": k, "band_width": [pre.kl, pre.ku],
+            "gram_schmidt_s": vec, "krylov_dimension": k, "band_width": [factors.kl, factors.ku],
             "averages_bytes": 3 * N * (2 * band + 1) * (2 * dx + 1) * 8}
 
 
@@ -362,24 +367,171 @@ def measure_alltoall(cells) -> list:
         return json.loads(out.read_text())
 
 
-def measure_reductions(t_end: float = 1.0, N: int = 32) -> dict:
-    """MPI reductions per GMRES iteration and per step besides, on 2 ranks (PETSc's log of a whole
-    mpiexec run of the engine, bump2d N^2 to t_end): GMRES's own dot products and norms, and
-    the steps' (SNES norms, TS's error norm, the mass correction, the state check)."""
-    os.environ["PETSC_OPTIONS"] = ""
-    r = one(str(ROOT), 2, N, t_end)
-    apps = max(r["PCApply_n"], 1)
-    return {"N": N, "t_end": t_end, "steps": r["steps"], "krylov_reductions_per_iteration": r["KSPSolve_reductions"] / apps,
-            "other_reductions_per_step": (r["TSStep_reductions"] - r["KSPSolve_reductions"]) / r["steps"],
-            "process_s": r["process_s"], "max_w": r["max_w"]}
+#: the grids whose PETSc runs (1 rank) give the counts per step and the engine's time per step
+ENGINE_SIZES = (32, 64, 128, 256, 512)
+#: the grid of the 2-rank run of the engine (its reductions, and its counts against 1 rank's)
+TWO_RANK_N = 128
 
 
-def measure_xfourier() -> dict:
+def engine_child(N: int, t_end: float, out: str) -> None:
+    """benchmarks/petsc_ranks.py's child (the engine under PETSc's log, one whole run), with the
+    engine's own counters besides, read when the run path asks the engine for its counts: TS's
+    steps, Newton (SNES) and GMRES (KSP) iterations, rejected steps, and the x-Fourier shell's
+    averages (one per evaluated Jacobian) and banded factorizations."""
+    from petsc_ranks import child
+
+    from icidr_pde.engines import petsc
+
+    counted = {}
+    counts, init = petsc.PetscEngine.counts, petsc.PetscEngine.__init__
+
+    def starting(self, *args, **kwargs):  # the integration's CPU time runs from the engine's set-up's end
+        init(self, *args, **kwargs)
+        counted["integration_cpu_start"] = time.process_time()
+
+    def counting(self):
+        ts = self.ts
+        counted.update(integration_cpu_s=time.process_time() - counted.pop("integration_cpu_start", 0.0),
+                       steps=int(ts.getStepNumber()), newton_iterations=int(ts.getSNESIterations()),
+                       gmres_iterations=int(ts.getKSPIterations()), rejected=int(ts.getStepRejections()),
+                       snes_failures=int(ts.getSNESFailures()), n_jac=self.n_jac,
+                       averages=getattr(self._shell, "n_averages", None),
+                       factorizations=getattr(self._shell, "n_factors", None), pc=self.linear_solver)
+        return counts(self)
+
+    petsc.PetscEngine.counts, petsc.PetscEngine.__init__ = counting, starting
+    if os.environ.get(SINGLE) == "1":
+        _single_precision_transposes()
+    cpu = time.process_time()
+    child(N, t_end, out)
+    counted["run_cpu_s"] = time.process_time() - cpu
+    from petsc4py import PETSc
+
+    write_json(f"{out}.counts.{PETSc.COMM_WORLD.rank}", counted, stamp=False, indent=None)
+
+
+#: the environment variable that asks the engine's child for transposes of single-precision values
+SINGLE = "WEAK_MODEL_SINGLE_PRECISION_TRANSPOSES"
+
+
+def _single_precision_transposes() -> None:
+    """What the x-Fourier shell's preconditioner gives when its two transposes carry single-precision
+    values (12 bytes a cell instead of 24): the vector each transpose sends is rounded to float32
+    just before it is sent (it is the shell's scratch, not read again), so what arrives is what
+    float32 messages would bring. Not the engine's code: a what-if of this benchmark, for the
+    model's ``--transpose-bytes-per-cell 12``."""
+    from icidr_pde.engines.linear import xfourier_shell
+
+    class Rounded:
+        def __init__(self, scatter):
+            self.inner = scatter
+
+        def scatter(self, source, target, addv=None, mode=None):
+            values = source.getArray()
+            values[:] = values.astype(np.float32)
+            self.inner.scatter(source, target, addv=addv, mode=mode)
+
+    init = xfourier_shell.XFourierShell.__init__
+
+    def rounding(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self.transpose = Rounded(self.transpose)
+
+    xfourier_shell.XFourierShell.__init__ = rounding
+
+
+def engine_run(N: int, ranks: int, t_end: float = 10.0, single: bool = False) -> dict:
+    """One whole ``mpiexec -n ranks`` process of the engine (its defaults: the x-Fourier shell),
+    iCIDR bump2d N^2 to t_end: rank 0's record of petsc_ranks.py's child (PETSc's events, the
+    solve's wall time, max|w|) with the engine's counters (:func:`engine_child`), the process's wall
+    time and each rank's CPU."""
+    import subprocess
+    import tempfile
+
+    from petsc_ranks import THREADS, launcher
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r")
+        env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", PETSC_OPTIONS="", **THREADS)
+        env[SINGLE] = "1" if single else "0"
+        start = time.perf_counter()
+        subprocess.run([launcher(), "-n", str(ranks), sys.executable, __file__, "--engine-child", str(N),
+                        str(t_end), out], env=env, check=True)
+        whole = time.perf_counter() - start
+        per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]
+        counted = json.loads(pathlib.Path(f"{out}.counts.0").read_text())
+    r = per_rank[0]
+    keep = ("wall_s", "steps", "n_jac", "linear_solver", "max_w", "l2", "mass_drift", "compile_s", "rss_mib")
+    events = {k: v for k, v in r.items() if k.endswith(("_s", "_n", "_reductions", "_messages", "_bytes"))
+              and k.split("_")[0] in EVENTS}
+    return {"N": N, "ranks": ranks, "t_end": t_end, "single_precision_transposes": single,
+            **{k: r[k] for k in keep}, **counted, "events": events,
+            "events_ranks_s": {name: [round(p[f"{name}_s"], 3) for p in per_rank] for name in EVENTS},
+            "process_s": whole, "cpu_ranks_s": [round(p["cpu_s"], 2) for p in per_rank],
+            "series": r["series"]}
+
+
+def engine_counts(runs: list) -> dict:
+    """Per step, from the engine's runs: what the model counts (GMRES, PC applications, RHS,
+    Jacobians, factorizations, Newton iterations) and its time per step."""
+    out = []
+    for r in runs:
+        e, steps = r["events"], r["steps"]
+        out.append({"N": r["N"], "steps": steps, "newton": r["newton_iterations"] / steps,
+                    "gmres": r["gmres_iterations"] / steps, "applications": e["PCApply_n"] / steps,
+                    "rhs": e["TSFunctionEval_n"] / steps, "jacobians": r["n_jac"] / steps,
+                    "factorizations": r["factorizations"] / steps, "step_s": r["integration_cpu_s"] / steps})
+    return out
+
+
+EVENTS = ("TSFunctionEval", "TSJacobianEval", "KSPSolve", "PCApply", "PCSetUp", "MatMult", "TSStep")
+
+
+def measure_xfourier(sizes=ENGINE_SIZES) -> dict:
     from amg2d import _counting  # CVODE's counters of the last run, as amg2d.py records them
 
     from icidr_pde.studies.parallel import limit_blas_threads
 
     limit_blas_threads(1)
+    engine = []
+    for N in sizes:
+        r = engine_run(N, 1)
+        engine.append(r)
+        print(f"measured PETSc engine {N}^2 to t = 10, 1 rank ({r['linear_solver']}): process {r['process_s']:.1f} s, "
+              f"solve {r['wall_s']:.2f} s, CPU {r['integration_cpu_s']:.2f} s the integration, {r['cpu_ranks_s'][0]:.1f} s "
+              f"the process, {r['steps']} steps "
+              f"({r['rejected']} rejected), {r['newton_iterations']} Newton, {r['gmres_iterations']} GMRES, "
+              f"{r['events']['PCApply_n']} PC applications, {r['events']['TSFunctionEval_n']} RHS, {r['n_jac']} "
+              f"Jacobians, {r['factorizations']} factorizations; max|w|(10) {r['max_w']:.6e}", flush=True)
+    two = engine_run(TWO_RANK_N, 2)
+    one_rank = next((r for r in engine if r["N"] == TWO_RANK_N), None)
+    same = one_rank is not None and all(two[k] == one_rank[k] for k in ("steps", "newton_iterations", "gmres_iterations",
+                                                                        "n_jac", "factorizations"))
+    deviation = None if one_rank is None else float(
+        np.max(np.abs(np.subtract(two["series"], one_rank["series"]))) / np.max(np.abs(one_rank["series"])))
+    e = two["events"]
+    reductions = {"N": TWO_RANK_N, "t_end": 10.0, "steps": two["steps"],
+                  # inside KSPSolve: each GMRES iteration's and each solve's first residual's (one preconditioner
+                  # application each, left-preconditioned: applications = GMRES iterations + Newton systems)
+                  "krylov_reductions_per_application": e["KSPSolve_reductions"] / max(e["PCApply_n"], 1),
+                  "other_reductions_per_step": (e["TSStep_reductions"] - e["KSPSolve_reductions"]) / two["steps"],
+                  "messages_per_application": e["KSPSolve_messages"] / max(e["PCApply_n"], 1),
+                  "counts_as_1_rank": same, "max_w_series_vs_1_rank": deviation}
+    print(f"measured PETSc engine {TWO_RANK_N}^2 to t = 10, 2 ranks: process {two['process_s']:.1f} s, CPU per rank "
+          f"{two['cpu_ranks_s']} s, {two['steps']} steps, {two['newton_iterations']} Newton, {two['gmres_iterations']} "
+          f"GMRES, {e['PCApply_n']} PC applications (the same counts as 1 rank: {same}; max|w| series within "
+          f"{float('nan') if deviation is None else deviation:.1e} of 1 rank's); {reductions['krylov_reductions_per_application']:.2f} reductions per PC application "
+          f"in the Krylov solves, "
+          f"{reductions['other_reductions_per_step']:.1f} per step besides", flush=True)
+    single = engine_run(TWO_RANK_N, 2, single=True)
+    single_deviation = float(np.max(np.abs(np.subtract(single["series"], two["series"]))) / np.max(np.abs(two["series"])))
+    single_same = all(single[k] == two[k] for k in ("steps", "newton_iterations", "gmres_iterations", "n_jac"))
+    print(f"measured PETSc engine {TWO_RANK_N}^2 to t = 10, 2 ranks, the transposes' values in single precision "
+          f"(a what-if, not the engine's code): {single['steps']} steps, {single['newton_iterations']} Newton, "
+          f"{single['gmres_iterations']} GMRES, {single['events']['PCApply_n']} PC applications (the same counts as "
+          f"in double: {single_same}); max|w| series within {single_deviation:.1e} of double's", flush=True)
+    single.update(counts_as_double=single_same, max_w_series_vs_double=single_deviation)
     last = _counting()
     runs = []
     for N in COUNT_SIZES:
@@ -390,7 +542,7 @@ def measure_xfourier() -> dict:
               f"{c['linear_iterations']} GMRES, {c['n_rhs']} RHS, {c['preconditioner_setups']} Jacobians, {c['lu']} "
               f"factorizations, {c['preconditioner_solves']} preconditioner applications; max|w|(10) "
               f"{c['max_w']['10']:.6e}", flush=True)
-    lin_per_newton = runs[-1]["linear_iterations"] / runs[-1]["newton_iterations"]
+    lin_per_newton = engine[-1]["gmres_iterations"] / max(engine[-1]["newton_iterations"], 1)  # the engine's GMRES
     costs = []
     for n in CELLS_PER_RANK:
         for P in XF_RANKS:
@@ -408,11 +560,9 @@ def measure_xfourier() -> dict:
         print(f"measured on 2 ranks here: transpose of {t['bytes_per_rank']} bytes per rank "
               f"{t['alltoall_s'][0] * 1e6:.1f} us (median {t['alltoall_s'][1] * 1e6:.1f}), exact: "
               f"{t['transposed_exactly']}; allreduce {t['allreduce_s'][0] * 1e6:.1f} us", flush=True)
-    reductions = measure_reductions()
-    print(f"measured on 2 ranks: {reductions['krylov_reductions_per_iteration']:.2f} reductions per GMRES iteration, "
-          f"{reductions['other_reductions_per_step']:.1f} per step besides", flush=True)
-    return {"uptime": os.popen("uptime").read().strip(), "serial": runs, "rank_costs": costs,
-            "transposes_2_ranks": transposes, "reductions_2_ranks": reductions}
+    return {"uptime": os.popen("uptime").read().strip(), "engine": engine, "engine_2_ranks": two,
+            "engine_2_ranks_single_precision_transposes": single,
+            "serial": runs, "rank_costs": costs, "transposes_2_ranks": transposes, "reductions_2_ranks": reductions}
 
 
 def alltoall_time(bytes_per_rank: float, P: int, latency: float, beta: float) -> tuple[float, str]:
@@ -428,34 +578,33 @@ def alltoall_time(bytes_per_rank: float, P: int, latency: float, beta: float) ->
     return (pairwise, "pairwise") if pairwise <= bruck else (bruck, "Bruck")
 
 
-def xfourier_model(kept: dict, latency: float, node_bandwidth: float, ranks_per_node: int) -> list:
+def xfourier_model(kept: dict, latency: float, node_bandwidth: float, ranks_per_node: int,
+                   transpose_bytes: float = TRANSPOSE_BYTES_PER_CELL) -> list:
     """Per step on P ranks at n cells each: counts per step at the grid N = sqrt(P n) (power laws in N
-    fitted to the serial runs), compute from the per-rank costs measured at that block, and the
-    communication under the network assumed. Returns the rows of the table."""
-    runs = kept["serial"]
+    fitted to the PETSc engine's runs on 1 rank), compute from the per-rank costs measured at that
+    block, and the communication under the network assumed, a transpose moving `transpose_bytes`
+    per cell. Returns the rows of the table and the fitted counts."""
+    runs = engine_counts(kept["engine"])
     sides = [r["N"] for r in runs]
     per_step = {}
-    for key, name in (("steps", "steps"), ("newton_iterations", "newton"), ("linear_iterations", "gmres"),
-                      ("n_rhs", "rhs"), ("preconditioner_setups", "jacobians"), ("lu", "factorizations"),
-                      ("preconditioner_solves", "applications")):
-        values = [max(r[key], 1) / (r["steps"] if key != "steps" else 1) for r in runs]
-        q = power_law(sides, values)
-        per_step[name] = (values[-1], sides[-1], q)
+    for name in ("steps", "newton", "gmres", "rhs", "jacobians", "factorizations", "applications"):
+        values = [r[name] for r in runs]
+        per_step[name] = (values[-1], sides[-1], power_law(sides, values))
 
     def at(name, N):
         value, N0, q = per_step[name]
         return value * (N / N0) ** q
 
     beta = ranks_per_node / node_bandwidth  # s per byte per rank when every rank of a node sends at once
-    measured_step = {r["N"]: r["solve_s"] / r["steps"] for r in runs}
+    measured_step = {r["N"]: r["step_s"] for r in runs}  # the PETSc engine's CPU per step, 1 rank
     red = kept["reductions_2_ranks"]
     rows = []
     for n in sorted({c["cells_per_rank"] for c in kept["rank_costs"]}):
         base = None
         for c in sorted((c for c in kept["rank_costs"] if c["cells_per_rank"] == n), key=lambda c: c["P"]):
             N, P = c["N"], c["P"]
-            steps, rhs, jac, lu, apps, gmres = (at(k, N) for k in ("steps", "rhs", "jacobians", "factorizations",
-                                                                  "applications", "gmres"))
+            steps, rhs, jac, lu, apps, gmres, newton = (at(k, N) for k in (
+                "steps", "rhs", "jacobians", "factorizations", "applications", "gmres", "newton"))
             compute = (rhs * c["rhs_s"][0] + jac * (c["jac_s"][0] + c["xavg_s"][0]) + lu * c["factor_s"][0]
                        + apps * (c["fft_s"][0] + c["band_solve_s"][0]) + gmres * c["gram_schmidt_s"][0])
             if P == 1:
@@ -463,23 +612,47 @@ def xfourier_model(kept: dict, latency: float, node_bandwidth: float, ranks_per_
                 algorithm = ""
             else:
                 halo = rhs * 2 * (latency + 3 * 8 * N * beta)  # one ghost row of 3 fields to each of 2 neighbours
-                one, algorithm = alltoall_time(TRANSPOSE_BYTES_PER_CELL * n, P, latency, beta)
+                one, algorithm = alltoall_time(transpose_bytes * n, P, latency, beta)
                 transposes = apps * 2 * one
-                count = red["krylov_reductions_per_iteration"] * gmres + red["other_reductions_per_step"]
+                # GMRES's, the steps' (inside TSStep: SNES norms, TS's error norm, the mass correction), and
+                # the engine's state check after each step (one max-reduction, outside TSStep)
+                count = red["krylov_reductions_per_application"] * apps + red["other_reductions_per_step"] + 1
                 reductions = count * 2 * latency * math.log2(P)  # recursive doubling of a few numbers
                 gather = jac * (math.ceil(math.log2(P)) * latency + c["averages_bytes"] * beta)
             step = compute + halo + transposes + reductions + gather
-            if base is None:  # P = 1: the serial run's time per step over the kernels' (the rest of a step)
+            if base is None:  # P = 1: the engine's measured time per step over the kernels' (the rest of a step)
                 base, overhead = step, measured_step.get(N, step) / step
             calibrated = compute * overhead + halo + transposes + reductions + gather
             base_calibrated = base * overhead
-            rows.append({"cells_per_rank": n, "P": P, "N": N, "steps": steps, "gmres_per_step": gmres,
-                         "applications_per_step": apps, "compute_s": compute, "halo_s": halo, "transposes_s": transposes,
-                         "alltoall": algorithm, "reductions_s": reductions, "averages_gather_s": gather, "step_s": step,
-                         "efficiency": base / step, "compute_share": compute / step, "run_s": steps * step,
-                         "overhead_factor": overhead, "step_calibrated_s": calibrated,
-                         "efficiency_calibrated": base_calibrated / calibrated})
+            rows.append({"cells_per_rank": n, "P": P, "N": N, "steps": steps, "newton_per_step": newton,
+                         "gmres_per_step": gmres, "applications_per_step": apps, "compute_s": compute, "halo_s": halo,
+                         "transposes_s": transposes, "alltoall": algorithm, "reductions_s": reductions,
+                         "averages_gather_s": gather, "step_s": step, "efficiency": base / step,
+                         "compute_share": compute / step, "run_s": steps * step, "overhead_factor": overhead,
+                         "step_calibrated_s": calibrated, "efficiency_calibrated": base_calibrated / calibrated})
     return rows, per_step
+
+
+def bandwidth_needed(kept: dict, latency: float, ranks_per_node: int, transpose_bytes: float, target: float = 0.5,
+                     P: int = 256) -> dict:
+    """The bandwidth per rank (bytes/s) at which the model's calibrated weak efficiency at P ranks
+    reaches `target`, per cells per rank (bisection in the node's bandwidth, the rest of the
+    network as assumed); None where even a network without bandwidth cost does not reach it."""
+    out = {}
+    for n in sorted({c["cells_per_rank"] for c in kept["rank_costs"]}):
+        def efficiency(bandwidth):
+            rows, _ = xfourier_model(kept, latency, bandwidth * ranks_per_node, ranks_per_node, transpose_bytes)
+            return next(r["efficiency_calibrated"] for r in rows if r["cells_per_rank"] == n and r["P"] == P)
+
+        low, high = 1e6, 1e15  # bytes/s per rank
+        if efficiency(high) < target:
+            out[n] = None
+            continue
+        for _ in range(60):
+            middle = math.sqrt(low * high)
+            low, high = (middle, high) if efficiency(middle) < target else (low, middle)
+        out[n] = high
+    return out
 
 
 def xfourier_main(args) -> None:
@@ -488,72 +661,125 @@ def xfourier_main(args) -> None:
 
     Measured here, in this process unless said:
 
-    * what a step needs, from CVODE's counters of the serial default (GMRES + the x-Fourier
-      inverse, BDF order 2, the preset's tolerances) on iCIDR bump2d 32^2 .. 256^2 to t = 10:
-      steps, Newton and GMRES iterations, right-hand sides (those of the difference-quotient
-      products included), Jacobians, factorizations (a new step coefficient) and preconditioner
-      applications per step, each fitted as a power of the grid side and extrapolated to the grid
-      of P ranks (ASSUMPTION: the PETSc engine's TS/SNES/KSP with the same preconditioner needs
-      what CVODE needs);
+    * what a step needs, from the PETSc engine itself (its defaults: TS BDF, SNES Newton, GMRES to
+      1e-2 preconditioned by the x-Fourier shell), iCIDR bump2d 32^2 .. 512^2 to t = 10, each a
+      whole ``mpiexec -n 1`` process (:func:`engine_run`): steps, Newton and GMRES iterations,
+      right-hand sides (TSFunctionEval: the matrix-free products of ``-snes_mf_operator``
+      included), Jacobians, the shell's banded factorizations and its applications (PCApply) per
+      step, each fitted as a power of the grid side and extrapolated to the grid of P ranks; and
+      the engine's CPU time per step of the integration (from the end of its set-up to its last
+      step: CPU, not wall, because the machine is shared). The same counts on 2 ranks at 128^2
+      (they are checked to be 1 rank's), and, from PETSc's log of that run, the reductions per
+      preconditioner application in the Krylov solves and per step besides. CVODE's counters of
+      the serial default at 32^2 .. 256^2 are measured beside them, for comparison only;
     * per rank, with one thread, at the block a rank of P holds (:func:`rank_costs`): the
       right-hand side, the Jacobian rows and their x-average, the band factors and solves of its
       wave numbers, the FFTs with the packing around the transposes, GMRES's Gram-Schmidt;
     * on 2 ranks of this machine (``mpiexec -n 2``, PETSc's scatter): a transpose of the size a
-      rank sends (24 bytes per cell), and an allreduce; and, from PETSc's log of a 2-rank run of
-      the engine, the reductions per GMRES iteration and per step besides.
+      rank sends (24 bytes per cell), and an allreduce; and the engine on 2 ranks at 128^2 with
+      the transposes' values rounded to single precision (:func:`_single_precision_transposes`,
+      a what-if: its counts and max|w| against double's), for ``--transpose-bytes-per-cell 12``.
 
     Modelled (ASSUMPTIONS named in the JSON and the table's notes): the network of
     :data:`NET_LATENCY`, :data:`NODE_BANDWIDTH` and :data:`RANKS_PER_NODE` (every rank of a node
     sends at once through the node's link: the per-rank bandwidth is the node's divided by its
     ranks, traffic within a node counted at that rate too); the all-to-all by
     :func:`alltoall_time`; a halo exchange per right-hand side (one ghost row to each of 2
-    neighbours); an allreduce of a few numbers 2 alpha log2(P); the x-averages gathered once per
-    Jacobian; no overlap, no imbalance beyond the wave numbers' (ceil((N/2)/P) per rank). The
-    compute of a step is the kernels' sum; the serial run's measured time per step is more than
-    that sum (the Python and CVODE work around the kernels: the ratio is printed), so a second
-    efficiency takes the kernels' sum times that ratio, measured at each block size on 1 rank
-    ("calibrated")."""
+    neighbours); an allreduce of a few numbers 2 alpha log2(P), one more per step for the engine's
+    state check; the x-averages gathered once per Jacobian; no overlap, no imbalance beyond the
+    wave numbers' (ceil((N/2)/P) per rank). The compute of a step is the kernels' sum; the PETSc
+    engine's measured CPU time per step on 1 rank is more than that sum (the Python callbacks,
+    PETSc's vector work and copies, the Jacobian's assembly around the kernels: the ratio is
+    printed), so a second efficiency takes the kernels' sum times that ratio, measured at each
+    block size on 1 rank ("calibrated": the work around the kernels assumed to grow as they do)."""
     if args.measured:
         kept = json.loads(pathlib.Path(args.measured).read_text())
         kept = kept.get("measured", kept)
+        if "engine" not in kept:
+            print(f"--measured: {args.measured} holds no runs of the PETSc engine (a measurement of this benchmark "
+                  f"before they were made); measure again without --measured", file=sys.stderr)
+            sys.exit(2)
         print(f"measured: {args.measured} ({kept['uptime']})")
     else:
         print(f"uptime: {os.popen('uptime').read().strip()}", flush=True)
-        kept = measure_xfourier()
+        kept = measure_xfourier(tuple(args.sizes))
         kept["uptime_end"] = os.popen("uptime").read().strip()
-    rows, per_step = xfourier_model(kept, args.latency, args.node_bandwidth, args.ranks_per_node)
+    rows, per_step = xfourier_model(kept, args.latency, args.node_bandwidth, args.ranks_per_node,
+                                    args.transpose_bytes_per_cell)
+    engine = {r["N"]: r for r in kept["engine"]}
+    serial = {r["N"]: r for r in kept["serial"]}
     check = []
-    for r in kept["serial"]:  # the model's compute on 1 rank against the serial run it was fitted to
-        row = next((x for x in rows if x["P"] == 1 and x["N"] == r["N"]), None)
-        if row is not None:
-            check.append({"N": r["N"], "modelled_step_s": row["compute_s"], "measured_step_s": r["solve_s"] / r["steps"]})
-    print(f"\nx-Fourier on PETSc, weak scaling; counts per step ~ N^q fitted over {COUNT_SIZES[0]}^2..{COUNT_SIZES[-1]}^2: "
+    for row in rows:  # the model's compute on 1 rank against the engine's run it is calibrated by
+        r = engine.get(row["N"]) if row["P"] == 1 else None
+        if r is None:
+            continue
+        c = next(c for c in kept["rank_costs"] if c["P"] == 1 and c["N"] == row["N"])
+        e, steps = r["events"], r["steps"]
+        jacobians = max(r["n_jac"], 1)
+        kernels = {"rhs": c["rhs_s"][0], "jacobian": c["jac_s"][0],
+                   "pc_setup_per_jacobian": c["xavg_s"][0] + c["factor_s"][0] * r["factorizations"] / jacobians,
+                   "application": c["fft_s"][0] + c["band_solve_s"][0]}
+        logged = {"rhs": e["TSFunctionEval_s"] / max(e["TSFunctionEval_n"], 1),
+                  "jacobian": e["TSJacobianEval_s"] / jacobians, "pc_setup_per_jacobian": e["PCSetUp_s"] / jacobians,
+                  "application": e["PCApply_s"] / max(e["PCApply_n"], 1)}
+        s_row = serial.get(row["N"])
+        check.append({"N": row["N"], "modelled_step_s": row["compute_s"], "measured_step_s": r["integration_cpu_s"] / steps,
+                      "serial_default_step_s": None if s_row is None else s_row["cpu_s"] / s_row["steps"],
+                      "serial_default_steps": None if s_row is None else s_row["steps"], "engine_steps": steps,
+                      "kernel_s": kernels, "petsc_event_s": logged})
+    print(f"\nx-Fourier on PETSc, weak scaling; the PETSc engine's counts per step ~ N^q fitted over "
+          f"{min(engine)}^2..{max(engine)}^2: "
           + ", ".join(f"{k} {v[0]:.2f} at {v[1]}^2, q = {v[2]:.2f}" for k, v in per_step.items()))
     for c in check:
-        print(f"1 rank at {c['N']}^2: modelled compute per step {c['modelled_step_s'] * 1e3:.2f} ms, the serial default's "
-              f"solve per step measured {c['measured_step_s'] * 1e3:.2f} ms (ratio {c['modelled_step_s'] / c['measured_step_s']:.2f})")
+        serial_note = "" if c["serial_default_step_s"] is None else (
+            f"; the serial default's (CVODE) run CPU {c['serial_default_step_s'] * 1e3:.2f} ms per step of "
+            f"{c['serial_default_steps']}")
+        print(f"1 rank at {c['N']}^2: modelled compute per step {c['modelled_step_s'] * 1e3:.2f} ms, the PETSc "
+              f"engine's integration CPU per step measured {c['measured_step_s'] * 1e3:.2f} ms of {c['engine_steps']} steps "
+              f"(kernels / measured {c['modelled_step_s'] / c['measured_step_s']:.2f}){serial_note}; per call, "
+              f"kernels against PETSc's events: "
+              + ", ".join(f"{k} {c['kernel_s'][k] * 1e3:.3f} / {c['petsc_event_s'][k] * 1e3:.3f} ms"
+                          for k in c["kernel_s"]))
     print(f"network assumed: latency {args.latency * 1e6:g} us, {args.node_bandwidth / 1e9:g} GB/s per node of "
-          f"{args.ranks_per_node} ranks ({args.node_bandwidth / args.ranks_per_node / 1e9:.3f} GB/s per rank)")
-    print("| cells per rank | ranks P | grid | steps | GMRES/step | compute/step | halo/step | transposes/step | "
-          "reductions/step | step | weak efficiency | compute share | step, calibrated | weak efficiency, calibrated |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          f"{args.ranks_per_node} ranks ({args.node_bandwidth / args.ranks_per_node / 1e9:.3f} GB/s per rank); "
+          f"a transpose moves {args.transpose_bytes_per_cell:g} bytes per cell")
+    print("| cells per rank | ranks P | grid | steps | GMRES/step | PC apps/step | compute/step | halo/step | "
+          "transposes/step | reductions/step | step | weak efficiency | compute share | step, calibrated | "
+          "weak efficiency, calibrated |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         side = math.isqrt(r["cells_per_rank"])
         print(f"| {side}^2 | {r['P']} | {r['N']}^2 | {r['steps']:.0f} | {r['gmres_per_step']:.1f} | "
+              f"{r['applications_per_step']:.1f} | "
               f"{r['compute_s'] * 1e3:.1f} ms | {r['halo_s'] * 1e3:.2f} ms | {r['transposes_s'] * 1e3:.2f} ms"
               f"{(' (' + r['alltoall'] + ')') if r['alltoall'] else ''} | {r['reductions_s'] * 1e3:.2f} ms | "
               f"{r['step_s'] * 1e3:.1f} ms | {r['efficiency']:.2f} | {r['compute_share']:.2f} | "
               f"{r['step_calibrated_s'] * 1e3:.1f} ms | {r['efficiency_calibrated']:.2f} |")
+    needed = {}
+    for size in sorted({args.transpose_bytes_per_cell, TRANSPOSE_BYTES_PER_CELL, TRANSPOSE_BYTES_PER_CELL / 2},
+                       reverse=True):
+        needed[f"{size:g}"] = bandwidth_needed(kept, args.latency, args.ranks_per_node, size)
+        print(f"bandwidth per rank for a calibrated weak efficiency of 0.5 at 256 ranks, {size:g} bytes per cell a "
+              f"transpose, latency {args.latency * 1e6:g} us: " + ", ".join(
+                  f"{math.isqrt(n)}^2 cells per rank " + ("not reached at any bandwidth" if b is None else
+                                                          f"{b / 1e9:.2f} GB/s ({b * args.ranks_per_node / 1e9:.0f} "
+                                                          f"GB/s a node of {args.ranks_per_node})")
+                  for n, b in needed[f"{size:g}"].items()))
     assumptions = {"latency_s": args.latency, "node_bandwidth_bytes_per_s": args.node_bandwidth,
-                   "ranks_per_node": args.ranks_per_node, "transpose_bytes_per_cell": TRANSPOSE_BYTES_PER_CELL}
+                   "ranks_per_node": args.ranks_per_node, "transpose_bytes_per_cell": args.transpose_bytes_per_cell}
     if args.measured and not args.json:  # the model again: the kept measurement's file stays as it was
         return
     write_json(args.json or str(ROOT / "data" / "benchmarks" / "petsc_weak_model.json"),
                {"measured": kept, "assumptions": assumptions, "model": rows, "model_check_1_rank": check,
+                "bandwidth_per_rank_for_half_at_256": {size: {str(n): b for n, b in by_n.items()}
+                                                       for size, by_n in needed.items()},
                 "counts_per_step": {k: {"value": v[0], "at_N": v[1], "exponent": v[2]} for k, v in per_step.items()}})
 
 
 def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--engine-child":
+        engine_child(int(sys.argv[2]), float(sys.argv[3]), sys.argv[4])
+        return
     if "--pc" not in sys.argv or "xfourier" in sys.argv:
         ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
         ap.add_argument("--pc", choices=["xfourier"], default="xfourier")
@@ -563,6 +789,12 @@ def main() -> None:
         ap.add_argument("--json", default=None, help="default: data/benchmarks/petsc_weak_model.json (with "
                         "--measured: none unless given)")
         ap.add_argument("--measured", default=None, help="model from a kept JSON of this benchmark (no runs)")
+        ap.add_argument("--transpose-bytes-per-cell", type=float, default=TRANSPOSE_BYTES_PER_CELL,
+                        help="bytes a transpose moves per cell (the engine's: 3 fields' complex doubles, 24; "
+                             "12 models them sent in single precision)")
+        ap.add_argument("--sizes", type=int, nargs="+", default=list(ENGINE_SIZES),
+                        help="the grids of the PETSc engine's 1-rank runs (counts per step, time per step); "
+                             "they must hold the cells per rank modelled (64, 128, 256)")
         xfourier_main(ap.parse_args())
         return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
