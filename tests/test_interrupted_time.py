@@ -62,7 +62,7 @@ def reached(case, engine, interrupt, series_times=(), **options):
     assert 0 < stopped.t_final < T_END
     outputs = np.concatenate([stopped.times, stopped.max_w_t, stopped.chi_t if stopped.chi_t is not None else []])
     assert stopped.t_final > outputs.max()  # past the last output reached: the step reached
-    # the same outputs but t_end: CVODE's first step is bounded by the first output time
+    # the same series: CVODE's first step is bounded by the first output time
     full = run(*args, stopped.t_final, ["0", repr(stopped.t_final)], engine=engine, rtol=RTOL,
                series_times=series_times, **options)
     assert full.reason == "reached t_end" and full.t_final == stopped.t_final
@@ -156,3 +156,25 @@ def test_petsc_engine_reports_the_step_reached(monkeypatch):
     assert stopped.settings["engine"] == "petsc"
     assert stopped.t_final <= T_END / 2 and stopped.n_steps > 0
     assert_same_state(stopped, full)
+
+
+def test_a_step_over_t_end_reports_the_last_output():
+    """Interrupted with the engine's last step past t_end (the output at t_end not written): the
+    time reported stays before t_end, the last output's (an engine stepping over t_end)."""
+    from types import SimpleNamespace
+
+    from icidr_pde.drive import outcome
+
+    class Stepped:
+        def last_step(self):
+            return 1.25, np.full(3, 3.0)
+
+        def last_good(self):
+            return 0.75, np.full(3, 2.0)
+
+    view = SimpleNamespace(fields=lambda y: y, y0=np.zeros(3))
+    out = SimpleNamespace(times=np.array([0.5, 0.75, 1.0]))
+    ended = outcome(view, Stepped(), out, 2, None, 1.0, 0.0, 0.0, None)
+    assert (ended.t_final, ended.reason, ended.final.tolist()) == (0.75, "interrupted at t = 0.75", [2.0] * 3)
+    ended = outcome(view, Stepped(), out, 2, None, 2.0, 0.0, 0.0, None)  # the same step before t_end
+    assert (ended.t_final, ended.reason, ended.final.tolist()) == (1.25, "interrupted at t = 1.25", [3.0] * 3)

@@ -216,8 +216,8 @@ class Engine(ABC):
         return getattr(self, "_last_output", (self.t, self.y))
 
     def last_step(self):
-        """(t, y) of the last accepted step. Here the last output's (:meth:`last_good`): an engine
-        that keeps the state of its steps says so by its own."""
+        """(t, y) of the last accepted step. This default, for an engine that cannot give the state
+        of its steps, is the last output's (:meth:`last_good`)."""
         return self.last_good()
 
     def last_step_time(self) -> float:
