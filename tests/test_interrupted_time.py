@@ -10,6 +10,11 @@ independent truth is an uninterrupted run of the same case to exactly the time r
 
 import dataclasses
 import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -178,3 +183,62 @@ def test_a_step_over_t_end_reports_the_last_output():
     assert (ended.t_final, ended.reason, ended.final.tolist()) == (0.75, "interrupted at t = 0.75", [2.0] * 3)
     ended = outcome(view, Stepped(), out, 2, None, 2.0, 0.0, 0.0, None)  # the same step before t_end
     assert (ended.t_final, ended.reason, ended.final.tolist()) == (1.25, "interrupted at t = 1.25", [3.0] * 3)
+
+
+RANKS_SCRIPT = """
+import json, os, signal, sys
+import numpy as np
+from icidr_pde import run
+from icidr_pde.engines.petsc import PetscEngine
+from icidr_pde.mpi_ranks import launcher_rank
+
+signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C: KeyboardInterrupt, as at a terminal
+original, rank = PetscEngine._invalid_anywhere, launcher_rank()
+
+
+def invalid_anywhere(self):  # a real SIGINT to rank 0 alone, once past t_end / 2
+    if rank == 0 and self.ts.getTime() > T_END / 2 and not self.signalled:
+        self.signalled = True
+        os.kill(os.getpid(), signal.SIGINT)
+    return original(self)
+
+
+PetscEngine.signalled = False
+PetscEngine._invalid_anywhere = invalid_anywhere
+case = dict(rheology="icidr", scene="bump2d", N=(16, 16), engine="petsc", rtol=RTOL, atol=1e-10, series_times=[])
+stopped = run(t_end=T_END, times=["0", repr(T_END)], **case)
+PetscEngine._invalid_anywhere = original
+seen = {"reason": stopped.reason, "t_final": stopped.t_final, "ranks": stopped.settings["ranks"]}
+if stopped.t_final > 0:  # the uninterrupted run to the time reached (on every rank: a collective run)
+    full = run(t_end=stopped.t_final, times=["0", repr(stopped.t_final)], **case)
+    seen.update(full_reason=full.reason, full_t_final=full.t_final)
+    if rank == 0:
+        seen.update(stopped=np.array(stopped.final).tolist(), full=np.array(full.final).tolist())
+if rank == 0:
+    json.dump(seen, open(sys.argv[1], "w"))
+"""
+
+
+@needs_petsc
+def test_petsc_on_two_ranks_reports_the_step_they_reached(tmp_path):
+    """PETSc on 2 ranks (mpiexec), a real SIGINT to rank 0 alone past T_END / 2: every rank stops
+    after the same step, and rank 0's Result holds that step's time and its state gathered."""
+    from icidr_pde.engines.petsc import mpiexec
+
+    launcher = mpiexec()
+    if launcher is None:
+        pytest.skip("the mpiexec of PETSc's MPI is missing")
+    script = tmp_path / "ranks.py"
+    script.write_text(f"T_END, RTOL = {T_END!r}, {RTOL!r}\n" + RANKS_SCRIPT)
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]), OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_mpi_yield_when_idle="1")
+    done = subprocess.run([launcher, "--oversubscribe", "-n", "2", sys.executable, str(script), str(tmp_path / "r.json")],
+                          env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    d = json.loads((tmp_path / "r.json").read_text())
+    assert d["ranks"] == 2 and d["reason"] == f"interrupted at t = {d['t_final']:.6g}"
+    assert 0 < d["t_final"] <= T_END / 2  # the step before the one the signal came in (0 is the only output)
+    assert d["full_reason"] == "reached t_end" and d["full_t_final"] == d["t_final"]
+    stopped, full = np.array(d["stopped"]), np.array(d["full"])
+    for k in range(3):  # phi, u, w
+        assert np.max(np.abs(stopped[k] - full[k])) <= 10 * RTOL * np.max(np.abs(full[k]))
