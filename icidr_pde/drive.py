@@ -173,7 +173,8 @@ def drive(view: View, make_engine, sched: Schedule, t_end: float, bar, recorders
         raise
     finally:
         if bar is not None:
-            _close_bar(bar, failure, n_done < out.times.size, engine, t_end, recording.stop)
+            last_output = float(out.times[n_done - 1]) if n_done else 0.0
+            _close_bar(bar, failure, n_done < out.times.size, engine, t_end, recording.stop, last_output)
     return out, n_done, failure, engine, recording
 
 
@@ -212,19 +213,22 @@ def _outputs_reached(engine, out: Outputs, n_done: int) -> int:
     return max(n_done, reached)
 
 
-def _close_bar(bar, failure, interrupted, engine, t_end, stop=None):
+def _close_bar(bar, failure, interrupted, engine, t_end, stop=None, last_output=0.0):
     if failure is not None:
         bar.close(failure[0], "failed", failure[2])
     elif stop is not None:  # a recorder ended the run (the wall-clock limit)
         bar.close(stop[2], "stopped", stop[1])
-    elif interrupted:
-        bar.close(engine.last_good()[0] if engine is not None else 0.0, "interrupted")
+    elif interrupted:  # the time outcome() reports
+        t = engine.last_step_time() if engine is not None else 0.0
+        bar.close(t if t <= t_end else last_output, "interrupted")
     else:
         bar.close(t_end)
 
 
 def outcome(view: View, engine, out: Outputs, n_done, failure, t_end, wall, compile_s, cpu, stop=None) -> Outcome:
-    """How the run ended: failed (the state at t*), stopped by a recorder, interrupted, or at t_end."""
+    """How the run ended: failed (the state at t*), stopped by a recorder, interrupted (the time and
+    state of the engine's last accepted step, ``Engine.last_step``: past the last output, which may
+    be hours of steps earlier), or at t_end."""
     if failure is not None:
         t_final, final = failure[0], view.fields(failure[1])
         return Outcome(final, True, float(t_final), failure[2], float(t_final), wall, compile_s, cpu)
@@ -232,8 +236,10 @@ def outcome(view: View, engine, out: Outputs, n_done, failure, t_end, wall, comp
         index, reason, t_final = stop
         y = view.y0 if index < 0 else out.states[out.store[index]]
         return Outcome(view.fields(y), False, None, reason, t_final, wall, compile_s, cpu)
-    if n_done < out.times.size:  # interrupted: the last output state the engine returned
-        t_final, y_last = engine.last_good() if engine is not None else (0.0, view.y0)
+    if n_done < out.times.size:  # interrupted: the state of the engine's last accepted step
+        t_final, y_last = engine.last_step() if engine is not None else (0.0, view.y0)
+        if t_final > t_end:  # a step over t_end, its output not written: the last output's, before t_end
+            t_final, y_last = engine.last_good()
         return Outcome(view.fields(y_last), False, None, f"interrupted at t = {t_final:.6g}", float(t_final),
                        wall, compile_s, cpu)
     final = view.fields(out.states[out.store[-1]])

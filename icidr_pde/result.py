@@ -36,7 +36,7 @@ class Result:
         reason: why the run stopped: 'reached t_end', 'interrupted at t = ...' (Ctrl-C or
             SIGTERM; not a failure) or the failure
         t_final: time of the last state (t_end, t_star on failure, the time reached when
-            interrupted)
+            interrupted: the engine's last accepted step, past the last output)
         z: positions of the unknowns
         times, phi, u, w: snapshots at the requested times that were reached
         final: :class:`Fields` (phi, u, w) at t_final (``res.final.w``)

@@ -360,7 +360,7 @@ def test_native_interrupt_keeps_the_outputs_cvode_returned(monkeypatch):
     res = run("icidr", "shear", 21, 10.0, ["0", "10"], engine="native")
     assert res.settings["engine"] == "native"
     assert res.reason.startswith("interrupted") and res.t_final > 0
-    assert res.max_w_t.size > 0 and res.max_w_t[-1] == pytest.approx(res.t_final, rel=1e-12)
+    assert res.max_w_t.size > 0 and res.max_w_t[-1] < res.t_final  # CVODE's last step, past the last output
     assert np.all(np.isfinite(res.max_w_series)) and res.n_steps > 0
     assert res.reason == f"interrupted at t = {res.t_final:.6g}"
 

@@ -163,7 +163,10 @@ class Engine(ABC):
       Here by :meth:`advance` and :meth:`value_at`. It is the call the run path's drive loop
       makes (:func:`icidr_pde.drive.drive`), so that an engine may offer a faster one: the native
       engine advances through many outputs in one call into C, PETSc reduces max|w| over its ranks;
-    * ``last_good()`` is (t, y) of the last output reached (the initial state before any).
+    * ``last_good()`` is (t, y) of the last output reached (the initial state before any);
+    * ``last_step()`` is (t, y) of the last accepted step, at or past the last output: the time
+      and state an interrupted run reached (:func:`icidr_pde.drive.outcome`), with
+      ``last_step_time()`` its time alone (no state gathered over ranks).
 
     The step sequence does not depend on the times asked of ``advance``: both scipy's
     solvers and CVODE step past and interpolate, so output times change no number.
@@ -211,6 +214,15 @@ class Engine(ABC):
 
     def last_good(self):
         return getattr(self, "_last_output", (self.t, self.y))
+
+    def last_step(self):
+        """(t, y) of the last accepted step. This default, for an engine that cannot give the state
+        of its steps, is the last output's (:meth:`last_good`)."""
+        return self.last_good()
+
+    def last_step_time(self) -> float:
+        """The time of :meth:`last_step`."""
+        return float(self.last_step()[0])
 
 
 def dense(jac):

@@ -1,9 +1,11 @@
-"""CVODE's own counters and linear-solver set-up controls, which scikit-sundae does not expose.
+"""CVODE's own counters, linear-solver set-up controls and the state of its last step, which
+scikit-sundae does not expose.
 
 scikit-sundae (1.2) reports only the right-hand side and Jacobian counts of a run and sets
 none of CVODE's Newton-matrix reuse controls. SUNDIALS has both as plain C functions
 (``CVodeGetNumSteps``, ``CVodeGetNumLinSolvSetups``, ``CVodeSetDeltaGammaMaxLSetup``,
-``CVodeSetLSetupFrequency``...); they are called here through ctypes on the shared library
+``CVodeSetLSetupFrequency``..., ``CVodeGetCurrentTime`` and ``CVodeGetDky`` for the state of
+the last accepted step); they are called here through ctypes on the shared library
 scikit-sundae ships (scikit_sundae.libs/libsundials_cvode-*.so, already loaded by it) with
 the integrator memory of its ``CVODE`` object.
 
@@ -20,6 +22,8 @@ from __future__ import annotations
 import ctypes
 import glob
 import os
+
+import numpy as np
 
 __all__ = ["CvodeCounters", "attach"]
 
@@ -49,8 +53,8 @@ def _library():
 class CvodeCounters:
     """Counters and set-up controls of one scikit-sundae CVODE (see the module docstring)."""
 
-    def __init__(self, lib, mem: int, owner):
-        self.lib, self.mem = lib, ctypes.c_void_p(mem)
+    def __init__(self, lib, mem: int, owner, ctx: int | None = None):
+        self.lib, self.mem, self.ctx = lib, ctypes.c_void_p(mem), ctypes.c_void_p(ctx)
         self._owner = owner  # keeps the CVODE memory alive as long as this object
 
     def get(self, name: str) -> int:
@@ -84,6 +88,34 @@ class CvodeCounters:
                 raise ValueError(f"{name}({value}) refused by CVODE")
 
 
+    def last_step(self, n: int) -> tuple[float, np.ndarray] | None:
+        """(t, y) of CVODE's last accepted step, `n` unknowns: its current time
+        (``CVodeGetCurrentTime``; a step that failed or was interrupted has been undone) and the
+        state there, ``CVodeGetDky`` of order 0 at that time (the interpolant at its own node:
+        the Nordsieck array's first column). None before the first step (no step size yet, no
+        interpolant) or where CVODE refuses."""
+        lib = self.lib
+        if not self.ctx or self.get("steps") == 0:
+            return None
+        t = ctypes.c_double()
+        lib.CVodeGetCurrentTime.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)]
+        if lib.CVodeGetCurrentTime(self.mem, ctypes.byref(t)) != 0:
+            return None
+        y = np.empty(n)
+        # a serial vector on y's memory (sunindextype: scikit-sundae's build has int)
+        lib.N_VMake_Serial.restype = ctypes.c_void_p
+        lib.N_VMake_Serial.argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]
+        lib.N_VDestroy.argtypes = [ctypes.c_void_p]
+        lib.CVodeGetDky.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int, ctypes.c_void_p]
+        vector = lib.N_VMake_Serial(n, y.ctypes.data, self.ctx)
+        if not vector:
+            return None
+        try:
+            found = lib.CVodeGetDky(self.mem, t, 0, vector) == 0
+        finally:
+            lib.N_VDestroy(vector)  # y's memory stays numpy's
+        return (float(t.value), y) if found else None
+
     def set_eps_lin(self, eps_lin: float) -> None:
         """The Krylov solver's tolerance factor (``CVodeSetEpsLin``, SUNDIALS' default 0.05): the
         iterative linear solves stop at a residual below eps_lin times the Newton tolerance."""
@@ -105,7 +137,7 @@ def attach(solver, nfev: int) -> CvodeCounters | None:
     ctx = ctypes.c_void_p.from_address(id(inner) + 32).value
     if not mem or not ctx or ctypes.c_void_p.from_address(mem).value != ctx:
         return None
-    counters = CvodeCounters(lib, mem, inner)
+    counters = CvodeCounters(lib, mem, inner, ctx)
     try:
         return counters if counters.get("rhs") == nfev else None
     except (AttributeError, RuntimeError):

@@ -96,6 +96,14 @@ class NativeEngine(Engine):
         """(t, y) of the last state CVODE returned (the driver keeps it)."""
         return self.compiled.last_good()
 
+    def last_step(self):
+        """(t, y) of CVODE's last accepted step (the compiled problem's ``last_step``) where that state
+        passes the problem's check, else the last output's (:meth:`last_good`). Ctrl-C is seen
+        once a call into C has returned: the step reached is then within one step past that
+        call's last output."""
+        t, y = self.compiled.last_step()
+        return (t, y) if self.problem.check(y) is None else self.last_good()
+
     def counts(self):
         counts = self.compiled.counts()
         return counts["steps"], counts["jac"], counts["lu"]

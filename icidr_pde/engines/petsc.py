@@ -522,6 +522,16 @@ class PetscEngine(Engine):
             self._kept_y = self._gathered(self._kept)
         return self._kept_t, self._kept_y
 
+    def last_step(self):
+        """(t, y) of the last accepted step that passed the check (``self.t`` and ``_good``, where
+        every rank stops alike after an interrupt), its state gathered (called on every rank, as
+        :meth:`last_good`)."""
+        return self.t, self._gathered(self._good)
+
+    def last_step_time(self) -> float:
+        """The time of :meth:`last_step`, nothing gathered."""
+        return self.t
+
     def counts(self):
         return int(self.ts.getStepNumber()), self.n_jac, None
 

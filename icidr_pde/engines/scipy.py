@@ -47,6 +47,14 @@ class ScipyEngine(Engine):
     def counts(self):
         return self.n_steps, int(self.solver.njev), int(self.solver.nlu)
 
+    def last_step(self):
+        """(t, y) of the last accepted step that passed the problem's check (scipy's solver may be
+        one step further, with a state the check refused or not yet checked)."""
+        return self.t, self.y
+
+    def last_step_time(self) -> float:
+        return float(self.t)
+
 
 def _jacobian_options(method, problem: Problem, rtol, atol) -> dict:
     """scipy's Jacobian options for the problem's JacobianSpec."""

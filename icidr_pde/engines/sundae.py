@@ -135,6 +135,16 @@ class CvodeEngine(Engine):
     def value_at(self, t):
         return self.y
 
+    def last_step(self):
+        """(t, y) of CVODE's last accepted step (:meth:`.cvode_counters.CvodeCounters.last_step`)
+        where that state passes the problem's check. Else the last output's (:meth:`last_good`):
+        without CVODE's counters (scikit-sundae's memory not found), before the first step, or a
+        state the root function and the check did not pass (an interrupt between them)."""
+        step = None if self.counters is None else self.counters.last_step(self.problem.y0.size)
+        if step is None or self.problem.check(step[1]) is not None:
+            return self.last_good()
+        return step
+
     def counts(self):
         if self.counters is None:
             return None, self.njev, None

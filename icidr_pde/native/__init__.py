@@ -143,6 +143,13 @@ class NativeProblem:
         t = self.lib.icidr_cvode_last_good(self.handle, _pointer(y))
         return float(t), y
 
+    def last_step(self) -> tuple[float, np.ndarray]:
+        """(t, y) of CVODE's last accepted step (icidr_cvode_last_step: at or past the last output,
+        the last output's before the first step)."""
+        y = np.empty(3 * self.N)
+        t = self.lib.icidr_cvode_last_step(self.handle, _pointer(y))
+        return float(t), y
+
     def message(self, flag: int) -> str:
         out = ctypes.create_string_buffer(2048)
         self.lib.icidr_cvode_message(self.handle, flag, out, len(out))

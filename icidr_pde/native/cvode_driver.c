@@ -248,6 +248,28 @@ EXPORT double icidr_cvode_last_good(Native *p, double *y)
     return p->t_good;
 }
 
+/* CVODE's last accepted step, at or past the last output: its time (returned) and its state into y,
+   the interpolant of order 0 at that time (CVodeGetDky: the Nordsieck array's first column). The
+   last output's (icidr_cvode_last_good) before the first step (no step size, no interpolant) or
+   where CVODE refuses. */
+EXPORT double icidr_cvode_last_step(Native *p, double *y)
+{
+    int neq = 3 * p->n;
+    long steps = 0;
+    sunrealtype t = p->t_good;
+    N_Vector v = NULL;
+    if (CVodeGetNumSteps(p->cvode, &steps) == CV_SUCCESS && steps > 0
+        && CVodeGetCurrentTime(p->cvode, &t) == CV_SUCCESS && (v = N_VNew_Serial(neq, p->ctx)) != NULL
+        && CVodeGetDky(p->cvode, t, 0, v) == CV_SUCCESS) {
+        memcpy(y, N_VGetArrayPointer(v), sizeof(double) * neq);
+        N_VDestroy(v);
+        return t;
+    }
+    if (v != NULL)
+        N_VDestroy(v);
+    return icidr_cvode_last_good(p, y);
+}
+
 EXPORT void icidr_cvode_message(Native *p, int flag, char *out, int out_len)
 {
     char *name = CVodeGetReturnFlagName(flag);

@@ -88,6 +88,8 @@ int CVodeSetMaxOrd(void *cvode_mem, int maxord);
 int CVodeSetMaxNumSteps(void *cvode_mem, long int mxsteps);
 int CVodeSetMaxHnilWarns(void *cvode_mem, int mxhnil);
 int CVode(void *cvode_mem, sunrealtype tout, N_Vector yout, sunrealtype *tret, int itask);
+int CVodeGetCurrentTime(void *cvode_mem, sunrealtype *tcur);
+int CVodeGetDky(void *cvode_mem, sunrealtype t, int k, N_Vector dky);
 int CVodeGetNumSteps(void *cvode_mem, long int *nsteps);
 int CVodeGetNumRhsEvals(void *cvode_mem, long int *nfevals);
 int CVodeGetNumJacEvals(void *cvode_mem, long int *njevals);
