@@ -168,8 +168,10 @@ class Engine(ABC):
       and state an interrupted run reached (:func:`icidr_pde.drive.outcome`), with
       ``last_step_time()`` its time alone (no state gathered over ranks).
 
-    The step sequence does not depend on the times asked of ``advance``: both scipy's
-    solvers and CVODE step past and interpolate, so output times change no number.
+    After the first step the step sequence does not depend on the times asked of ``advance``:
+    both scipy's solvers and CVODE step past and interpolate. The first time asked does bound
+    CVODE's first step (its estimate of the initial step is limited by the distance to it), so
+    two runs compared step for step ask the same first output time (the same series).
     """
 
     name: str = ""
