@@ -19,7 +19,8 @@ cell's finite volumes (:mod:`icidr_pde.cells.plane2d.native`).
 Failure handling is the stiff solver's: a run that leaves (lo, hi) of phi (CVODE's root
 function, exact crossing), fails in CVODE (the minimum step, repeated error-test or Newton
 failures) or reaches an invalid state returns what it recorded, the time reached and the
-reason; Ctrl-C ends it at the last output reached.
+reason; Ctrl-C ends it at CVODE's last step (C returns to Python every
+:data:`STEPS_BETWEEN_SIGNALS` steps, where the signal is seen).
 
 Building the library raises :class:`NativeUnavailable` where gcc, the SUNDIALS libraries or a C
 form of the law are missing.
@@ -36,6 +37,15 @@ from ..time_scale import MIN_STEP_FRACTION, fastest_time_scale
 from .build import NativeUnavailable
 
 __all__ = ["NativeUnavailable", "NativeProblem"]
+
+#: CVODE's steps towards one output before the run fails (as scikit-sundae's engine is set)
+MAX_STEPS = 1_000_000
+#: C returns to Python after this many of CVODE's steps in one call (between two outputs or inside
+#: one stretch), so that Ctrl-C or SIGTERM is seen within them (a long 2-D run with outputs only
+#: at 0 and t_end would not see it before t_end); a return costs about one step of a small 1-D run
+STEPS_BETWEEN_SIGNALS = 100
+#: icidr_cvode_advance's status when it paused after STEPS_BETWEEN_SIGNALS steps
+PAUSED = 4
 
 
 def _pointer(array):
@@ -121,22 +131,29 @@ class NativeProblem:
         error = ctypes.create_string_buffer(1024)
         status = self.lib.icidr_cvode_start(
             self.handle, t0, _pointer(y0), rtol, atol, MIN_STEP_FRACTION * scale,
-            max_step if np.isfinite(max_step) else 1e300, 1_000_000, 0.0 if first_step is None else first_step,
+            max_step if np.isfinite(max_step) else 1e300, MAX_STEPS, STEPS_BETWEEN_SIGNALS,
+            0.0 if first_step is None else first_step,
             int(max_order), error, len(error))
         if status != 0:
             raise RuntimeError(f"CVODE could not start: {error.value.decode(errors='replace')}")
         return scale
 
     def advance(self, times, store, max_w, states):
-        """CVODE through `times`; see icidr_cvode_advance. Returns (n_done, status, flag)."""
+        """CVODE through `times`; see icidr_cvode_advance. Returns (n_done, status, flag). Between
+        two of C's pauses (every STEPS_BETWEEN_SIGNALS steps) Python raises a signal's exception
+        that came meanwhile (KeyboardInterrupt): the run path then reports CVODE's last step."""
         times = np.ascontiguousarray(times, dtype=float)
         store = np.ascontiguousarray(store, dtype=np.intc)
         n_done, status, flag = ctypes.c_int(), ctypes.c_int(), ctypes.c_int()
-        self.lib.icidr_cvode_advance(self.handle, times.size, _pointer(times),
-                                     store.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), _pointer(max_w),
-                                     _pointer(states), ctypes.byref(n_done), ctypes.byref(status),
-                                     ctypes.byref(flag))
-        return n_done.value, status.value, flag.value
+        done = 0
+        while True:
+            self.lib.icidr_cvode_advance(self.handle, times.size - done, _pointer(times[done:]),
+                                         store[done:].ctypes.data_as(ctypes.POINTER(ctypes.c_int)),
+                                         _pointer(max_w[done:]), _pointer(states), ctypes.byref(n_done),
+                                         ctypes.byref(status), ctypes.byref(flag))
+            done += n_done.value
+            if status.value != PAUSED:
+                return done, status.value, flag.value
 
     def last_good(self) -> tuple[float, np.ndarray]:
         y = np.empty(3 * self.N)

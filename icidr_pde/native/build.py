@@ -257,7 +257,7 @@ DRIVER_FUNCTIONS = {
     "icidr_kernel_times": "-: P *D I *D",
     "icidr_krylov_counts": "-: P *L",
     "icidr_blas_threads": "I: I",
-    "icidr_cvode_start": "I: P D *D D D D D L D I S I",
+    "icidr_cvode_start": "I: P D *D D D D D L L D I S I",
     "icidr_cvode_advance": "I: P I *D *I *D *D *I *I *I",
     "icidr_cvode_last_good": "D: P *D",
     "icidr_cvode_last_step": "D: P *D",

@@ -7,7 +7,11 @@
    most 3 Newton iterations and 10 convergence failures a step, 1e6 steps, the minimum step the
    caller gives (a fraction of the fastest time scale 1/rho(J(y0)), icidr_pde.time_scale), and the
    validity root function (min phi - lo, hi - max phi, direction -1, terminal). Output at
-   requested times by CV_NORMAL calls (CVODE's interpolant): no output time changes CVODE's steps.
+   requested times by CV_NORMAL calls (CVODE's interpolant): no output time after the first
+   changes CVODE's steps. After `pause_steps` steps in one call the driver returns to the caller,
+   between two outputs or inside one stretch (CVODE's mxstep, CV_TOO_MUCH_WORK, then not counted
+   as a failure), so that a signal (Ctrl-C, SIGTERM) is seen by Python within them; the next call
+   goes on with the same steps.
    Placed after problem.h and the cell's problem.c (icidr_pde.native.build); sundials_api.h
    declares the part of the SUNDIALS C API used here. */
 
@@ -126,8 +130,8 @@ EXPORT void icidr_law_M(Native *p, int m, const double *phi, double *out)
 
 /* Start CVODE at (t0, y0) on the problem `p`; 0 on success, else -1 with `error` set. */
 EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol, double atol,
-                             double min_step, double max_step, long max_num_steps, double first_step,
-                             int max_order, char *error, int error_len)
+                             double min_step, double max_step, long max_num_steps, long pause_steps,
+                             double first_step, int max_order, char *error, int error_len)
 {
     int neq = 3 * p->n;
     int direction[2] = {-1, -1};
@@ -163,7 +167,10 @@ EXPORT int icidr_cvode_start(Native *p, double t0, const double *y0, double rtol
     CHECK(CVodeSetMinStep(p->cvode, min_step));
     CHECK(CVodeSetMaxStep(p->cvode, max_step));
     CHECK(CVodeSetMaxOrd(p->cvode, max_order));
-    CHECK(CVodeSetMaxNumSteps(p->cvode, max_num_steps));
+    p->max_steps = max_num_steps;
+    p->pause_steps = pause_steps < max_num_steps ? pause_steps : max_num_steps;
+    p->steps_taken = 0;
+    CHECK(CVodeSetMaxNumSteps(p->cvode, p->pause_steps));
     /* no "t + h = t" warnings on stdout (they would break --json /dev/stdout): a step that small
        ends the run at the minimum step, whose reason the Result reports */
     CHECK(CVodeSetMaxHnilWarns(p->cvode, -1));
@@ -191,19 +198,42 @@ static int inside(const Native *p, const double *v)
    At each: max_w[k] = max |w| over the cells, and the state into states + store[k] * 3n where
    store[k] >= 0. Returns 0 when all are done, else the output index k where it stopped
    (*n_done = k) and *status: 1 a root (phi reached the end of its range), 2 CVODE failed
-   (flag in *flag, message via icidr_cvode_message), 3 the state at t_out[k] is invalid.
+   (flag in *flag, message via icidr_cvode_message), 3 the state at t_out[k] is invalid, 4 paused
+   after pause_steps steps in this call, before t_out[k] (call again with the outputs from k on).
    The last valid state and its time are kept (icidr_cvode_last_good). */
 EXPORT int icidr_cvode_advance(Native *p, int n_out, const double *t_out, const int *store, double *max_w,
                                double *states, int *n_done, int *status, int *flag)
 {
     int neq = 3 * p->n;
     double *y = N_VGetArrayPointer(p->y);
+    long steps_at_call = 0;
+    CVodeGetNumSteps(p->cvode, &steps_at_call);
     *status = 0;
     *flag = 0;
     for (int k = 0; k < n_out; k++) {
         double t_ret = p->t_good;
         p->message[0] = 0;
+        /* at most pause_steps steps in this call; the last stretch before the step limit is
+           shorter, so that the run fails at max_steps exactly */
+        long now = 0;
+        CVodeGetNumSteps(p->cvode, &now);
+        long stretch = p->pause_steps - (now - steps_at_call);
+        if (stretch <= 0) {
+            *n_done = k;
+            *status = 4;
+            return 1;
+        }
+        if (stretch > p->max_steps - p->steps_taken)
+            stretch = p->max_steps - p->steps_taken;
+        CVodeSetMaxNumSteps(p->cvode, stretch);
         int f = CVode(p->cvode, t_out[k], p->y, &t_ret, CV_NORMAL);
+        if (f == CV_TOO_MUCH_WORK && p->steps_taken + stretch < p->max_steps) {
+            p->steps_taken += stretch;
+            *n_done = k;
+            *status = 4;
+            return 1;
+        }
+        p->steps_taken = 0;
         *flag = f;
         int finite = 1;
         for (int q = 0; q < neq; q++)

@@ -24,6 +24,9 @@ struct Native {
     double lo, hi;
     double *y_good;
     double t_good;
+    long max_steps;       /* CVODE's steps towards one output before the run fails */
+    long pause_steps;     /* the driver returns to its caller after this many in one call */
+    long steps_taken;     /* steps towards the current output in the calls before this one */
     int krylov;           /* the linear solver is GMRES: icidr_krylov_counts counts it */
     long n_jac;           /* krylov: Jacobians the problem evaluated for its preconditioner */
     void *cvode;

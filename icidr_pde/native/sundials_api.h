@@ -40,6 +40,7 @@ typedef void (*SUNErrHandlerFn)(int line, const char *func, const char *file, co
 #define CV_SUCCESS 0
 #define CV_TSTOP_RETURN 1
 #define CV_ROOT_RETURN 2
+#define CV_TOO_MUCH_WORK (-1)
 #define SUN_PREC_NONE 0
 #define SUN_PREC_LEFT 1
 #define SUN_CLASSICAL_GS 2
