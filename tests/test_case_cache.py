@@ -184,3 +184,30 @@ def test_a_study_cache_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
         assert main(["study", *study, "--cache", str(path), "--no-progress"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert "`--cache` must be a directory" in err[-1] and not any("Traceback" in line for line in err)
+
+
+def test_a_run_interrupted_inside_a_2d_study_is_not_kept(monkeypatch, tmp_path):
+    """The run path turns Ctrl-C into a Result ("interrupted at t = ..."); a study taking that as its
+    case's answer kept it in its cache and its table (a 2048^2 run stopped after two hours was cached
+    as finished). The study stops at it instead, with the grids finished before kept."""
+    import dataclasses
+
+    import icidr_pde.api as api
+    from icidr_pde.studies import sim2d
+    from icidr_pde.studies.parallel import StudyInterrupted
+
+    real, made = api.run, []
+
+    def run(*args, **kwargs):
+        result = real(*args, **kwargs)
+        made.append(result)
+        if len(made) == 2:  # the second grid: as if Ctrl-C came during it
+            return dataclasses.replace(result, reason=f"interrupted at t = {result.t_final / 2:g}")
+        return result
+
+    monkeypatch.setattr(api, "run", run)
+    cache = tmp_path / "cache"
+    with pytest.raises(StudyInterrupted):
+        sim2d.convergence_study((8, 12), ("0.5",), tmp_path / "c.json", cache=cache)
+    assert len(made) == 2 and len(case_cache.CaseCache(cache, "sim2d.convergence")) == 1
+    assert not (tmp_path / "c.json").exists()

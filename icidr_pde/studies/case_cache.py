@@ -24,11 +24,21 @@ from ..mpi_ranks import at_agreed_point
 from ..outputs import write_json, writable_folder
 from .parallel import StudyInterrupted, run_cases
 
-__all__ = ["CaseCache", "code_version", "run_cached"]
+__all__ = ["CaseCache", "code_version", "finished", "run_cached"]
 
 #: the libraries whose round-off and step control a result depends on (their versions enter the key)
 _LIBRARIES = ("numpy", "scipy", "numba", "scikit-sundae", "py-pde", "sympy")
 _VERSION: list[str] = []
+
+
+def finished(result):
+    """`result`, a run of a study's case, where it finished (reached t_end, failed or was stopped
+    by its own limit); KeyboardInterrupt where it was interrupted: the run path turns Ctrl-C and
+    SIGTERM into a Result, but a case cut short is not the case's answer, so the study stops there
+    and keeps it neither in its cache nor in its table."""
+    if result.interrupted:
+        raise KeyboardInterrupt
+    return result
 
 
 def code_version() -> str:

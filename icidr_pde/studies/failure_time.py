@@ -136,9 +136,9 @@ def failure_time(
         result = run(rheology, scene, N, t_end, snap or [0.0], discretization=discretization, method=method,
                      rtol=rtol, atol=atol, jacobian=jacobian, backend="numba" if engine == "native" else backend,
                      max_wall=max_wall, series_times=(), engine=engine, **scene_params)
-    if result.interrupted:  # not a run that reached t_end: the case did not finish
-        raise KeyboardInterrupt
-    out = failure_record(result)
+    from .case_cache import finished
+
+    out = failure_record(finished(result))
     if return_state:
         out.update(t_final=result.t_final, z=result.z, state=np.array(result.final))
     if times is not None:

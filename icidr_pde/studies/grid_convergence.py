@@ -11,7 +11,7 @@ import numpy as np
 
 from ..api import run
 from ..discretizations import get_discretization
-from .case_cache import run_cached
+from .case_cache import finished, run_cached
 
 __all__ = ["convergence_study"]
 
@@ -36,7 +36,7 @@ def relative_l2(coarse: dict, ref: dict) -> float:
 def _run_grid(case: dict) -> dict:
     """One grid of the study (a task): api.run of the case, its state at the last time asked
     (z, phi, u, w as lists, the cell height H: JSON values, so that it can be cached)."""
-    result = run(**case)
+    result = finished(run(**case))
     return {"z": result.z.tolist(), "H": float(result.scene_params["H"]),
             **{field: getattr(result, field)[-1].tolist() for field in ("phi", "u", "w")}}
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..api import run
 from ..datafiles import data_dir
+from .case_cache import finished
 
 __all__ = ["CASES", "case_run", "reference", "reference_tstar", "series_error", "profile_error", "REFERENCE_DIR"]
 
@@ -40,9 +41,9 @@ def case_run(case: str, N: int, rtol: float, atol: float, method: str, discretiz
     """A run of `case` with snapshots at the series times (which contain the profile times)."""
     spec = CASES[case]
     times = series_times(spec["t_end"])
-    return run(spec["rheology"], spec["scene"], N, spec["t_end"], list(times),
-               method=method, rtol=rtol, atol=atol, discretization=discretization,
-               jacobian=jacobian, series_times=times)
+    return finished(run(spec["rheology"], spec["scene"], N, spec["t_end"], list(times),
+                        method=method, rtol=rtol, atol=atol, discretization=discretization,
+                        jacobian=jacobian, series_times=times))
 
 
 def series_error(result, ref) -> float:
@@ -136,8 +137,8 @@ def reference_tstar(discretization: str, recompute: bool = False) -> dict:
         return json.loads(path.read_text())
     values = {}
     for method, rtol in (("BDF", 1e-10), ("BDF", 1e-9), ("Radau", 1e-10)):
-        res = run("mui", "shear", TSTAR_SETTINGS["N"], 1.0, [0.0], discretization=discretization,
-                  method=method, rtol=rtol, atol=rtol * 1e-3)
+        res = finished(run("mui", "shear", TSTAR_SETTINGS["N"], 1.0, [0.0], discretization=discretization,
+                           method=method, rtol=rtol, atol=rtol * 1e-3))
         values[f"{method} rtol={rtol:g}"] = res.t_star
     data = dict(discretization=discretization, **TSTAR_SETTINGS,
                 t_star=values[f"BDF rtol={TSTAR_SETTINGS['rtol']:g}"], variants=values,

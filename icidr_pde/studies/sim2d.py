@@ -33,7 +33,7 @@ import pathlib
 import numpy as np
 
 from ..outputs import write_json
-from .case_cache import run_cached
+from .case_cache import finished, run_cached
 
 __all__ = ["convergence_study", "tstar_study", "growth_study", "convergence_table", "tstar_table", "growth_table",
            "observed_orders", "mode_growth", "predicted_growth", "study_command", "combine_studies", "SETTINGS", "SOLVER_2D",
@@ -90,8 +90,8 @@ def _convergence_run(case: dict) -> tuple[dict, str]:
     from ..api import run
 
     n, times = case["n"], case["times"]
-    result = run("icidr", "bump2d", (n, n), float(times[-1]), list(times),
-                 **{**_solver_2d(case["settings"]), **case["settings"]})
+    result = finished(run("icidr", "bump2d", (n, n), float(times[-1]), list(times),
+                          **{**_solver_2d(case["settings"]), **case["settings"]}))
     fields = {k: v for k, v in result.to_dict().items()
               if k in ("Nx", "Nz", "L", "blew_up", "reason", "mass_drift", "wall_s", "n_rhs", *QUANTITIES)}
     return fields, str(result)
@@ -135,11 +135,12 @@ def _tstar_run(case: dict) -> tuple[float | None, str | None, float | None, str]
     n, t_end, settings = case["n"], case["t_end"], case["settings"]
     times = ["0", f"{t_end:g}"]
     if case["dim"] == 2:
-        r = run("mui", "bump2d", (n, n), t_end, times, series_times=[], **{**_solver_2d(settings), **settings})
+        r = finished(run("mui", "bump2d", (n, n), t_end, times, series_times=[], **{**_solver_2d(settings), **settings}))
         return r.t_star, r.reason, None, str(r)
     # the 1-D runs: the study's CVODE with the 1-D default linear solver (engine and jacobian name the 2-D runs')
     one_d = {k: v for k, v in settings.items() if k not in ("engine", "jacobian")}
-    r = run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[], **one_d)
+    r = finished(run("mui", Bump2DScene().x_independent(), n, t_end, times, discretization="fd", series_times=[],
+                     **one_d))
     return r.t_star, r.reason, None if r.blew_up else float(np.max(np.abs(r.final[2]))), str(r)
 
 
@@ -271,7 +272,8 @@ def mode_growth(rheology, theta, n=64, k=0.9, eps=1e-8, material=None) -> dict:
     pred = predicted_growth(rheology, scene, material)
     t_end = float(f"{min(8.0 / abs(pred['symbol']), 10.0):.4g}")
     times = [f"{t:.6g}" for t in np.linspace(0.0, t_end, 17)]
-    result = run(rheology, scene, (n, n), t_end, times, series_times=[], method="CVODE", rtol=1e-9, atol=1e-14)
+    result = finished(run(rheology, scene, (n, n), t_end, times, series_times=[], method="CVODE", rtol=1e-9,
+                          atol=1e-14))
     m = int(round(scene.wave_vector()[0] * scene.L / (2 * np.pi)))
     z = result.z[..., 1]
     amp = [float(np.sqrt(np.sum(np.abs(np.fft.fft(result.u[i] - z / scene.H, axis=0)[m]) ** 2
