@@ -425,7 +425,7 @@ def _blocks_set_up(case, choice, settings, t_end, backend):
     x0.setArray(problem.y0)
     f0 = x0.duplicate()
     blocks.rates(x0, f0)  # the patch kernel compiled or loaded now (set-up time), the initial rates
-    blocks.jacobian_rows(x0)  # the law's Jacobian kernels, as _compile_jacobian does
+    blocks.jacobian_slots(x0)  # the law's Jacobian kernels and the slots' pass, as _compile_jacobian does
     whole_rates = blocks.to_root(f0)
     counted[0] = 0  # the run's evaluations (the time scale's, the integrator's), as the other engines count them
     reason = None

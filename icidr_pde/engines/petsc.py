@@ -219,7 +219,7 @@ class PetscEngine(Engine):
         if self.grid is not None and self.grid.has_jacobian:
             rows, cols = self.grid.stencil_pattern()
             self.J.setPreallocationCOO(rows.astype(self.PETSc.IntType), cols.astype(self.PETSc.IntType))
-            self._keys = None  # found where asked (the property)
+            self._keys = None  # the values are placed by the stencil's slots, not found in sorted keys
             return
         P = sparse.coo_matrix(sparsity)
         rows, cols = self.order[P.row], self.order[P.col]
@@ -229,20 +229,6 @@ class PetscEngine(Engine):
         self._keys = _sorted_unique(rows[mine].astype(np.int64) * n + cols[mine])
         self.J.setPreallocationCOO((self._keys // n).astype(self.PETSc.IntType),
                                    (self._keys % n).astype(self.PETSc.IntType))
-
-    @property
-    def _keys(self) -> np.ndarray:
-        """This rank's pattern entries as row * n + col, sorted (on a grid of blocks built where
-        asked: a run places its values by the stencil's slots and needs none)."""
-        if self._sorted_keys is None:
-            rows, cols = self.grid.stencil_pattern()
-            inside = cols >= 0
-            return _sorted_unique(rows[inside].astype(np.int64) * self._n + cols[inside])
-        return self._sorted_keys
-
-    @_keys.setter
-    def _keys(self, keys):
-        self._sorted_keys = keys
 
     def _gathered(self, vec) -> np.ndarray:
         """The whole vector in the problem's ordering (the states kept at outputs, an invalid
@@ -693,24 +679,6 @@ class BlockGrid:
         j, i, k = np.meshgrid(np.arange(zs, ze), np.arange(xs, xe), np.arange(self.dof), indexing="ij")
         return ((k * nx + i) * nz + j).ravel()
 
-    def pattern(self) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, cols) in PETSc's ordering: the Jacobian's pattern on this rank's rows, every
-        field of each own cell coupled to every field of the cells within the stencil's width
-        around it (x periodic; beyond a wall nothing, the ghost row being folded onto the edge
-        row, which is in it), as the whole grid's pattern (the scheme's ``jacobian_sparsity``)."""
-        dof, w = self.dof, self.width
-        (mx, mz), (gx, gz) = self.owned, self.ghosted
-        columns = self.columns.reshape(dof, gx, gz)
-        rows = np.broadcast_to(self.rows.reshape(dof, 1, mx, mz), (dof, dof, mx, mz))
-        found_rows, found_cols = [], []
-        for a in range(2 * w + 1):
-            for b in range(2 * w + 1):
-                cols = np.broadcast_to(columns[None, :, a:a + mx, b:b + mz], (dof, dof, mx, mz))
-                keep = cols >= 0
-                found_rows.append(rows[keep])
-                found_cols.append(cols[keep])
-        return np.concatenate(found_rows), np.concatenate(found_cols)
-
     def _patch(self, x) -> np.ndarray:
         """This rank's patch (dof, mx + 2, mz + 2) of the global vector x."""
         self.da.globalToLocal(x, self.local, addv=self.PETSc.InsertMode.INSERT_VALUES)
@@ -718,10 +686,13 @@ class BlockGrid:
         return np.ascontiguousarray(self.local.getArray(readonly=True).reshape(gz, gx, self.dof).transpose(2, 1, 0))
 
     def stencil_pattern(self) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, cols) in PETSc's ordering, one slot per (own unknown, x-offset, z-offset, field of
-        the column) of the stencil, the unknowns in the order of :attr:`rows`: the pattern of
-        :meth:`pattern` laid out so that an entry's slot is arithmetic (:meth:`jacobian_slots`),
-        not searched; a slot beyond a wall has column -1 (PETSc's COO leaves it out)."""
+        """(rows, cols) in PETSc's ordering: the Jacobian's pattern on this rank's rows, every field
+        of each own cell coupled to every field of the cells within the stencil's width around it
+        (x periodic; beyond a wall nothing, the ghost row being folded onto the edge row, which is
+        in it), as the whole grid's pattern (the scheme's ``jacobian_sparsity``). One slot per (own
+        unknown, x-offset, z-offset, field of the column), the unknowns in the order of
+        :attr:`rows`, so that an entry's slot is arithmetic (:meth:`jacobian_slots`), not searched;
+        a slot beyond a wall has column -1 (PETSc's COO leaves it out)."""
         dof, w = self.dof, self.width
         (mx, mz), (gx, gz) = self.owned, self.ghosted
         side = 2 * w + 1
@@ -731,8 +702,21 @@ class BlockGrid:
         rows = np.broadcast_to(self.rows.reshape(dof, mx, mz, 1, 1, 1), cols.shape)
         return rows.ravel(), cols.ravel()
 
+    def pattern(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols): the slots of :meth:`stencil_pattern` inside the walls."""
+        rows, cols = self.stencil_pattern()
+        inside = cols >= 0
+        return rows[inside], cols[inside]
+
+    def jacobian_rows(self, x):
+        """(rows, cols, values) in PETSc's ordering: the Jacobian rows of this rank's cells, the
+        values of :meth:`jacobian_slots` on :meth:`pattern`."""
+        rows, cols = self.stencil_pattern()
+        inside = cols >= 0
+        return rows[inside], cols[inside], self.jacobian_slots(x)[inside]
+
     def jacobian_slots(self, x) -> np.ndarray:
-        """The Jacobian rows of this rank's cells (:meth:`jacobian_rows`) as values of the slots of
+        """The Jacobian rows of this rank's cells, from its patch alone, as values of the slots of
         :meth:`stencil_pattern`, entries of one slot summed in their order."""
         Jp = self.patches.jacobian(self._patch(x), self.low, self.high).tocsr()
         (mx, mz), (gx, gz) = self.owned, self.ghosted
@@ -741,14 +725,6 @@ class BlockGrid:
         if outside:
             raise ValueError(f"{outside} couplings of the patch Jacobian reach beyond the stencil of width {self.width}")
         return out
-
-    def jacobian_rows(self, x):
-        """(rows, cols, values) in PETSc's ordering: the Jacobian rows of this rank's cells,
-        from its patch alone."""
-        Jp = self.patches.jacobian(self._patch(x), self.low, self.high).tocoo()
-        cols = self.columns[Jp.col]
-        keep = cols >= 0
-        return self.rows[Jp.row[keep]], cols[keep], Jp.data[keep]
 
     def rates(self, x, f):
         """f = the scheme's rates of the global vector x, each rank on its own block."""
