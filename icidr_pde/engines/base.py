@@ -226,6 +226,14 @@ class Engine(ABC):
         """The time of :meth:`last_step`."""
         return float(self.last_step()[0])
 
+    def _checked_step(self, step):
+        """`step` (t, y), a state of the integrator's own, where the problem's check passes it; else
+        (None, or a state the check refuses: an interrupt between the step and its check) the last
+        output's (:meth:`last_good`)."""
+        if step is None or self.problem.check(step[1]) is not None:
+            return self.last_good()
+        return step
+
 
 def dense(jac):
     """jac(t, y) as a dense array (a sparse one's toarray())."""

@@ -99,10 +99,9 @@ class NativeEngine(Engine):
     def last_step(self):
         """(t, y) of CVODE's last accepted step (the compiled problem's ``last_step``) where that state
         passes the problem's check, else the last output's (:meth:`last_good`). Ctrl-C is seen
-        once a call into C has returned: the step reached is then within one step past that
-        call's last output."""
-        t, y = self.compiled.last_step()
-        return (t, y) if self.problem.check(y) is None else self.last_good()
+        once a call into C has returned, at most ``native.STEPS_BETWEEN_SIGNALS`` steps after the
+        previous return: the step reached is then that call's last."""
+        return self._checked_step(self.compiled.last_step())
 
     def counts(self):
         counts = self.compiled.counts()

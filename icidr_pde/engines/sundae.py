@@ -140,10 +140,7 @@ class CvodeEngine(Engine):
         where that state passes the problem's check. Else the last output's (:meth:`last_good`):
         without CVODE's counters (scikit-sundae's memory not found), before the first step, or a
         state the root function and the check did not pass (an interrupt between them)."""
-        step = None if self.counters is None else self.counters.last_step(self.problem.y0.size)
-        if step is None or self.problem.check(step[1]) is not None:
-            return self.last_good()
-        return step
+        return self._checked_step(None if self.counters is None else self.counters.last_step(self.problem.y0.size))
 
     def counts(self):
         if self.counters is None:
