@@ -121,16 +121,23 @@ def launcher() -> str:
     return mpiexec() or "mpiexec"
 
 
-def one(code: str, ranks: int, N: int, t_end: float) -> dict:
+def ranks_process(arguments: list, ranks: int, code: str, **more_env) -> tuple[dict, float]:
+    """One whole ``mpiexec -n ranks python ARGUMENTS OUT`` process of the `code` checkout: the JSON
+    files its ranks wrote, OUT.<name>, by name, and the process's wall time."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "r")
         env = dict(os.environ, PYTHONPATH=code, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", **THREADS)
-        command = [launcher(), "-n", str(ranks), sys.executable, __file__, "--child", str(N), str(t_end), out]
+                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", **THREADS, **more_env)
         start = time.perf_counter()
-        subprocess.run(command, env=env, check=True)
+        subprocess.run([launcher(), "-n", str(ranks), sys.executable, *arguments, out], env=env, check=True)
         whole = time.perf_counter() - start
-        per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]
+        files = {path.name[len("r."):]: json.loads(path.read_text()) for path in pathlib.Path(tmp).glob("r.*")}
+    return files, whole
+
+
+def one(code: str, ranks: int, N: int, t_end: float) -> dict:
+    files, whole = ranks_process([__file__, "--child", str(N), str(t_end)], ranks, code)
+    per_rank = [files[str(r)] for r in range(ranks)]
     first = per_rank[0]
     first["process_s"] = whole
     first["cpu_ranks_s"] = [round(p["cpu_s"], 1) for p in per_rank]

@@ -445,22 +445,11 @@ def engine_run(N: int, ranks: int, t_end: float = 10.0, single: bool = False) ->
     iCIDR bump2d N^2 to t_end: rank 0's record of petsc_ranks.py's child (PETSc's events, the
     solve's wall time, max|w|) with the engine's counters (:func:`engine_child`), the process's wall
     time and each rank's CPU."""
-    import subprocess
-    import tempfile
+    from petsc_ranks import ranks_process
 
-    from petsc_ranks import THREADS, launcher
-
-    with tempfile.TemporaryDirectory() as tmp:
-        out = os.path.join(tmp, "r")
-        env = dict(os.environ, PYTHONPATH=str(ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OMPI_MCA_mpi_yield_when_idle="1", MPLBACKEND="Agg", PETSC_OPTIONS="", **THREADS)
-        env[SINGLE] = "1" if single else "0"
-        start = time.perf_counter()
-        subprocess.run([launcher(), "-n", str(ranks), sys.executable, __file__, "--engine-child", str(N),
-                        str(t_end), out], env=env, check=True)
-        whole = time.perf_counter() - start
-        per_rank = [json.loads(pathlib.Path(f"{out}.{r}").read_text()) for r in range(ranks)]
-        counted = json.loads(pathlib.Path(f"{out}.counts.0").read_text())
+    files, whole = ranks_process([__file__, "--engine-child", str(N), str(t_end)], ranks, str(ROOT), PETSC_OPTIONS="",
+                                 **{SINGLE: "1" if single else "0"})
+    per_rank, counted = [files[str(r)] for r in range(ranks)], files["counts.0"]
     r = per_rank[0]
     keep = ("wall_s", "steps", "n_jac", "linear_solver", "max_w", "l2", "mass_drift", "compile_s", "rss_mib")
     events = {k: v for k, v in r.items() if k.endswith(("_s", "_n", "_reductions", "_messages", "_bytes"))
