@@ -13,12 +13,11 @@ what is computed).
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
-import time
 
 from provenance import write_json
+from scaling import measured
 
 CHILD = r'''
 import json, sys
@@ -34,22 +33,14 @@ json.dump({"n_steps": r.n_steps, "reason": r.reason, "max_w": float(np.max(np.ab
 
 
 def child(mode: str, rheology: str, n: int, t_end: float) -> dict:
-    """One whole process: its result and its resource use."""
+    """One whole process (scaling.measured): its result and its resource use."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "out.json")
-        start = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-c", CHILD, mode, rheology, str(n), str(t_end), out],
-                                stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.perf_counter() - start
-        stderr = proc.stderr.read().decode()
-        proc.stderr.close()
-        if os.waitstatus_to_exitcode(status) != 0:
-            raise RuntimeError(f"the {mode} run failed:\n{stderr}")
+        usage = measured([sys.executable, "-c", CHILD, mode, rheology, str(n), str(t_end), out], os.environ, tmp)
         with open(out) as f:
             result = json.load(f)
-    return {**result, "wall": wall, "user": usage.ru_utime, "system": usage.ru_stime,
-            "minor_faults": usage.ru_minflt, "max_rss": usage.ru_maxrss * 1024}
+    return {**result, "wall": usage["wall_s"], "user": usage["user_s"], "system": usage["system_s"],
+            "minor_faults": usage["minor_faults"], "max_rss": usage["peak_mib"] * 2**20}
 
 
 def main():

@@ -63,7 +63,8 @@ def environment() -> dict:
 
 
 def measured(args: list[str], env: dict, cwd: Path, ok=(0,)) -> dict:
-    """Run `args` as a child; its wall time, its own peak RSS (MiB), exit status and stderr."""
+    """Run `args` as a child; its wall time, its own peak RSS (MiB), CPU (user, system) and minor page
+    faults, exit status and stderr."""
     load = os.getloadavg()[0]
     with tempfile.TemporaryFile("w+") as err:
         start = time.perf_counter()
@@ -76,7 +77,8 @@ def measured(args: list[str], env: dict, cwd: Path, ok=(0,)) -> dict:
         stderr = err.read()
     if proc.returncode not in ok:
         raise RuntimeError(f"{' '.join(map(str, args))} exited {proc.returncode}:\n{stderr[-2000:]}")
-    return dict(wall_s=wall, peak_mib=rusage.ru_maxrss / 1024, stderr=stderr, status=proc.returncode,
+    return dict(wall_s=wall, peak_mib=rusage.ru_maxrss / 1024, user_s=rusage.ru_utime, system_s=rusage.ru_stime,
+                minor_faults=rusage.ru_minflt, stderr=stderr, status=proc.returncode,
                 load=[load, os.getloadavg()[0]])  # ru_maxrss is in KiB on Linux
 
 
